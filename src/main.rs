@@ -1,0 +1,71 @@
+//! porelab command line: validate | reference regen | field | bench.
+
+use clap::{Parser, Subcommand};
+use std::process::ExitCode;
+
+#[derive(Parser)]
+#[command(name = "porelab", version, about = "Particles packing, depositing and captured in random porous media, with proofs")]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    /// Run the validation cases (fast tier by default) and write a report under target/porelab/.
+    Validate {
+        /// Case id prefixes to run (e.g. 1 or 104); all cases when empty.
+        ids: Vec<String>,
+        /// Include the slow tier.
+        #[arg(long)]
+        all: bool,
+    },
+    /// Independent reference tables in reference/.
+    Reference {
+        #[command(subcommand)]
+        action: ReferenceAction,
+    },
+    /// Field of a uniformly magnetized cylinder at the points of a CSV file (header x,y,z in m).
+    Field(porelab::magnetics::cli::FieldArgs),
+    /// Work-precision benchmarks.
+    Bench {
+        #[command(subcommand)]
+        what: BenchWhat,
+    },
+}
+
+#[derive(Subcommand)]
+enum ReferenceAction {
+    /// Recompute generated reference tables (all, or the one named) without the code under test.
+    Regen { name: Option<String> },
+    /// List the generated reference tables.
+    List,
+}
+
+#[derive(Subcommand)]
+enum BenchWhat {
+    /// Cylinder field: points per second and error against the oracle.
+    Field(porelab::magnetics::bench::BenchArgs),
+}
+
+fn main() -> ExitCode {
+    let cli = Cli::parse();
+    let result: porelab::Result<ExitCode> = match cli.command {
+        Command::Validate { ids, all } => porelab::validation::cli_validate(&ids, all),
+        Command::Reference { action } => match action {
+            ReferenceAction::Regen { name } => porelab::reference::cli_regen(name.as_deref()).map(|_| ExitCode::SUCCESS),
+            ReferenceAction::List => porelab::reference::cli_list().map(|_| ExitCode::SUCCESS),
+        },
+        Command::Field(args) => porelab::magnetics::cli::run_field(&args),
+        Command::Bench { what } => match what {
+            BenchWhat::Field(args) => porelab::magnetics::bench::run(&args).map(|_| ExitCode::SUCCESS),
+        },
+    };
+    match result {
+        Ok(code) => code,
+        Err(e) => {
+            eprintln!("porelab: {e}");
+            ExitCode::from(2)
+        }
+    }
+}
