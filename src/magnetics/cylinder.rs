@@ -1,6 +1,8 @@
 //! Field of one uniformly magnetized cylinder in its own frame.
 
+use super::kernel::{field_tensor, KernelGeometry, Regime};
 use crate::error::{invalid, Result};
+use crate::special::autodiff::Dual;
 use nalgebra::{Matrix3, Vector3};
 
 /// A solid circular cylinder of radius R and semi-length L (metres), centred at the origin
@@ -9,6 +11,7 @@ use nalgebra::{Matrix3, Vector3};
 pub struct Cylinder {
     radius_m: f64,
     half_length_m: f64,
+    geometry: KernelGeometry,
 }
 
 impl Cylinder {
@@ -22,7 +25,7 @@ impl Cylinder {
                 "cylinder half-length {half_length_m} m must be positive and finite"
             ));
         }
-        Ok(Cylinder { radius_m, half_length_m })
+        Ok(Cylinder { radius_m, half_length_m, geometry: KernelGeometry::new(radius_m, half_length_m) })
     }
     pub fn radius_m(&self) -> f64 {
         self.radius_m
@@ -36,9 +39,16 @@ impl Cylinder {
     }
     /// Demagnetization-type tensor T(p) with H = T M (A/m per A/m), T = Hess psi where
     /// psi(p) = (1/4 pi) int_cyl dV'/|p - p'|. Symmetric; trace -1 inside, 0 outside.
+    ///
+    /// Points exactly on the surface get the limit from outside; on the two rim circles
+    /// (rho = R, |z| = L) the field is logarithmically infinite and the entries are infinite.
     pub fn field_tensor(&self, p: &Vector3<f64>) -> Matrix3<f64> {
-        let _ = p;
-        Matrix3::zeros()
+        self.field_tensor_with_regime(p).0
+    }
+    /// As [`Cylinder::field_tensor`], also naming the formula used (for diagnostics).
+    pub fn field_tensor_with_regime(&self, p: &Vector3<f64>) -> (Matrix3<f64>, Regime) {
+        let (t, regime) = field_tensor(&self.geometry, p.x, p.y, p.z);
+        (Matrix3::from_fn(|i, j| t[i][j]), regime)
     }
     /// H in A/m at p (m, cylinder frame) for magnetization m (A/m, cylinder frame).
     pub fn h_field(&self, m: &Vector3<f64>, p: &Vector3<f64>) -> Vector3<f64> {
@@ -51,8 +61,12 @@ impl Cylinder {
         (h + inside) * crate::consts::MU0
     }
     /// Gradient G[(i, j)] = dH_i/dx_j in A/m^2 at p, for magnetization m.
+    /// Exact to rounding: forward-mode automatic differentiation of the same formulas.
     pub fn h_gradient(&self, m: &Vector3<f64>, p: &Vector3<f64>) -> Matrix3<f64> {
-        let _ = (m, p);
-        Matrix3::zeros()
+        let x = Dual::<f64, 3>::variable(p.x, 0);
+        let y = Dual::<f64, 3>::variable(p.y, 1);
+        let z = Dual::<f64, 3>::variable(p.z, 2);
+        let (t, _) = field_tensor(&self.geometry, x, y, z);
+        Matrix3::from_fn(|i, j| (0..3).map(|k| t[i][k].d[j] * m[k]).sum())
     }
 }

@@ -8,6 +8,7 @@
 pub mod bench;
 pub mod cli;
 pub mod cylinder;
+pub mod kernel;
 pub mod magnet;
 
 pub use cylinder::Cylinder;

@@ -1,4 +1,8 @@
 //! Special functions: elliptic integrals (the parameter-vs-modulus convention is handled here
-//! and nowhere else) and quadrature rules used by the oracles.
+//! and nowhere else), automatic differentiation, and quadrature rules used by the oracles.
 
+pub mod autodiff;
+pub mod bulirsch;
 pub mod elliptic;
+pub mod double_double;
+pub mod quadrature;

@@ -1,0 +1,497 @@
+//! The field tensor of a uniformly magnetized cylinder, T = Hess psi with H = T M, where
+//! psi(r) = (1/4 pi) int_cyl dV'/|r - r'| (for uniform M the bound-charge potential is
+//! -M . grad psi, so every magnetization direction needs the same four functions).
+//!
+//! In cylindrical form (axisymmetric psi(rho, z)) we need
+//!   P = psi_rho / rho,  Q = psi_rhoz / rho,  Z = psi_zz,  Prr = psi_rhorho = -chi - Z - P,
+//! with chi = 1 strictly inside. They are assembled into the Cartesian tensor at the end.
+//!
+//! Each is the difference of a per-end term at xi+ = z + L and xi- = z - L (thesis eq. 5.3-5.6
+//! for the longitudinal part, eq. 5.19-5.22 for the transverse part; here rewritten so that no
+//! term divides by rho or 1 - gamma^2):
+//!   tq = psi_rhoz/rho per end = (R/pi) alpha P1 / rho,  P1 = cel(kc, 1, 1, -1)     (eq. 5.3, 5.39)
+//!      = -(4 R^2 / (pi A^3)) J(kc, kc^2)                 (P1 = -m J, integration by parts)
+//!   tz = B_z/(mu0 M) per end = R/(pi (R + rho)) beta cel(kc, g^2, 1, g)  (eq. 5.3, 5.42;
+//!        Derby-Olbert's sign of g = (R - rho)/(R + rho): with the thesis' g = (rho-R)/(rho+R)
+//!        the on-axis solenoid limit fails, so the thesis' footnote sign is not used)
+//!   tp = psi_rho/rho per end = -(R/(pi rho)) beta P3 = -(4 R^2/(pi (R+rho)^2)) beta J(kc, g^2)
+//!        (eq. 5.20-5.21: P3 = (1 - g^2) J(kc, g^2))
+//! where A = sqrt(h^2 + (R+rho)^2), alpha = 1/A, beta = h/A, kc^2 = (h^2 + (R-rho)^2)/A^2,
+//! m = 1 - kc^2 = 4 R rho / A^2, and
+//!   J(kc, p) = int_0^{pi/2} sin^2 cos^2 / ((cos^2 + p sin^2) sqrt(cos^2 + kc^2 sin^2)) dt,
+//! a positive integrand with no cancellation; for 1 - p >= 1/4 it is
+//! (cel(kc,1,0,1) - p cel(kc,p,0,1)) / (1 - p) (at most ~1.5 digits lost), and for 1 - p < 1/4
+//! (then also m < 1/4: near the axis or far away) the integrand is analytic in a strip of half
+//! width acosh(2) and the 16-point periodic trapezoidal rule is exact to ~1e-18.
+//!
+//! Three regimes keep the two-ended differences from cancelling:
+//! * far (r > 4 a, a = sqrt(R^2 + L^2)): the exterior multipole series of psi with exact
+//!   moments; truncated where (a/r)^n < 1e-17;
+//! * thin slab (the singularity z' = z +- i|R - rho| of the per-end terms is far from
+//!   [-L, L] compared with L): Gauss-Legendre quadrature over z' of d/dh of the per-end terms
+//!   (derivatives by automatic differentiation), which avoids subtracting nearly equal ends;
+//! * otherwise the closed forms; the cap term of Z is taken in charge form
+//!   (tz - sign(h)/2 inside rho < R), by a Legendre series of the disk potential when the cap
+//!   is farther than 4R, so that the small demagnetizing field inside long cylinders does not
+//!   come from 1 - 1.
+
+use crate::special::autodiff::{Dual, Real};
+use crate::special::bulirsch::cel_multi;
+use std::f64::consts::PI;
+use std::sync::OnceLock;
+
+/// psi_rho/rho, psi_rhoz/rho, psi_zz, psi_rhorho at one point.
+#[derive(Debug, Clone, Copy)]
+pub struct CylHessian<T> {
+    pub p: T,
+    pub q: T,
+    pub z: T,
+    pub prr: T,
+}
+
+/// Which formula produced a value (reported by diagnostics and benchmarks).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Regime {
+    Multipole,
+    SlabQuadrature,
+    ClosedForm,
+}
+
+/// Per-cylinder constants: radius, semi-length, circumradius and scaled multipole moments.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct KernelGeometry {
+    pub r: f64,
+    pub l: f64,
+    pub a: f64,
+    /// q_n / a^(n+3) for even n = 0, 2, ..., MAX_ORDER - 2, stored at index n/2.
+    pub moments: [f64; MAX_ORDER / 2],
+}
+
+/// Highest multipole order kept (only reached just outside r = 4a).
+const MAX_ORDER: usize = 64;
+
+impl KernelGeometry {
+    pub fn new(r: f64, l: f64) -> KernelGeometry {
+        let a = r.hypot(l);
+        let (rh, lh) = (r / a, l / a);
+        // q_n = (1/4pi) int r'^n P_n dV'; r^n P_n = sum_k c_nk z^(n-2k) rho^(2k),
+        // c_nk = (-1)^k n! / (4^k (k!)^2 (n-2k)!), and
+        // int_cyl z^j rho^(2k) dV = 2 pi R^(2k+2)/(2k+2) * 2 L^(j+1)/(j+1) (j even).
+        let mut moments = [0.0; MAX_ORDER / 2];
+        let mut n = 0;
+        while n < MAX_ORDER {
+            let mut c = 1.0f64; // c_n0
+            let mut sum = 0.0;
+            for k in 0..=n / 2 {
+                let j = n - 2 * k;
+                let integral = rh.powi(2 * k as i32 + 2) / (2 * k + 2) as f64 * 2.0
+                    * lh.powi(j as i32 + 1)
+                    / (j + 1) as f64;
+                sum += c * integral * 0.5; // (1/4pi) * 2pi
+                // c_{n,k+1} = -c_nk (n-2k)(n-2k-1) / (4 (k+1)^2)
+                c *= -((j * (j.max(1) - 1)) as f64) / (4.0 * ((k + 1) * (k + 1)) as f64);
+            }
+            moments[n / 2] = sum;
+            n += 2;
+        }
+        KernelGeometry { r, l, a, moments }
+    }
+}
+
+/// Legendre P_n(c) and P_n'(c) for n = 0..=nmax.
+fn legendre<T: Real>(c: T, nmax: usize, p: &mut [T], dp: &mut [T]) {
+    p[0] = T::cst(1.0);
+    dp[0] = T::cst(0.0);
+    if nmax == 0 {
+        return;
+    }
+    p[1] = c;
+    dp[1] = T::cst(1.0);
+    for n in 1..nmax {
+        let nf = n as f64;
+        p[n + 1] = (c * p[n]).scale((2.0 * nf + 1.0) / (nf + 1.0)) - p[n - 1].scale(nf / (nf + 1.0));
+        dp[n + 1] = p[n].scale(nf + 1.0) + c * dp[n];
+    }
+}
+
+/// Far regime: exterior multipole series of psi (r > 4a).
+fn multipole<T: Real>(g: &KernelGeometry, rho: T, z: T) -> CylHessian<T> {
+    let r = (rho * rho + z * z).sqrt();
+    let c = z / r;
+    let t = T::cst(g.a) / r; // a/r < 1/4
+    let tv = t.val();
+    // Keep even n while (a/r)^n > 1e-18.
+    let mut nmax = 0;
+    while nmax + 2 < MAX_ORDER && tv.powi(nmax as i32 + 2) > 1e-18 {
+        nmax += 2;
+    }
+    let mut pl = [T::cst(0.0); MAX_ORDER + 3];
+    let mut dpl = [T::cst(0.0); MAX_ORDER + 3];
+    legendre(c, nmax + 2, &mut pl, &mut dpl);
+    let (mut zz, mut p, mut q) = (T::cst(0.0), T::cst(0.0), T::cst(0.0));
+    // q_n / r^(n+3) = (scaled moment) (a/r)^(n+3); accumulate powers.
+    let mut tn3 = t * t * t; // t^(n+3) for n = 0
+    let t2 = t * t;
+    let mut n = 0;
+    while n <= nmax {
+        let qn = g.moments[n / 2];
+        let nf = n as f64;
+        let w = tn3.scale(qn);
+        zz = zz + (w * pl[n + 2]).scale((nf + 1.0) * (nf + 2.0));
+        p = p - w * dpl[n + 1];
+        q = q + (w * dpl[n + 2] / r).scale(nf + 1.0);
+        tn3 = tn3 * t2;
+        n += 2;
+    }
+    CylHessian { p, q, z: zz, prr: -zz - p }
+}
+
+/// J(n, m) = int_0^{pi/2} s (1 - s) / ((1 - n s) sqrt(1 - m s)) dt, s = sin^2 t, for n, m < 1/4,
+/// together with I(n, m, g) = int (cos^2 + g sin^2) / ((1 - n s) sqrt(1 - m s)) dt, by the
+/// 16-point periodic trapezoidal rule (nodes t_j = j pi / 16).
+fn trapezoid_j_i<T: Real>(n: T, m: T, g: T) -> (T, T) {
+    // sin^2(j pi/16), j = 0..=8.
+    const S: [f64; 9] = [
+        0.0,
+        0.038060233744356624,
+        0.14644660940672624,
+        0.30865828381745508,
+        0.5,
+        0.69134171618254492,
+        0.85355339059327373,
+        0.96193976625564337,
+        1.0,
+    ];
+    let h = PI / 16.0;
+    let one = T::cst(1.0);
+    let mut j = T::cst(0.0);
+    // endpoints: s = 0 gives 1 for I and 0 for J; s = 1 gives g / ((1-n) sqrt(1-m)).
+    let mut i = T::cst(0.5) + (g / ((one - n) * (one - m).sqrt())).scale(0.5);
+    for &s in &S[1..8] {
+        let w = one / ((one - n.scale(s)) * (one - m.scale(s)).sqrt());
+        j = j + w.scale(s * (1.0 - s));
+        i = i + w * (T::cst(1.0 - s) + g.scale(s));
+    }
+    (j.scale(h), i.scale(h))
+}
+
+/// Per-end terms (tq, tz, tp) at signed height h from the end (see module docs).
+#[inline]
+fn end_terms<T: Real>(r: f64, rho: T, h: T) -> (T, T, T) {
+    let rr = T::cst(r);
+    let sum = rr + rho;
+    let dif = rr - rho;
+    let a2 = h * h + sum * sum;
+    let a = a2.sqrt();
+    let kc2 = (h * h + dif * dif) / a2;
+    if kc2.val() == 0.0 {
+        // On the rim circle: the field is logarithmically infinite.
+        let inf = T::cst(f64::INFINITY);
+        return (inf, inf, inf);
+    }
+    let m = (rho / a2).scale(4.0 * r);
+    let g = dif / sum;
+    let n = (rho / (sum * sum)).scale(4.0 * r);
+    let kc = kc2.sqrt();
+    let beta = h / a;
+    let pref_p = (T::cst(1.0) / (sum * sum)).scale(-4.0 * r * r / PI);
+
+    let (tq, tz, tp);
+    if n.val() < 0.25 {
+        // Near the axis or far out: m <= n < 1/4, everything by the trapezoidal rule.
+        let (j2, iz) = trapezoid_j_i(n, m, g);
+        let (j1, _) = if m.val() == n.val() { (j2, iz) } else { trapezoid_j_i(m, m, g) };
+        tq = (j1 / (a2 * a)).scale(-4.0 * r * r / PI);
+        tz = (beta * iz / sum).scale(r / PI);
+        tp = pref_p * beta * j2;
+    } else {
+        let [p1, c101] = cel_multi(kc, T::cst(1.0), [(T::cst(1.0), T::cst(-1.0)), (T::cst(0.0), T::cst(1.0))]);
+        if m.val() < 0.25 {
+            let (j1, _) = trapezoid_j_i(m, m, g);
+            tq = (j1 / (a2 * a)).scale(-4.0 * r * r / PI);
+        } else {
+            tq = (p1 / (a * rho)).scale(r / PI);
+        }
+        let g2 = g * g;
+        if g2.val() == 0.0 {
+            // rho = R exactly: cel(kc, g^2, 1, g) -> K(kc) + sign(g) pi/(2 kc) as g -> 0. Off the
+            // lateral surface (|z| > L) the two ends' jumps cancel and the mean K is right; on
+            // it the caller asks for the outside limit (g -> 0-) via `end_terms_lateral`.
+            let [k] = cel_multi(kc, T::cst(1.0), [(T::cst(1.0), T::cst(1.0))]);
+            tz = (beta * k / sum).scale(r / PI);
+            tp = pref_p * beta * c101;
+        } else {
+            let [cz, c01] = cel_multi(kc, g2, [(T::cst(1.0), g), (T::cst(0.0), T::cst(1.0))]);
+            tz = (beta * cz / sum).scale(r / PI);
+            let j2 = (c101 - g2 * c01) / n;
+            tp = pref_p * beta * j2;
+        }
+    }
+    (tq, tz, tp)
+}
+
+/// Charge-form cap term C_z = -Omega/(4 pi) of the disk at signed height h (Omega = solid
+/// angle), for r_c = sqrt(rho^2 + h^2) > 4R: Legendre series of the disk potential,
+/// Phi_d = 2 pi sum_{l>=1} binom(1/2, l) R^(2l) P_{2l-2}(cos) / r^(2l-1), differentiated in z.
+fn cap_series_cz<T: Real>(r: f64, rho: T, h: T) -> T {
+    let rc = (rho * rho + h * h).sqrt();
+    let c = h / rc;
+    let x = T::cst(r) / rc;
+    let xv = x.val();
+    let mut lmax = 1;
+    while lmax < 30 && xv.powi(2 * lmax as i32 + 2) > 1e-18 {
+        lmax += 1;
+    }
+    let mut pl = [T::cst(0.0); 64];
+    let mut dpl = [T::cst(0.0); 64];
+    legendre(c, 2 * lmax, &mut pl, &mut dpl);
+    let x2 = x * x;
+    let mut xp = x2; // x^(2l)
+    let mut binom = 0.5; // binom(1/2, l)
+    let mut sum = T::cst(0.0);
+    for l in 1..=lmax {
+        let lf = l as f64;
+        sum = sum + (xp * pl[2 * l - 1]).scale(binom * (2.0 * lf - 1.0));
+        binom *= (0.5 - lf) / (lf + 1.0);
+        xp = xp * x2;
+    }
+    // C_z = (1/4pi) dPhi_d/dh = -(1/2) sum binom (2l-1) (R/r)^(2l) P_{2l-1}(c) / 1 ... / r^0
+    sum.scale(-0.5)
+}
+
+/// Gauss-Legendre nodes and weights on [-1, 1] for n = 1..=24 (computed once, Newton on P_n).
+fn gauss_legendre(n: usize) -> &'static [(f64, f64)] {
+    static TABLE: OnceLock<Vec<Vec<(f64, f64)>>> = OnceLock::new();
+    let t = TABLE.get_or_init(|| {
+        (0..=24)
+            .map(|n| {
+                let mut v = Vec::with_capacity(n);
+                for i in 0..n {
+                    let mut x = (PI * (i as f64 + 0.75) / (n as f64 + 0.5)).cos();
+                    let mut dp = 1.0;
+                    for _ in 0..100 {
+                        let (mut p0, mut p1) = (1.0, x);
+                        for k in 1..n {
+                            let kf = k as f64;
+                            let p2 = ((2.0 * kf + 1.0) * x * p1 - kf * p0) / (kf + 1.0);
+                            p0 = p1;
+                            p1 = p2;
+                        }
+                        let pn = if n == 0 { 1.0 } else { p1 };
+                        let pm = if n <= 1 { 1.0 } else { p0 };
+                        dp = n as f64 * (x * pn - pm) / (x * x - 1.0);
+                        let dx = pn / dp;
+                        x -= dx;
+                        if dx.abs() < 1e-16 {
+                            break;
+                        }
+                    }
+                    v.push((x, 2.0 / ((1.0 - x * x) * dp * dp)));
+                }
+                v
+            })
+            .collect()
+    });
+    &t[n]
+}
+
+/// Bernstein-ellipse parameter of the per-end singularity z' = z + i|R - rho| with respect to
+/// the interval [-L, L]: Gauss-Legendre with n nodes converges like rho_B^(-2n).
+fn bernstein(r: f64, l: f64, rho: f64, z: f64) -> f64 {
+    let (u, v) = (z / l, (r - rho).abs() / l);
+    // s = sqrt(w^2 - 1), w = u + i v
+    let (re, im) = (u * u - v * v - 1.0, 2.0 * u * v);
+    let modulus = re.hypot(im);
+    let mut sr = ((modulus + re) * 0.5).max(0.0).sqrt();
+    let mut si = ((modulus - re) * 0.5).max(0.0).sqrt();
+    if im < 0.0 {
+        si = -si;
+    }
+    if sr * u + si * v < 0.0 {
+        sr = -sr;
+        si = -si;
+    }
+    (u + sr).hypot(v + si)
+}
+
+/// Use the slab quadrature when the closed form would cancel by more than this factor.
+const SLAB_BERNSTEIN_MIN: f64 = 8.0;
+
+/// Hess psi in cylindrical form at (rho, z); `inside` = strictly inside the cylinder.
+pub fn cyl_hessian<T: Real>(g: &KernelGeometry, rho: T, z: T) -> (CylHessian<T>, Regime) {
+    let (r, l) = (g.r, g.l);
+    let (rv, zv) = (rho.val(), z.val());
+    let inside = rv < r && zv.abs() < l;
+    let chi = if inside { 1.0 } else { 0.0 };
+    if rv.hypot(zv) > 4.0 * g.a {
+        return (multipole(g, rho, z), Regime::Multipole);
+    }
+    let rb = bernstein(r, l, rv, zv);
+    if rb > SLAB_BERNSTEIN_MIN && rv != r {
+        // n with rb^(-2n) < 1e-17.
+        let n = ((17.0 * std::f64::consts::LN_10) / (2.0 * rb.ln())).ceil() as usize + 1;
+        let n = n.clamp(2, 24);
+        let rho_d = Dual::<T, 1>::constant(rho);
+        let (mut p, mut q, mut zz) = (T::cst(0.0), T::cst(0.0), T::cst(0.0));
+        for &(x, w) in gauss_legendre(n) {
+            let h = Dual::<T, 1>::variable(z - T::cst(l * x), 0);
+            let (tq, tz, tp) = end_terms(r, rho_d, h);
+            p = p + tp.d[0].scale(w * l);
+            q = q + tq.d[0].scale(w * l);
+            zz = zz + tz.d[0].scale(w * l);
+        }
+        let zz = zz - T::cst(chi);
+        return (CylHessian { p, q, z: zz, prr: -T::cst(chi) - zz - p }, Regime::SlabQuadrature);
+    }
+    // Closed forms at the two ends.
+    let xp = z + T::cst(l);
+    let xm = z - T::cst(l);
+    let (tq_p, tz_p, tp_p) = end_terms_at(r, rho, xp, zv, l);
+    let (tq_m, tz_m, tp_m) = end_terms_at(r, rho, xm, zv, l);
+    let cz_p = cap_cz(r, rho, xp, tz_p, -1.0);
+    let cz_m = cap_cz(r, rho, xm, tz_m, 1.0);
+    let p = tp_p - tp_m;
+    let q = tq_p - tq_m;
+    let zz = cz_p - cz_m;
+    (CylHessian { p, q, z: zz, prr: -T::cst(chi) - zz - p }, Regime::ClosedForm)
+}
+
+/// Per-end terms, taking the outside limit on the lateral surface (rho = R, |z| <= L).
+fn end_terms_at<T: Real>(r: f64, rho: T, h: T, zv: f64, l: f64) -> (T, T, T) {
+    if rho.val() == r && zv.abs() <= l {
+        // Outside limit: cel(kc, g^2, 1, g) -> K(kc) - pi/(2 kc) as g -> 0-.
+        let (tq, tz, tp) = end_terms(r, rho, h);
+        let rr = T::cst(r);
+        let a2 = h * h + (rr + rho) * (rr + rho);
+        let kc = (h * h / a2).sqrt();
+        let beta = h / a2.sqrt();
+        let jump = (beta / (kc * (rr + rho))).scale(-r * 0.5);
+        return (tq, tz + jump, tp);
+    }
+    end_terms(r, rho, h)
+}
+
+/// Charge-form cap term: C_z = tz - sign(h)/2 for rho < R (sign at h = 0 chosen by `side`:
+/// +1 for the top cap, whose outside is h > 0, -1 for the bottom cap), series when far.
+fn cap_cz<T: Real>(r: f64, rho: T, h: T, tz: T, side: f64) -> T {
+    let (rv, hv) = (rho.val(), h.val());
+    if rv.hypot(hv) > 4.0 * r {
+        return cap_series_cz(r, rho, h);
+    }
+    if rv < r {
+        let s = if hv > 0.0 {
+            1.0
+        } else if hv < 0.0 {
+            -1.0
+        } else {
+            side
+        };
+        tz - T::cst(0.5 * s)
+    } else {
+        tz
+    }
+}
+
+/// The Cartesian tensor T = Hess psi at (x, y, z) (cylinder frame), H = T M.
+pub fn field_tensor<T: Real>(g: &KernelGeometry, x: T, y: T, z: T) -> ([[T; 3]; 3], Regime) {
+    let rho2 = x * x + y * y;
+    let on_axis = rho2.val() == 0.0;
+    let rho = if on_axis { T::cst(0.0) } else { rho2.sqrt() };
+    let (hc, regime) = cyl_hessian(g, rho, z);
+    let (c2, s2, cs) = if on_axis {
+        (T::cst(1.0), T::cst(0.0), T::cst(0.0))
+    } else {
+        (x * x / rho2, y * y / rho2, x * y / rho2)
+    };
+    let d = hc.prr - hc.p;
+    let txx = hc.p + c2 * d;
+    let tyy = hc.p + s2 * d;
+    let txy = cs * d;
+    let txz = x * hc.q;
+    let tyz = y * hc.q;
+    ([[txx, txy, txz], [txy, tyy, tyz], [txz, tyz, hc.z]], regime)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn tensor(r: f64, l: f64, x: f64, y: f64, z: f64) -> ([[f64; 3]; 3], Regime) {
+        field_tensor(&KernelGeometry::new(r, l), x, y, z)
+    }
+
+    /// On-axis longitudinal field: H_z/M = (1/2)[xi+/sqrt(xi+^2+R^2) - xi-/sqrt(xi-^2+R^2)] - chi.
+    #[test]
+    fn on_axis_solenoid() {
+        let mut worst: f64 = 0.0;
+        for &(r, l) in &[(1.0, 1.0), (1.0, 30.0), (0.5, 0.01)] {
+            for &z in &[0.0, 0.3, 0.9999, 1.5, 3.0, 7.0, -2.0, 100.0] {
+                for &rho in &[0.0, 1e-12, 1e-6] {
+                    let (t, _) = tensor(r, l, rho, 0.0, z);
+                    let (xp, xm) = (z + l, z - l);
+                    let inside = if z.abs() < l { 1.0 } else { 0.0 };
+                    let (sp, sm) = (xp.hypot(r), xm.hypot(r));
+                    // xp/sp - xm/sm without cancellation when xp, xm have one sign.
+                    let diff = if xp * xm > 0.0 {
+                        r * r * (xp - xm) * (xp + xm) / (sp * sm * (xp * sm + xm * sp))
+                    } else {
+                        xp / sp - xm / sm
+                    };
+                    let want = 0.5 * diff - inside;
+                    let err = (t[2][2] - want).abs() / want.abs().max(1e-300);
+                    worst = worst.max(err);
+                    assert!(err < 1e-10, "r={r} l={l} z={z} rho={rho}: got {} want {want}", t[2][2]);
+                }
+            }
+        }
+        eprintln!("on-axis worst {worst:e}");
+    }
+
+    /// Infinite-cylinder limit (thesis eq. 5.24): transverse T_xx = -1/2 inside,
+    /// T_xx = R^2 cos(2 phi)/(2 rho^2) style outside.
+    #[test]
+    fn long_cylinder_midplane() {
+        let (r, l) = (1.0, 1e6);
+        let (t, _) = tensor(r, l, 0.3, 0.2, 0.1);
+        assert!((t[0][0] + 0.5).abs() < 1e-10, "{:?}", t);
+        assert!((t[1][1] + 0.5).abs() < 1e-10, "{:?}", t);
+        let (x, y) = (1.7, 0.9);
+        let (t, _) = tensor(r, l, x, y, 0.0);
+        let rho2: f64 = x * x + y * y;
+        // potential of a 2D dipole: H = (R^2/(2 rho^2)) (2 (M.e) e - M)
+        let want_xx = r * r / (2.0 * rho2) * (2.0 * x * x / rho2 - 1.0);
+        let want_xy = r * r / (2.0 * rho2) * (2.0 * x * y / rho2);
+        assert!((t[0][0] - want_xx).abs() < 1e-10, "{} {}", t[0][0], want_xx);
+        assert!((t[0][1] - want_xy).abs() < 1e-10, "{} {}", t[0][1], want_xy);
+    }
+
+    /// Trace of Hess psi: -1 inside, 0 outside, in every regime.
+    #[test]
+    fn trace_is_minus_chi() {
+        for &(r, l) in &[(1.0, 1.0), (1.0, 1e-4), (1.0, 1e4)] {
+            for &(x, y, z) in &[(0.2, 0.1, 0.0), (3.0, 1.0, 0.5), (0.5, 0.0, 2.0), (1e3, 2e3, 5e3), (0.9, 0.0, 0.0)] {
+                let (t, reg) = tensor(r, l, x, y, z);
+                let inside = x.hypot(y) < r && z.abs() < l;
+                let tr = t[0][0] + t[1][1] + t[2][2];
+                let want = if inside { -1.0 } else { 0.0 };
+                let scale = t.iter().flatten().map(|v| v.abs()).fold(0.0, f64::max);
+                assert!((tr - want).abs() <= 1e-13 * scale.max(1.0), "{r} {l} ({x},{y},{z}) {reg:?}: trace {tr}");
+            }
+        }
+    }
+
+    /// The regimes agree where they meet.
+    #[test]
+    fn regimes_agree() {
+        let g = KernelGeometry::new(1.0, 0.7);
+        for &(rho, z) in &[(2.0, 1.5), (0.5, 3.0), (3.5, 0.0)] {
+            let rho = rho * 1.0;
+            let mp = multipole(&g, rho, z);
+            let (cf, reg) = cyl_hessian(&g, rho, z);
+            let scale = mp.p.abs().max(mp.z.abs()).max(mp.q.abs() * rho);
+            for (a, b) in [(mp.p, cf.p), (mp.q * rho, cf.q * rho), (mp.z, cf.z)] {
+                assert!((a - b).abs() < 1e-14 * scale, "rho={rho} z={z} {reg:?}: {a} vs {b}");
+            }
+        }
+    }
+}
