@@ -2,9 +2,18 @@
 
 use super::case::Runner;
 
+mod elliptic_cases;
+mod field_analytic;
+
 /// The runner for case `id` ("104"), if one is registered.
 pub fn runner_for(id: &str) -> Option<Runner> {
     match id {
+        "001" => Some(elliptic_cases::case_001),
+        "101" => Some(field_analytic::case_101),
+        "102" => Some(field_analytic::case_102),
+        "103" => Some(field_analytic::case_103),
+        "105" => Some(field_analytic::case_105),
+        "106" => Some(field_analytic::case_106),
         _ => None,
     }
 }
