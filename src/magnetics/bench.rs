@@ -39,11 +39,23 @@ pub struct BenchRow {
 fn random_points(n: usize, seed: u64) -> Vec<Vector3<f64>> {
     let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
     (0..n)
-        .map(|_| Vector3::new(rng.gen_range(-3.0..3.0), rng.gen_range(-3.0..3.0), rng.gen_range(-5.0..5.0)))
+        .map(|_| {
+            Vector3::new(
+                rng.gen_range(-3.0..3.0),
+                rng.gen_range(-3.0..3.0),
+                rng.gen_range(-5.0..5.0),
+            )
+        })
         .collect()
 }
 
-fn time_batch(cyl: &Cylinder, m: &Vector3<f64>, pts: &[Vector3<f64>], gradient: bool, threads: usize) -> Result<f64> {
+fn time_batch(
+    cyl: &Cylinder,
+    m: &Vector3<f64>,
+    pts: &[Vector3<f64>],
+    gradient: bool,
+    threads: usize,
+) -> Result<f64> {
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(threads)
         .build()
@@ -106,18 +118,31 @@ pub fn run(args: &BenchArgs) -> Result<()> {
                 };
                 worst = worst.max(err);
             }
-            oracle_rates.push((*name, gradient, sample.len() as f64 / t0.elapsed().as_secs_f64()));
+            oracle_rates.push((
+                *name,
+                gradient,
+                sample.len() as f64 / t0.elapsed().as_secs_f64(),
+            ));
             let mut threads_list = vec![1];
             if all > 1 {
                 threads_list.push(all);
             }
             for threads in threads_list {
                 let pps = time_batch(&cyl, m, &pts, gradient, threads)?;
-                rows.push(BenchRow { magnetization: name, gradient, threads, points_per_second: pps, max_rel_error: worst });
+                rows.push(BenchRow {
+                    magnetization: name,
+                    gradient,
+                    threads,
+                    points_per_second: pps,
+                    max_rel_error: worst,
+                });
             }
         }
     }
-    println!("{:<13} {:>8} {:>7} {:>16} {:>14}", "magnetization", "gradient", "threads", "points/s", "max rel error");
+    println!(
+        "{:<13} {:>8} {:>7} {:>16} {:>14}",
+        "magnetization", "gradient", "threads", "points/s", "max rel error"
+    );
     let mut csv = String::from("magnetization,gradient,threads,points_per_second,max_rel_error\n");
     for row in &rows {
         println!(

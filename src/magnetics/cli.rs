@@ -41,13 +41,15 @@ pub struct FieldArgs {
 pub fn parse_triple(text: &str, what: &str) -> Result<Vector3<f64>> {
     let parts: Vec<&str> = text.split(',').map(str::trim).collect();
     if parts.len() != 3 {
-        return invalid(format!("--{what} '{text}': expected three comma-separated numbers"));
+        return invalid(format!(
+            "--{what} '{text}': expected three comma-separated numbers"
+        ));
     }
     let mut v = [0.0; 3];
     for (k, p) in parts.iter().enumerate() {
-        v[k] = p
-            .parse::<f64>()
-            .map_err(|_| Error::InvalidInput(format!("--{what} '{text}': '{p}' is not a number")))?;
+        v[k] = p.parse::<f64>().map_err(|_| {
+            Error::InvalidInput(format!("--{what} '{text}': '{p}' is not a number"))
+        })?;
         if !v[k].is_finite() {
             return invalid(format!("--{what} '{text}': '{p}' is not finite"));
         }
@@ -57,20 +59,33 @@ pub fn parse_triple(text: &str, what: &str) -> Result<Vector3<f64>> {
 
 /// Reads the points of a CSV file with header x,y,z; errors name the file and line.
 pub fn read_points(path: &std::path::Path) -> Result<Vec<Vector3<f64>>> {
-    let file_err = |msg: String| Error::File { path: path.display().to_string(), msg };
+    let file_err = |msg: String| Error::File {
+        path: path.display().to_string(),
+        msg,
+    };
     let text = std::fs::read_to_string(path).map_err(|e| file_err(e.to_string()))?;
-    let mut lines = text.lines().enumerate().filter(|(_, l)| !l.trim().is_empty());
-    let (_, header) = lines.next().ok_or_else(|| file_err("empty file: expected header x,y,z".into()))?;
+    let mut lines = text
+        .lines()
+        .enumerate()
+        .filter(|(_, l)| !l.trim().is_empty());
+    let (_, header) = lines
+        .next()
+        .ok_or_else(|| file_err("empty file: expected header x,y,z".into()))?;
     let cols: Vec<&str> = header.split(',').map(str::trim).collect();
     if cols != ["x", "y", "z"] {
-        return Err(file_err(format!("line 1: header must be x,y,z (metres), found '{header}'")));
+        return Err(file_err(format!(
+            "line 1: header must be x,y,z (metres), found '{header}'"
+        )));
     }
     let mut points = Vec::new();
     for (i, line) in lines {
         let lineno = i + 1;
         let cells: Vec<&str> = line.split(',').map(str::trim).collect();
         if cells.len() != 3 {
-            return Err(file_err(format!("line {lineno}: expected 3 values, found {}", cells.len())));
+            return Err(file_err(format!(
+                "line {lineno}: expected 3 values, found {}",
+                cells.len()
+            )));
         }
         let mut v = [0.0; 3];
         for k in 0..3 {
@@ -78,7 +93,10 @@ pub fn read_points(path: &std::path::Path) -> Result<Vec<Vector3<f64>>> {
                 .parse::<f64>()
                 .map_err(|_| file_err(format!("line {lineno}: '{}' is not a number", cells[k])))?;
             if !v[k].is_finite() {
-                return Err(file_err(format!("line {lineno}: '{}' is not finite", cells[k])));
+                return Err(file_err(format!(
+                    "line {lineno}: '{}' is not finite",
+                    cells[k]
+                )));
             }
         }
         points.push(Vector3::new(v[0], v[1], v[2]));
@@ -109,7 +127,11 @@ pub fn run_field(args: &FieldArgs) -> Result<ExitCode> {
                     }
                 }
             }
-            cells.iter().map(|v| format!("{v:.16e}")).collect::<Vec<_>>().join(",")
+            cells
+                .iter()
+                .map(|v| format!("{v:.16e}"))
+                .collect::<Vec<_>>()
+                .join(",")
         })
         .collect();
     for (i, (row, p)) in rows.iter().zip(&points).enumerate() {

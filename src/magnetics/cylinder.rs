@@ -18,14 +18,20 @@ impl Cylinder {
     /// R and L must be positive and finite.
     pub fn new(radius_m: f64, half_length_m: f64) -> Result<Cylinder> {
         if !(radius_m.is_finite() && radius_m > 0.0) {
-            return invalid(format!("cylinder radius {radius_m} m must be positive and finite"));
+            return invalid(format!(
+                "cylinder radius {radius_m} m must be positive and finite"
+            ));
         }
         if !(half_length_m.is_finite() && half_length_m > 0.0) {
             return invalid(format!(
                 "cylinder half-length {half_length_m} m must be positive and finite"
             ));
         }
-        Ok(Cylinder { radius_m, half_length_m, geometry: KernelGeometry::new(radius_m, half_length_m) })
+        Ok(Cylinder {
+            radius_m,
+            half_length_m,
+            geometry: KernelGeometry::new(radius_m, half_length_m),
+        })
     }
     pub fn radius_m(&self) -> f64 {
         self.radius_m
@@ -57,7 +63,11 @@ impl Cylinder {
     /// B in T: mu0 (H + M) strictly inside, mu0 H elsewhere (surface = outside limit).
     pub fn b_field(&self, m: &Vector3<f64>, p: &Vector3<f64>) -> Vector3<f64> {
         let h = self.h_field(m, p);
-        let inside = if self.contains(p) { *m } else { Vector3::zeros() };
+        let inside = if self.contains(p) {
+            *m
+        } else {
+            Vector3::zeros()
+        };
         (h + inside) * crate::consts::MU0
     }
     /// Gradient G[(i, j)] = dH_i/dx_j in A/m^2 at p, for magnetization m.

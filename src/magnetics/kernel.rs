@@ -36,7 +36,7 @@
 //!   come from 1 - 1.
 
 use crate::special::autodiff::{Dual, Real};
-use crate::special::bulirsch::cel_multi;
+use crate::special::bulirsch::cel_multi2;
 use std::f64::consts::PI;
 use std::sync::OnceLock;
 
@@ -84,11 +84,11 @@ impl KernelGeometry {
             let mut sum = 0.0;
             for k in 0..=n / 2 {
                 let j = n - 2 * k;
-                let integral = rh.powi(2 * k as i32 + 2) / (2 * k + 2) as f64 * 2.0
-                    * lh.powi(j as i32 + 1)
-                    / (j + 1) as f64;
+                let integral =
+                    rh.powi(2 * k as i32 + 2) / (2 * k + 2) as f64 * 2.0 * lh.powi(j as i32 + 1)
+                        / (j + 1) as f64;
                 sum += c * integral * 0.5; // (1/4pi) * 2pi
-                // c_{n,k+1} = -c_nk (n-2k)(n-2k-1) / (4 (k+1)^2)
+                                           // c_{n,k+1} = -c_nk (n-2k)(n-2k-1) / (4 (k+1)^2)
                 c *= -((j * (j.max(1) - 1)) as f64) / (4.0 * ((k + 1) * (k + 1)) as f64);
             }
             moments[n / 2] = sum;
@@ -109,7 +109,8 @@ fn legendre<T: Real>(c: T, nmax: usize, p: &mut [T], dp: &mut [T]) {
     dp[1] = T::cst(1.0);
     for n in 1..nmax {
         let nf = n as f64;
-        p[n + 1] = (c * p[n]).scale((2.0 * nf + 1.0) / (nf + 1.0)) - p[n - 1].scale(nf / (nf + 1.0));
+        p[n + 1] =
+            (c * p[n]).scale((2.0 * nf + 1.0) / (nf + 1.0)) - p[n - 1].scale(nf / (nf + 1.0));
         dp[n + 1] = p[n].scale(nf + 1.0) + c * dp[n];
     }
 }
@@ -143,7 +144,12 @@ fn multipole<T: Real>(g: &KernelGeometry, rho: T, z: T) -> CylHessian<T> {
         tn3 = tn3 * t2;
         n += 2;
     }
-    CylHessian { p, q, z: zz, prr: -zz - p }
+    CylHessian {
+        p,
+        q,
+        z: zz,
+        prr: -zz - p,
+    }
 }
 
 /// J(n, m) = int_0^{pi/2} s (1 - s) / ((1 - n s) sqrt(1 - m s)) dt, s = sin^2 t, for n, m < 1/4,
@@ -200,32 +206,51 @@ fn end_terms<T: Real>(r: f64, rho: T, h: T) -> (T, T, T) {
     if n.val() < 0.25 {
         // Near the axis or far out: m <= n < 1/4, everything by the trapezoidal rule.
         let (j2, iz) = trapezoid_j_i(n, m, g);
-        let (j1, _) = if m.val() == n.val() { (j2, iz) } else { trapezoid_j_i(m, m, g) };
+        let (j1, _) = if m.val() == n.val() {
+            (j2, iz)
+        } else {
+            trapezoid_j_i(m, m, g)
+        };
         tq = (j1 / (a2 * a)).scale(-4.0 * r * r / PI);
         tz = (beta * iz / sum).scale(r / PI);
         tp = pref_p * beta * j2;
     } else {
-        let [p1, c101] = cel_multi(kc, T::cst(1.0), [(T::cst(1.0), T::cst(-1.0)), (T::cst(0.0), T::cst(1.0))]);
+        let g2 = g * g;
+        let one = T::cst(1.0);
+        let ([p1, c101], [cz, c01]) = if g2.val() == 0.0 {
+            // rho = R exactly: cel(kc, g^2, 1, g) -> K(kc) + sign(g) pi/(2 kc) as g -> 0. Off
+            // the lateral surface (|z| > L) the two ends' jumps cancel and the mean K is right;
+            // on it `end_terms_at` adds the outside limit's jump. c01 is then not needed.
+            let ([p1, c101], [k]) = cel_multi2(
+                kc,
+                one,
+                [(one, -one), (T::cst(0.0), one)],
+                one,
+                [(one, one)],
+            );
+            ([p1, c101], [k, T::cst(0.0)])
+        } else {
+            cel_multi2(
+                kc,
+                one,
+                [(one, -one), (T::cst(0.0), one)],
+                g2,
+                [(one, g), (T::cst(0.0), one)],
+            )
+        };
         if m.val() < 0.25 {
             let (j1, _) = trapezoid_j_i(m, m, g);
             tq = (j1 / (a2 * a)).scale(-4.0 * r * r / PI);
         } else {
             tq = (p1 / (a * rho)).scale(r / PI);
         }
-        let g2 = g * g;
-        if g2.val() == 0.0 {
-            // rho = R exactly: cel(kc, g^2, 1, g) -> K(kc) + sign(g) pi/(2 kc) as g -> 0. Off the
-            // lateral surface (|z| > L) the two ends' jumps cancel and the mean K is right; on
-            // it the caller asks for the outside limit (g -> 0-) via `end_terms_lateral`.
-            let [k] = cel_multi(kc, T::cst(1.0), [(T::cst(1.0), T::cst(1.0))]);
-            tz = (beta * k / sum).scale(r / PI);
-            tp = pref_p * beta * c101;
+        tz = (beta * cz / sum).scale(r / PI);
+        let j2 = if g2.val() == 0.0 {
+            c101
         } else {
-            let [cz, c01] = cel_multi(kc, g2, [(T::cst(1.0), g), (T::cst(0.0), T::cst(1.0))]);
-            tz = (beta * cz / sum).scale(r / PI);
-            let j2 = (c101 - g2 * c01) / n;
-            tp = pref_p * beta * j2;
-        }
+            (c101 - g2 * c01) / n
+        };
+        tp = pref_p * beta * j2;
     }
     (tq, tz, tp)
 }
@@ -341,7 +366,15 @@ pub fn cyl_hessian<T: Real>(g: &KernelGeometry, rho: T, z: T) -> (CylHessian<T>,
             zz = zz + tz.d[0].scale(w * l);
         }
         let zz = zz - T::cst(chi);
-        return (CylHessian { p, q, z: zz, prr: -T::cst(chi) - zz - p }, Regime::SlabQuadrature);
+        return (
+            CylHessian {
+                p,
+                q,
+                z: zz,
+                prr: -T::cst(chi) - zz - p,
+            },
+            Regime::SlabQuadrature,
+        );
     }
     // Closed forms at the two ends.
     let xp = z + T::cst(l);
@@ -353,7 +386,15 @@ pub fn cyl_hessian<T: Real>(g: &KernelGeometry, rho: T, z: T) -> (CylHessian<T>,
     let p = tp_p - tp_m;
     let q = tq_p - tq_m;
     let zz = cz_p - cz_m;
-    (CylHessian { p, q, z: zz, prr: -T::cst(chi) - zz - p }, Regime::ClosedForm)
+    (
+        CylHessian {
+            p,
+            q,
+            z: zz,
+            prr: -T::cst(chi) - zz - p,
+        },
+        Regime::ClosedForm,
+    )
 }
 
 /// Per-end terms, taking the outside limit on the lateral surface (rho = R, |z| <= L).
@@ -440,7 +481,11 @@ mod tests {
                     let want = 0.5 * diff - inside;
                     let err = (t[2][2] - want).abs() / want.abs().max(1e-300);
                     worst = worst.max(err);
-                    assert!(err < 1e-10, "r={r} l={l} z={z} rho={rho}: got {} want {want}", t[2][2]);
+                    assert!(
+                        err < 1e-10,
+                        "r={r} l={l} z={z} rho={rho}: got {} want {want}",
+                        t[2][2]
+                    );
                 }
             }
         }
@@ -469,13 +514,22 @@ mod tests {
     #[test]
     fn trace_is_minus_chi() {
         for &(r, l) in &[(1.0, 1.0), (1.0, 1e-4), (1.0, 1e4)] {
-            for &(x, y, z) in &[(0.2, 0.1, 0.0), (3.0, 1.0, 0.5), (0.5, 0.0, 2.0), (1e3, 2e3, 5e3), (0.9, 0.0, 0.0)] {
+            for &(x, y, z) in &[
+                (0.2, 0.1, 0.0),
+                (3.0, 1.0, 0.5),
+                (0.5, 0.0, 2.0),
+                (1e3, 2e3, 5e3),
+                (0.9, 0.0, 0.0),
+            ] {
                 let (t, reg) = tensor(r, l, x, y, z);
                 let inside = x.hypot(y) < r && z.abs() < l;
                 let tr = t[0][0] + t[1][1] + t[2][2];
                 let want = if inside { -1.0 } else { 0.0 };
                 let scale = t.iter().flatten().map(|v| v.abs()).fold(0.0, f64::max);
-                assert!((tr - want).abs() <= 1e-13 * scale.max(1.0), "{r} {l} ({x},{y},{z}) {reg:?}: trace {tr}");
+                assert!(
+                    (tr - want).abs() <= 1e-13 * scale.max(1.0),
+                    "{r} {l} ({x},{y},{z}) {reg:?}: trace {tr}"
+                );
             }
         }
     }
@@ -490,7 +544,10 @@ mod tests {
             let (cf, reg) = cyl_hessian(&g, rho, z);
             let scale = mp.p.abs().max(mp.z.abs()).max(mp.q.abs() * rho);
             for (a, b) in [(mp.p, cf.p), (mp.q * rho, cf.q * rho), (mp.z, cf.z)] {
-                assert!((a - b).abs() < 1e-14 * scale, "rho={rho} z={z} {reg:?}: {a} vs {b}");
+                assert!(
+                    (a - b).abs() < 1e-14 * scale,
+                    "rho={rho} z={z} {reg:?}: {a} vs {b}"
+                );
             }
         }
     }
@@ -550,7 +607,10 @@ pub fn near_axis_tensor(g: &KernelGeometry, x: f64, y: f64, z: f64) -> [[Dual<f6
     let chi = if z.abs() < l { 1.0 } else { 0.0 };
     let u = on_axis_derivatives(r, l, z);
     // u0^(k) as a dual: value u[k], d/dz = u[k+1].
-    let uk = |k: usize| D3 { v: u[k], d: [0.0, 0.0, u[k + 1]] };
+    let uk = |k: usize| D3 {
+        v: u[k],
+        d: [0.0, 0.0, u[k + 1]],
+    };
     let xd = D3::variable(x, 0);
     let yd = D3::variable(y, 1);
     let rho2 = xd * xd + yd * yd;
@@ -588,7 +648,12 @@ mod near_axis_tests {
             let (cf, _) = field_tensor(&g, x, y, z);
             for i in 0..3 {
                 for j in 0..3 {
-                    assert!((near[i][j].v - cf[i][j]).abs() < 1e-14, "{r} {l} {z} [{i}{j}] {} {}", near[i][j].v, cf[i][j]);
+                    assert!(
+                        (near[i][j].v - cf[i][j]).abs() < 1e-14,
+                        "{r} {l} {z} [{i}{j}] {} {}",
+                        near[i][j].v,
+                        cf[i][j]
+                    );
                 }
             }
         }

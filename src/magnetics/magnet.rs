@@ -27,16 +27,26 @@ impl Magnet {
             return invalid(format!("magnet centre {centre:?} must be finite"));
         }
         if !magnetization.iter().all(|v| v.is_finite()) {
-            return invalid(format!("magnetization {magnetization:?} A/m must be finite"));
+            return invalid(format!(
+                "magnetization {magnetization:?} A/m must be finite"
+            ));
         }
         let n = axis.norm();
         if !(n.is_finite() && n > 0.0) {
-            return invalid(format!("cylinder axis {axis:?} must be finite and non-zero"));
+            return invalid(format!(
+                "cylinder axis {axis:?} must be finite and non-zero"
+            ));
         }
         let axis = Unit::new_unchecked(axis / n);
-        let rotation = Rotation3::rotation_between(&Vector3::z(), &axis)
-            .unwrap_or_else(|| Rotation3::from_axis_angle(&Vector3::x_axis(), std::f64::consts::PI));
-        Ok(Magnet { cylinder, centre, rotation, magnetization })
+        let rotation = Rotation3::rotation_between(&Vector3::z(), &axis).unwrap_or_else(|| {
+            Rotation3::from_axis_angle(&Vector3::x_axis(), std::f64::consts::PI)
+        });
+        Ok(Magnet {
+            cylinder,
+            centre,
+            rotation,
+            magnetization,
+        })
     }
     pub fn axis(&self) -> Vector3<f64> {
         self.rotation * Vector3::z()

@@ -55,7 +55,10 @@ pub struct Dual<T: Real, const N: usize> {
 
 impl<T: Real, const N: usize> Dual<T, N> {
     pub fn constant(v: T) -> Self {
-        Dual { v, d: [T::cst(0.0); N] }
+        Dual {
+            v,
+            d: [T::cst(0.0); N],
+        }
     }
     /// The k-th independent variable with value v.
     pub fn variable(v: T, k: usize) -> Self {
@@ -159,7 +162,10 @@ impl<T: Real, const N: usize> Real for Dual<T, N> {
         for x in d.iter_mut() {
             *x = x.scale(s);
         }
-        Dual { v: self.v.scale(s), d }
+        Dual {
+            v: self.v.scale(s),
+            d,
+        }
     }
 }
 

@@ -69,3 +69,65 @@ mod tests {
         assert!(worst < 1e-13, "worst relative difference {worst}");
     }
 }
+
+/// Two [`cel_multi`] calls with the same kc and different p, sharing the kc/AGM recursion
+/// (one square root per iteration instead of two).
+#[inline]
+pub fn cel_multi2<T: Real, const N: usize, const M: usize>(
+    kc: T,
+    p1: T,
+    ab1: [(T, T); N],
+    p2: T,
+    ab2: [(T, T); M],
+) -> ([T; N], [T; M]) {
+    debug_assert!(kc.val() != 0.0 && p1.val() > 0.0 && p2.val() > 0.0);
+    let mut kc = if kc.val() < 0.0 { -kc } else { kc };
+    let mut e = kc;
+    let mut m = T::cst(1.0);
+    let (mut pp1, mut pp2) = (p1.sqrt(), p2.sqrt());
+    let mut a1: [T; N] = [T::cst(0.0); N];
+    let mut b1: [T; N] = [T::cst(0.0); N];
+    let mut a2: [T; M] = [T::cst(0.0); M];
+    let mut b2: [T; M] = [T::cst(0.0); M];
+    for i in 0..N {
+        a1[i] = ab1[i].0;
+        b1[i] = ab1[i].1 / pp1;
+    }
+    for i in 0..M {
+        a2[i] = ab2[i].0;
+        b2[i] = ab2[i].1 / pp2;
+    }
+    for _ in 0..40 {
+        let (inv1, inv2) = (T::cst(1.0) / pp1, T::cst(1.0) / pp2);
+        let (g1, g2) = (e * inv1, e * inv2);
+        for i in 0..N {
+            let f = a1[i];
+            a1[i] = a1[i] + b1[i] * inv1;
+            b1[i] = (b1[i] + f * g1).scale(2.0);
+        }
+        for i in 0..M {
+            let f = a2[i];
+            a2[i] = a2[i] + b2[i] * inv2;
+            b2[i] = (b2[i] + f * g2).scale(2.0);
+        }
+        pp1 = g1 + pp1;
+        pp2 = g2 + pp2;
+        let g_old = m;
+        m = kc + m;
+        if (g_old.val() - kc.val()).abs() <= g_old.val() * 1e-9 {
+            break;
+        }
+        kc = e.sqrt().scale(2.0);
+        e = kc * m;
+    }
+    let (den1, den2) = (m * (m + pp1), m * (m + pp2));
+    let mut out1 = [T::cst(0.0); N];
+    let mut out2 = [T::cst(0.0); M];
+    for i in 0..N {
+        out1[i] = (a1[i] * m + b1[i]).scale(std::f64::consts::FRAC_PI_2) / den1;
+    }
+    for i in 0..M {
+        out2[i] = (a2[i] * m + b2[i]).scale(std::f64::consts::FRAC_PI_2) / den2;
+    }
+    (out1, out2)
+}

@@ -30,7 +30,11 @@ pub fn ellip_pi(n: f64, m: f64) -> Result<f64> {
 
 /// Bulirsch's general complete elliptic integral cel(kc, p, a, b), kc != 0, p != 0.
 pub fn cel(kc: f64, p: f64, a: f64, b: f64) -> Result<f64> {
-    wrap("cel", ellip::cel(kc, p, a, b), &format!("kc={kc}, p={p}, a={a}, b={b}"))
+    wrap(
+        "cel",
+        ellip::cel(kc, p, a, b),
+        &format!("kc={kc}, p={p}, a={a}, b={b}"),
+    )
 }
 
 /// Carlson R_F(x, y, z).
@@ -45,5 +49,9 @@ pub fn carlson_rd(x: f64, y: f64, z: f64) -> Result<f64> {
 
 /// Carlson R_J(x, y, z, p).
 pub fn carlson_rj(x: f64, y: f64, z: f64, p: f64) -> Result<f64> {
-    wrap("R_J", ellip::elliprj(x, y, z, p), &format!("{x}, {y}, {z}, {p}"))
+    wrap(
+        "R_J",
+        ellip::elliprj(x, y, z, p),
+        &format!("{x}, {y}, {z}, {p}"),
+    )
 }
