@@ -4,7 +4,11 @@ use clap::{Parser, Subcommand};
 use std::process::ExitCode;
 
 #[derive(Parser)]
-#[command(name = "porelab", version, about = "Particles packing, depositing and captured in random porous media, with proofs")]
+#[command(
+    name = "porelab",
+    version,
+    about = "Particles packing, depositing and captured in random porous media, with proofs"
+)]
 struct Cli {
     #[command(subcommand)]
     command: Command,
@@ -53,12 +57,16 @@ fn main() -> ExitCode {
     let result: porelab::Result<ExitCode> = match cli.command {
         Command::Validate { ids, all } => porelab::validation::cli_validate(&ids, all),
         Command::Reference { action } => match action {
-            ReferenceAction::Regen { name } => porelab::reference::cli_regen(name.as_deref()).map(|_| ExitCode::SUCCESS),
+            ReferenceAction::Regen { name } => {
+                porelab::reference::cli_regen(name.as_deref()).map(|_| ExitCode::SUCCESS)
+            }
             ReferenceAction::List => porelab::reference::cli_list().map(|_| ExitCode::SUCCESS),
         },
         Command::Field(args) => porelab::magnetics::cli::run_field(&args),
         Command::Bench { what } => match what {
-            BenchWhat::Field(args) => porelab::magnetics::bench::run(&args).map(|_| ExitCode::SUCCESS),
+            BenchWhat::Field(args) => {
+                porelab::magnetics::bench::run(&args).map(|_| ExitCode::SUCCESS)
+            }
         },
     };
     match result {

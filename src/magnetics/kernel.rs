@@ -189,17 +189,31 @@ fn end_terms<T: Real>(r: f64, rho: T, h: T) -> (T, T, T) {
     let dif = rr - rho;
     let a2 = h * h + sum * sum;
     let a = a2.sqrt();
-    let kc2 = (h * h + dif * dif) / a2;
+    let m = (rho / a2).scale(4.0 * r);
+    // kc^2 = 1 - m, taken as 1 - m where that is exact enough (so that its derivative, used by
+    // the slab quadrature and the gradient, is -dm and does not cancel), directly near the rim.
+    let kc2 = if m.val() < 0.5 {
+        T::cst(1.0) - m
+    } else {
+        (h * h + dif * dif) / a2
+    };
     if kc2.val() == 0.0 {
         // On the rim circle: the field is logarithmically infinite.
         let inf = T::cst(f64::INFINITY);
         return (inf, inf, inf);
     }
-    let m = (rho / a2).scale(4.0 * r);
     let g = dif / sum;
     let n = (rho / (sum * sum)).scale(4.0 * r);
     let kc = kc2.sqrt();
-    let beta = h / a;
+    // beta = h / A; far from the end (|h| > R + rho) as sign(h) (1 - s^2/(A (A + |h|))), whose
+    // derivatives do not cancel (the plain quotient's d/dh is (A^2 - h^2)/A^3).
+    let beta = if h.val().abs() > sum.val() {
+        let sg = h.val().signum();
+        let habs = if sg < 0.0 { -h } else { h };
+        (T::cst(1.0) - sum * sum / (a * (a + habs))).scale(sg)
+    } else {
+        h / a
+    };
     let pref_p = (T::cst(1.0) / (sum * sum)).scale(-4.0 * r * r / PI);
 
     let (tq, tz, tp);
@@ -353,28 +367,7 @@ pub fn cyl_hessian<T: Real>(g: &KernelGeometry, rho: T, z: T) -> (CylHessian<T>,
     }
     let rb = bernstein(r, l, rv, zv);
     if rb > SLAB_BERNSTEIN_MIN && rv != r {
-        // n with rb^(-2n) < 1e-17.
-        let n = ((17.0 * std::f64::consts::LN_10) / (2.0 * rb.ln())).ceil() as usize + 1;
-        let n = n.clamp(2, 24);
-        let rho_d = Dual::<T, 1>::constant(rho);
-        let (mut p, mut q, mut zz) = (T::cst(0.0), T::cst(0.0), T::cst(0.0));
-        for &(x, w) in gauss_legendre(n) {
-            let h = Dual::<T, 1>::variable(z - T::cst(l * x), 0);
-            let (tq, tz, tp) = end_terms(r, rho_d, h);
-            p = p + tp.d[0].scale(w * l);
-            q = q + tq.d[0].scale(w * l);
-            zz = zz + tz.d[0].scale(w * l);
-        }
-        let zz = zz - T::cst(chi);
-        return (
-            CylHessian {
-                p,
-                q,
-                z: zz,
-                prr: -T::cst(chi) - zz - p,
-            },
-            Regime::SlabQuadrature,
-        );
+        return (slab_quadrature(g, rho, z, chi, rb), Regime::SlabQuadrature);
     }
     // Closed forms at the two ends.
     let xp = z + T::cst(l);
@@ -386,6 +379,17 @@ pub fn cyl_hessian<T: Real>(g: &KernelGeometry, rho: T, z: T) -> (CylHessian<T>,
     let p = tp_p - tp_m;
     let q = tq_p - tq_m;
     let zz = cz_p - cz_m;
+    // If the two ends cancel (e.g. the transverse terms beyond the end of a long cylinder,
+    // whose per-end values tend to the same constant), and Gauss-Legendre along the axis
+    // converges to rounding with at most 24 nodes, integrate instead of subtracting.
+    let kappa =
+        |a: T, b: T| (a.val().abs() + b.val().abs()) / (a.val() - b.val()).abs().max(1e-300);
+    let worst = kappa(tp_p, tp_m)
+        .max(kappa(tq_p, tq_m))
+        .max(kappa(cz_p, cz_m));
+    if worst > CANCELLATION_MAX && rb > SLAB_BERNSTEIN_FALLBACK && rv != r {
+        return (slab_quadrature(g, rho, z, chi, rb), Regime::SlabQuadrature);
+    }
     (
         CylHessian {
             p,
@@ -395,6 +399,35 @@ pub fn cyl_hessian<T: Real>(g: &KernelGeometry, rho: T, z: T) -> (CylHessian<T>,
         },
         Regime::ClosedForm,
     )
+}
+
+/// Closed-form ends cancelling by more than this factor are replaced by the slab quadrature.
+const CANCELLATION_MAX: f64 = 30.0;
+/// ... when 24 Gauss-Legendre nodes then reach 1e-17 (rho_B^-48 < 1e-17).
+const SLAB_BERNSTEIN_FALLBACK: f64 = 2.3;
+
+/// psi quantities as integrals over z' in [-L, L] of d/dh of the (smooth, current-form)
+/// per-end terms, by Gauss-Legendre with enough nodes for rho_B^(-2n) < 1e-17.
+fn slab_quadrature<T: Real>(g: &KernelGeometry, rho: T, z: T, chi: f64, rb: f64) -> CylHessian<T> {
+    let (r, l) = (g.r, g.l);
+    let n = ((17.0 * std::f64::consts::LN_10) / (2.0 * rb.ln())).ceil() as usize + 1;
+    let n = n.clamp(2, 24);
+    let rho_d = Dual::<T, 1>::constant(rho);
+    let (mut p, mut q, mut zz) = (T::cst(0.0), T::cst(0.0), T::cst(0.0));
+    for &(x, w) in gauss_legendre(n) {
+        let h = Dual::<T, 1>::variable(z - T::cst(l * x), 0);
+        let (tq, tz, tp) = end_terms(r, rho_d, h);
+        p = p + tp.d[0].scale(w * l);
+        q = q + tq.d[0].scale(w * l);
+        zz = zz + tz.d[0].scale(w * l);
+    }
+    let zz = zz - T::cst(chi);
+    CylHessian {
+        p,
+        q,
+        z: zz,
+        prr: -T::cst(chi) - zz - p,
+    }
 }
 
 /// Per-end terms, taking the outside limit on the lateral surface (rho = R, |z| <= L).

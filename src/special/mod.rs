@@ -3,6 +3,6 @@
 
 pub mod autodiff;
 pub mod bulirsch;
-pub mod elliptic;
 pub mod double_double;
+pub mod elliptic;
 pub mod quadrature;

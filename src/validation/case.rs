@@ -22,7 +22,12 @@ pub struct Row {
 
 impl Row {
     pub fn new(label: impl Into<String>, got: f64, expected: f64, scale: f64) -> Self {
-        Row { label: label.into(), got, expected, scale }
+        Row {
+            label: label.into(),
+            got,
+            expected,
+            scale,
+        }
     }
     /// Error relative to `scale`.
     pub fn rel_error(&self) -> f64 {

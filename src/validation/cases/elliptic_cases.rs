@@ -60,7 +60,12 @@ pub fn case_001(ctx: &CaseContext) -> Result<Vec<Row>> {
         let label = format!("{func}({args}) [{region}; {source}]");
         match got {
             Ok(v) => rows.push(Row::new(label, v, expected, scale)),
-            Err(e) => rows.push(Row::new(format!("{label} ERR {e}"), f64::NAN, expected, scale)),
+            Err(e) => rows.push(Row::new(
+                format!("{label} ERR {e}"),
+                f64::NAN,
+                expected,
+                scale,
+            )),
         }
     }
     Ok(rows)

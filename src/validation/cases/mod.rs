@@ -4,6 +4,7 @@ use super::case::Runner;
 
 mod elliptic_cases;
 mod field_analytic;
+mod field_oracle;
 
 /// The runner for case `id` ("104"), if one is registered.
 pub fn runner_for(id: &str) -> Option<Runner> {
@@ -14,6 +15,9 @@ pub fn runner_for(id: &str) -> Option<Runner> {
         "103" => Some(field_analytic::case_103),
         "105" => Some(field_analytic::case_105),
         "106" => Some(field_analytic::case_106),
+        "104" => Some(field_oracle::case_104),
+        "107" => Some(field_oracle::case_107),
+        "108" => Some(field_oracle::case_108),
         _ => None,
     }
 }
