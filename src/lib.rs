@@ -6,10 +6,13 @@
 //! independent oracle tables without calling the code under test.
 
 pub mod consts;
+pub mod contact;
 pub mod error;
+pub mod hydro;
 pub mod io;
 pub mod magnetics;
 pub mod reference;
+pub mod shape;
 pub mod special;
 pub mod validation;
 

@@ -658,8 +658,8 @@ impl Jet {
     }
     fn add(&self, o: &Jet) -> Jet {
         let mut c = self.0;
-        for i in 0..NJ {
-            c[i] += o.0[i];
+        for (x, y) in c.iter_mut().zip(o.0.iter()) {
+            *x += y;
         }
         Jet(c)
     }
@@ -1567,10 +1567,10 @@ mod self_checks {
                 // the textbook formula, evaluated in double-double (it cancels in f64)
                 use crate::special::double_double::DD;
                 let (zd, ld, rd) = (DD::from_f64(z), DD::from_f64(l), DD::from_f64(r));
-                let f = |x: DD| x.div(x.mul(x).add(rd.mul(rd)).sqrt());
-                let mut want = f(zd.add(ld)).sub(f(zd.sub(ld))).mul(DD::from_f64(0.5));
+                let f = |x: DD| x / (x * x + rd * rd).sqrt();
+                let mut want = (f(zd + ld) - f(zd - ld)) * DD::from_f64(0.5);
                 if z.abs() < l {
-                    want = want.sub(DD::from_f64(1.0));
+                    want = want - DD::from_f64(1.0);
                 }
                 let want = want.to_f64();
                 worst = worst

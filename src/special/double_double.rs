@@ -33,7 +33,7 @@ impl DD {
         let (s, e) = two_sum(hi, lo);
         DD { hi: s, lo: e }
     }
-    pub fn add(self, o: DD) -> DD {
+    fn add_(self, o: DD) -> DD {
         let (s, e) = two_sum(self.hi, o.hi);
         let (t, f) = two_sum(self.lo, o.lo);
         let (s, e) = {
@@ -43,27 +43,27 @@ impl DD {
         };
         DD::renorm(s, e)
     }
-    pub fn neg(self) -> DD {
+    fn neg_(self) -> DD {
         DD {
             hi: -self.hi,
             lo: -self.lo,
         }
     }
-    pub fn sub(self, o: DD) -> DD {
-        self.add(o.neg())
+    fn sub_(self, o: DD) -> DD {
+        self.add_(o.neg_())
     }
-    pub fn mul(self, o: DD) -> DD {
+    fn mul_(self, o: DD) -> DD {
         let (p, e) = two_prod(self.hi, o.hi);
         let e = e + (self.hi * o.lo + self.lo * o.hi);
         DD::renorm(p, e)
     }
-    pub fn div(self, o: DD) -> DD {
+    fn div_(self, o: DD) -> DD {
         let q1 = self.hi / o.hi;
-        let r = self.sub(o.mul(DD::from_f64(q1)));
+        let r = self.sub_(o.mul_(DD::from_f64(q1)));
         let q2 = r.hi / o.hi;
-        let r = r.sub(o.mul(DD::from_f64(q2)));
+        let r = r.sub_(o.mul_(DD::from_f64(q2)));
         let q3 = r.hi / o.hi;
-        DD::renorm(q1, q2).add(DD::from_f64(q3))
+        DD::renorm(q1, q2).add_(DD::from_f64(q3))
     }
     /// Square root by one Newton step on the f64 root (Karp's trick).
     pub fn sqrt(self) -> DD {
@@ -72,7 +72,7 @@ impl DD {
         }
         let x = self.hi.sqrt();
         let (p, e) = two_prod(x, x);
-        let r = self.sub(DD { hi: p, lo: e });
+        let r = self.sub_(DD { hi: p, lo: e });
         let corr = r.hi / (2.0 * x);
         DD::renorm(x, corr)
     }
@@ -81,11 +81,32 @@ impl DD {
     }
 }
 
+macro_rules! dd_op {
+    ($tr:ident, $m:ident, $f:ident) => {
+        impl std::ops::$tr for DD {
+            type Output = DD;
+            fn $m(self, o: DD) -> DD {
+                self.$f(o)
+            }
+        }
+    };
+}
+dd_op!(Add, add, add_);
+dd_op!(Sub, sub, sub_);
+dd_op!(Mul, mul, mul_);
+dd_op!(Div, div, div_);
+impl std::ops::Neg for DD {
+    type Output = DD;
+    fn neg(self) -> DD {
+        self.neg_()
+    }
+}
+
 /// sqrt(x^2 + y^2) in double-double.
 pub fn hypot_dd(x: f64, y: f64) -> DD {
     let (a, ea) = two_prod(x, x);
     let (b, eb) = two_prod(y, y);
-    DD { hi: a, lo: ea }.add(DD { hi: b, lo: eb }).sqrt()
+    (DD { hi: a, lo: ea } + DD { hi: b, lo: eb }).sqrt()
 }
 
 #[cfg(test)]
@@ -100,8 +121,8 @@ mod tests {
         let x = 1.0 + 2f64.powi(-30);
         let r = hypot_dd(x, 0.0);
         assert_eq!(r.hi, x);
-        let third = DD::from_f64(1.0).div(DD::from_f64(3.0));
-        let back = third.mul(DD::from_f64(3.0)).sub(DD::from_f64(1.0));
+        let third = DD::from_f64(1.0) / DD::from_f64(3.0);
+        let back = third * DD::from_f64(3.0) - DD::from_f64(1.0);
         assert!(back.to_f64().abs() < 1e-31);
     }
 }

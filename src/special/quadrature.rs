@@ -8,6 +8,9 @@
 //! below the tolerance. Intervals whose error is at the rounding level of the integrand are not
 //! split further. The returned error adds a rounding term `ROUND eps * integral |f|`.
 
+// The rule constants are quoted to QUADPACK's 33 digits on purpose.
+#![allow(clippy::excessive_precision)]
+
 /// Abscissae of the 21-point Kronrod rule on [-1, 1] (non-negative half, descending).
 const XGK: [f64; 11] = [
     0.995_657_163_025_808_080_735_527_280_689_003,
@@ -161,8 +164,8 @@ where
         let mut total = [0.0; N];
         let mut err = 0.0;
         for p in &pieces {
-            for i in 0..N {
-                total[i] += p.val[i];
+            for (t, v) in total.iter_mut().zip(p.val.iter()) {
+                *t += v;
             }
             err += p.err;
         }
@@ -176,7 +179,7 @@ where
         // The splittable piece with the largest error.
         let mut best: Option<usize> = None;
         for (i, p) in pieces.iter().enumerate() {
-            if p.splittable && best.map_or(true, |j| p.err > pieces[j].err) {
+            if p.splittable && best.is_none_or(|j| p.err > pieces[j].err) {
                 best = Some(i);
             }
         }
@@ -226,8 +229,8 @@ where
     let mut err = 0.0;
     let mut resabs = 0.0;
     for p in &pieces {
-        for i in 0..N {
-            value[i] += p.val[i];
+        for (t, v) in value.iter_mut().zip(p.val.iter()) {
+            *t += v;
         }
         err += p.err;
         resabs += p.resabs;

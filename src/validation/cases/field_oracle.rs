@@ -36,7 +36,7 @@ const ORACLE_MARGIN: f64 = 0.1;
 
 fn check_estimate(t: &Table, i: usize, limit: f64) -> Result<()> {
     let est = t.f64(i, "est_rel_err")?;
-    if !(est <= limit) {
+    if est.is_nan() || est > limit {
         return Err(Error::Validation(format!(
             "{} line {}: oracle error estimate {est:e} exceeds {limit:e}; the row cannot decide \
              the case (regenerate with `porelab reference regen cylinder-field`)",
