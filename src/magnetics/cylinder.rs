@@ -1,6 +1,6 @@
 //! Field of one uniformly magnetized cylinder in its own frame.
 
-use super::kernel::{field_tensor, near_axis, near_axis_tensor, KernelGeometry, Regime};
+use super::kernel::{field_tensor, near_axis, near_axis_tensor, radial_gap, KernelGeometry, Regime};
 use crate::error::{invalid, Result};
 use crate::special::autodiff::Dual;
 use nalgebra::{Matrix3, Vector3};
@@ -41,7 +41,8 @@ impl Cylinder {
     }
     /// True strictly inside (rho < R and |z| < L); points on the surface count as outside.
     pub fn contains(&self, p: &Vector3<f64>) -> bool {
-        p.x.hypot(p.y) < self.radius_m && p.z.abs() < self.half_length_m
+        // The same exact test the kernel uses (R - rho in compensated arithmetic).
+        radial_gap(self.radius_m, p.x, p.y) > 0.0 && p.z.abs() < self.half_length_m
     }
     /// Demagnetization-type tensor T(p) with H = T M (A/m per A/m), T = Hess psi where
     /// psi(p) = (1/4 pi) int_cyl dV'/|p - p'|. Symmetric; trace -1 inside, 0 outside.

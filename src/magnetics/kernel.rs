@@ -183,10 +183,9 @@ fn trapezoid_j_i<T: Real>(n: T, m: T, g: T) -> (T, T) {
 
 /// Per-end terms (tq, tz, tp) at signed height h from the end (see module docs).
 #[inline]
-fn end_terms<T: Real>(r: f64, rho: T, h: T) -> (T, T, T) {
+fn end_terms<T: Real>(r: f64, rho: T, dif: T, h: T) -> (T, T, T) {
     let rr = T::cst(r);
     let sum = rr + rho;
-    let dif = rr - rho;
     let a2 = h * h + sum * sum;
     let a = a2.sqrt();
     let m = (rho / a2).scale(4.0 * r);
@@ -278,7 +277,8 @@ fn cap_series_cz<T: Real>(r: f64, rho: T, h: T) -> T {
     let x = T::cst(r) / rc;
     let xv = x.val();
     let mut lmax = 1;
-    while lmax < 30 && xv.powi(2 * lmax as i32 + 2) > 1e-18 {
+    // the term l is (R/r)^(2l - 2) relative to the first: stop when that is below 1e-18.
+    while lmax < 30 && xv.powi(2 * lmax as i32) > 1e-18 {
         lmax += 1;
     }
     let mut pl = [T::cst(0.0); 64];
@@ -336,8 +336,8 @@ fn gauss_legendre(n: usize) -> &'static [(f64, f64)] {
 
 /// Bernstein-ellipse parameter of the per-end singularity z' = z + i|R - rho| with respect to
 /// the interval [-L, L]: Gauss-Legendre with n nodes converges like rho_B^(-2n).
-fn bernstein(r: f64, l: f64, rho: f64, z: f64) -> f64 {
-    let (u, v) = (z / l, (r - rho).abs() / l);
+fn bernstein(l: f64, dif: f64, z: f64) -> f64 {
+    let (u, v) = (z / l, dif.abs() / l);
     // s = sqrt(w^2 - 1), w = u + i v
     let (re, im) = (u * u - v * v - 1.0, 2.0 * u * v);
     let modulus = re.hypot(im);
@@ -356,50 +356,98 @@ fn bernstein(r: f64, l: f64, rho: f64, z: f64) -> f64 {
 /// Use the slab quadrature when the closed form would cancel by more than this factor.
 const SLAB_BERNSTEIN_MIN: f64 = 8.0;
 
-/// Hess psi in cylindrical form at (rho, z); `inside` = strictly inside the cylinder.
-pub fn cyl_hessian<T: Real>(g: &KernelGeometry, rho: T, z: T) -> (CylHessian<T>, Regime) {
+/// R - rho to full relative precision from the Cartesian point: (R^2 - x^2 - y^2)/(R + rho)
+/// with the numerator in compensated arithmetic (rho itself carries an absolute rounding error
+/// of eps R, which near the lateral surface would be most of R - rho).
+pub fn radial_gap(r: f64, x: f64, y: f64) -> f64 {
+    use crate::special::double_double::{two_prod, two_sum};
+    let (r2, r2e) = two_prod(r, r);
+    let (x2, x2e) = two_prod(x, x);
+    let (y2, y2e) = two_prod(y, y);
+    let (s1, e1) = two_sum(r2, -x2);
+    let (s2, e2) = two_sum(s1, -y2);
+    let num = s2 + (e1 + e2 + (r2e - x2e - y2e));
+    num / (r + x.hypot(y))
+}
+
+/// Hess psi in cylindrical form at (rho, z); `dif` = R - rho (value from [`radial_gap`]).
+pub fn cyl_hessian<T: Real>(g: &KernelGeometry, rho: T, dif: T, z: T) -> (CylHessian<T>, Regime) {
     let (r, l) = (g.r, g.l);
-    let (rv, zv) = (rho.val(), z.val());
-    let inside = rv < r && zv.abs() < l;
+    let (rv, zv, dv) = (rho.val(), z.val(), dif.val());
+    let inside = dv > 0.0 && zv.abs() < l;
     let chi = if inside { 1.0 } else { 0.0 };
     if rv.hypot(zv) > 4.0 * g.a {
         return (multipole(g, rho, z), Regime::Multipole);
     }
-    let rb = bernstein(r, l, rv, zv);
-    if rb > SLAB_BERNSTEIN_MIN && rv != r {
-        return (slab_quadrature(g, rho, z, chi, rb), Regime::SlabQuadrature);
+    let rb = bernstein(l, dv, zv);
+    if rb > SLAB_BERNSTEIN_MIN && dv != 0.0 {
+        return (slab_quadrature(g, rho, dif, z, chi, rb), Regime::SlabQuadrature);
     }
-    // Closed forms at the two ends.
+    // Closed forms at the two ends (side: which sign h = 0 counts as, the outside of that cap).
     let xp = z + T::cst(l);
     let xm = z - T::cst(l);
-    let (tq_p, tz_p, tp_p) = end_terms_at(r, rho, xp, zv, l);
-    let (tq_m, tz_m, tp_m) = end_terms_at(r, rho, xm, zv, l);
-    let cz_p = cap_cz(r, rho, xp, tz_p, -1.0);
-    let cz_m = cap_cz(r, rho, xm, tz_m, 1.0);
-    let p = tp_p - tp_m;
+    let (tq_p, tz_p, tp_p) = end_terms_at(r, rho, dif, xp, zv, l);
+    let (tq_m, tz_m, tp_m) = end_terms_at(r, rho, dif, xm, zv, l);
+    let cz_p = cap_cz(r, rho, dif, xp, tz_p, -1.0);
+    let cz_m = cap_cz(r, rho, dif, xm, tz_m, 1.0);
+    // Transverse per-end terms tend to sign(h) tp_inf far from their end; subtract it.
+    let tp_inf = if dv >= 0.0 {
+        T::cst(-0.25)
+    } else {
+        let ratio = T::cst(r) / rho;
+        (ratio * ratio).scale(-0.25)
+    };
+    let (dp_p, s_p) = offset_tp(r, rho, dif, xp, tp_p, tp_inf, -1.0);
+    let (dp_m, s_m) = offset_tp(r, rho, dif, xm, tp_m, tp_inf, 1.0);
+    let p_inf = tp_inf.scale(s_p - s_m);
+    let p = dp_p - dp_m + p_inf;
     let q = tq_p - tq_m;
     let zz = cz_p - cz_m;
-    // If the two ends cancel (e.g. the transverse terms beyond the end of a long cylinder,
-    // whose per-end values tend to the same constant), and Gauss-Legendre along the axis
-    // converges to rounding with at most 24 nodes, integrate instead of subtracting.
-    let kappa =
-        |a: T, b: T| (a.val().abs() + b.val().abs()) / (a.val() - b.val()).abs().max(1e-300);
-    let worst = kappa(tp_p, tp_m)
-        .max(kappa(tq_p, tq_m))
-        .max(kappa(cz_p, cz_m));
-    if worst > CANCELLATION_MAX && rb > SLAB_BERNSTEIN_FALLBACK && rv != r {
-        return (slab_quadrature(g, rho, z, chi, rb), Regime::SlabQuadrature);
+    // If the two ends still cancel (e.g. far from a thin slab), and Gauss-Legendre along the
+    // axis converges to rounding with at most 24 nodes, integrate instead of subtracting.
+    let kappa = |a: T, b: T, c: T| {
+        (a.val().abs() + b.val().abs() + c.val().abs()) / (a.val() - b.val() + c.val()).abs().max(1e-300)
+    };
+    let zero = T::cst(0.0);
+    let worst = kappa(dp_p, dp_m, p_inf).max(kappa(tq_p, tq_m, zero)).max(kappa(cz_p, cz_m, zero));
+    if worst > CANCELLATION_MAX && rb > SLAB_BERNSTEIN_FALLBACK && dv != 0.0 {
+        return (slab_quadrature(g, rho, dif, z, chi, rb), Regime::SlabQuadrature);
     }
-    (
-        CylHessian {
-            p,
-            q,
-            z: zz,
-            prr: -T::cst(chi) - zz - p,
-        },
-        Regime::ClosedForm,
-    )
+    (CylHessian { p, q, z: zz, prr: -T::cst(chi) - zz - p }, Regime::ClosedForm)
 }
+
+/// dp = tp(h) - s tp_inf with s = sign(h) (`side` at h = 0), and s. Where the subtraction would
+/// cancel (far from the end, |h| > 4R) dp is computed as the tail integral
+/// dp(h) = -s int_{|h|}^inf tp'(s u) du, with u = |h|/t and 12-point Gauss-Legendre in t on
+/// [0, 1] (the integrand ~ t/h^2 is analytic there; its singularities sit at |t| >= 4).
+fn offset_tp<T: Real>(r: f64, rho: T, dif: T, h: T, tp: T, tp_inf: T, side: f64) -> (T, f64) {
+    let hv = h.val();
+    let s = if hv > 0.0 {
+        1.0
+    } else if hv < 0.0 {
+        -1.0
+    } else {
+        side
+    };
+    let direct = tp - tp_inf.scale(s);
+    if hv.abs() <= 4.0 * r || tp_inf.val().abs() <= CANCELLATION_MAX * direct.val().abs() {
+        return (direct, s);
+    }
+    let habs = if hv < 0.0 { -h } else { h };
+    let rho_d = Dual::<T, 1>::constant(rho);
+    let dif_d = Dual::<T, 1>::constant(dif);
+    let mut acc = T::cst(0.0);
+    for &(x, w) in gauss_legendre(TAIL_NODES) {
+        let t = 0.5 * (x + 1.0);
+        let u = habs.scale(1.0 / t);
+        let hh = Dual::<T, 1>::variable(u.scale(s), 0);
+        let (_, _, tpd) = end_terms(r, rho_d, dif_d, hh);
+        acc = acc + (tpd.d[0] * habs).scale(0.5 * w / (t * t));
+    }
+    (-acc.scale(s), s)
+}
+
+const TAIL_NODES: usize = 24;
 
 /// Closed-form ends cancelling by more than this factor are replaced by the slab quadrature.
 const CANCELLATION_MAX: f64 = 30.0;
@@ -408,15 +456,16 @@ const SLAB_BERNSTEIN_FALLBACK: f64 = 2.3;
 
 /// psi quantities as integrals over z' in [-L, L] of d/dh of the (smooth, current-form)
 /// per-end terms, by Gauss-Legendre with enough nodes for rho_B^(-2n) < 1e-17.
-fn slab_quadrature<T: Real>(g: &KernelGeometry, rho: T, z: T, chi: f64, rb: f64) -> CylHessian<T> {
+fn slab_quadrature<T: Real>(g: &KernelGeometry, rho: T, dif: T, z: T, chi: f64, rb: f64) -> CylHessian<T> {
     let (r, l) = (g.r, g.l);
     let n = ((17.0 * std::f64::consts::LN_10) / (2.0 * rb.ln())).ceil() as usize + 1;
     let n = n.clamp(2, 24);
     let rho_d = Dual::<T, 1>::constant(rho);
+    let dif_d = Dual::<T, 1>::constant(dif);
     let (mut p, mut q, mut zz) = (T::cst(0.0), T::cst(0.0), T::cst(0.0));
     for &(x, w) in gauss_legendre(n) {
         let h = Dual::<T, 1>::variable(z - T::cst(l * x), 0);
-        let (tq, tz, tp) = end_terms(r, rho_d, h);
+        let (tq, tz, tp) = end_terms(r, rho_d, dif_d, h);
         p = p + tp.d[0].scale(w * l);
         q = q + tq.d[0].scale(w * l);
         zz = zz + tz.d[0].scale(w * l);
@@ -431,10 +480,10 @@ fn slab_quadrature<T: Real>(g: &KernelGeometry, rho: T, z: T, chi: f64, rb: f64)
 }
 
 /// Per-end terms, taking the outside limit on the lateral surface (rho = R, |z| <= L).
-fn end_terms_at<T: Real>(r: f64, rho: T, h: T, zv: f64, l: f64) -> (T, T, T) {
-    if rho.val() == r && zv.abs() <= l {
+fn end_terms_at<T: Real>(r: f64, rho: T, dif: T, h: T, zv: f64, l: f64) -> (T, T, T) {
+    if dif.val() == 0.0 && zv.abs() <= l {
         // Outside limit: cel(kc, g^2, 1, g) -> K(kc) - pi/(2 kc) as g -> 0-.
-        let (tq, tz, tp) = end_terms(r, rho, h);
+        let (tq, tz, tp) = end_terms(r, rho, dif, h);
         let rr = T::cst(r);
         let a2 = h * h + (rr + rho) * (rr + rho);
         let kc = (h * h / a2).sqrt();
@@ -442,17 +491,17 @@ fn end_terms_at<T: Real>(r: f64, rho: T, h: T, zv: f64, l: f64) -> (T, T, T) {
         let jump = (beta / (kc * (rr + rho))).scale(-r * 0.5);
         return (tq, tz + jump, tp);
     }
-    end_terms(r, rho, h)
+    end_terms(r, rho, dif, h)
 }
 
 /// Charge-form cap term: C_z = tz - sign(h)/2 for rho < R (sign at h = 0 chosen by `side`:
 /// +1 for the top cap, whose outside is h > 0, -1 for the bottom cap), series when far.
-fn cap_cz<T: Real>(r: f64, rho: T, h: T, tz: T, side: f64) -> T {
+fn cap_cz<T: Real>(r: f64, rho: T, dif: T, h: T, tz: T, side: f64) -> T {
     let (rv, hv) = (rho.val(), h.val());
     if rv.hypot(hv) > 4.0 * r {
         return cap_series_cz(r, rho, h);
     }
-    if rv < r {
+    if dif.val() > 0.0 {
         let s = if hv > 0.0 {
             1.0
         } else if hv < 0.0 {
@@ -471,7 +520,8 @@ pub fn field_tensor<T: Real>(g: &KernelGeometry, x: T, y: T, z: T) -> ([[T; 3]; 
     let rho2 = x * x + y * y;
     let on_axis = rho2.val() == 0.0;
     let rho = if on_axis { T::cst(0.0) } else { rho2.sqrt() };
-    let (hc, regime) = cyl_hessian(g, rho, z);
+    let dif = (T::cst(g.r) - rho).with_value(radial_gap(g.r, x.val(), y.val()));
+    let (hc, regime) = cyl_hessian(g, rho, dif, z);
     let (c2, s2, cs) = if on_axis {
         (T::cst(1.0), T::cst(0.0), T::cst(0.0))
     } else {
@@ -574,7 +624,7 @@ mod tests {
         for &(rho, z) in &[(2.0, 1.5), (0.5, 3.0), (3.5, 0.0)] {
             let rho = rho * 1.0;
             let mp = multipole(&g, rho, z);
-            let (cf, reg) = cyl_hessian(&g, rho, z);
+            let (cf, reg) = cyl_hessian(&g, rho, g.r - rho, z);
             let scale = mp.p.abs().max(mp.z.abs()).max(mp.q.abs() * rho);
             for (a, b) in [(mp.p, cf.p), (mp.q * rho, cf.q * rho), (mp.z, cf.z)] {
                 assert!(

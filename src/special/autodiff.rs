@@ -21,6 +21,13 @@ pub trait Real:
     fn sqrt(self) -> Self;
     fn ln(self) -> Self;
     fn scale(self, s: f64) -> Self;
+    /// The same number with its value replaced by `v` (derivative parts kept): for quantities
+    /// whose value is computed more accurately elsewhere (e.g. in compensated arithmetic).
+    fn with_value(self, v: f64) -> Self;
+    /// Relative agreement at which AGM-type loops may stop. The value converges quadratically,
+    /// so 1e-9 leaves ~1e-18 in it, but the derivative parts carry the first-order remainder:
+    /// dual numbers iterate to 1e-15.
+    const AGM_TOLERANCE: f64 = 1e-9;
 }
 
 impl Real for f64 {
@@ -43,6 +50,10 @@ impl Real for f64 {
     #[inline(always)]
     fn scale(self, s: f64) -> Self {
         self * s
+    }
+    #[inline(always)]
+    fn with_value(self, v: f64) -> Self {
+        v
     }
 }
 
@@ -134,6 +145,7 @@ impl<T: Real, const N: usize> Neg for Dual<T, N> {
 }
 
 impl<T: Real, const N: usize> Real for Dual<T, N> {
+    const AGM_TOLERANCE: f64 = 1e-15;
     #[inline(always)]
     fn cst(v: f64) -> Self {
         Dual::constant(T::cst(v))
@@ -165,6 +177,12 @@ impl<T: Real, const N: usize> Real for Dual<T, N> {
         Dual {
             v: self.v.scale(s),
             d,
+        }
+    }    #[inline(always)]
+    fn with_value(self, v: f64) -> Self {
+        Dual {
+            v: self.v.with_value(v),
+            d: self.d,
         }
     }
 }

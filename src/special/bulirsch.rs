@@ -6,8 +6,8 @@
 //!                    ((cos^2 t + p sin^2 t) sqrt(cos^2 t + kc^2 sin^2 t)) dt   (thesis eq. 5.36)
 //!
 //! Algorithm: R. Bulirsch, Numer. Math. 13 (1969) 305-315, "cel", for p > 0. The loop stops when
-//! successive arithmetic means agree to 1e-9 relative; the convergence is quadratic, so the
-//! result is then good to rounding. The `ellip` crate's `cel` (f64 only, one pair) is the
+//! successive arithmetic means agree to `Real::AGM_TOLERANCE` (1e-9 for values: the convergence
+//! is quadratic, so the result is then good to rounding; 1e-15 for derivatives). The `ellip` crate's `cel` (f64 only, one pair) is the
 //! reference it is tested against.
 
 use super::autodiff::Real;
@@ -37,7 +37,7 @@ pub fn cel_multi<T: Real, const N: usize>(kc: T, p: T, ab: [(T, T); N]) -> [T; N
         pp = g + pp;
         let g_old = m;
         m = kc + m;
-        if (g_old.val() - kc.val()).abs() <= g_old.val() * 1e-9 {
+        if (g_old.val() - kc.val()).abs() <= g_old.val() * T::AGM_TOLERANCE {
             break;
         }
         kc = e.sqrt().scale(2.0);
@@ -114,7 +114,7 @@ pub fn cel_multi2<T: Real, const N: usize, const M: usize>(
         pp2 = g2 + pp2;
         let g_old = m;
         m = kc + m;
-        if (g_old.val() - kc.val()).abs() <= g_old.val() * 1e-9 {
+        if (g_old.val() - kc.val()).abs() <= g_old.val() * T::AGM_TOLERANCE {
             break;
         }
         kc = e.sqrt().scale(2.0);
