@@ -117,7 +117,7 @@ pub fn run_field(args: &FieldArgs) -> Result<ExitCode> {
         .par_iter()
         .map(|p| {
             let h = magnet.h_field(p);
-            let b = magnet.b_field(p);
+            let b = magnet.b_from_h(p, &h);
             let mut cells: Vec<f64> = vec![p.x, p.y, p.z, h.x, h.y, h.z, b.x, b.y, b.z];
             if args.gradient {
                 let g = magnet.h_gradient(p);

@@ -36,7 +36,7 @@
 //!   come from 1 - 1.
 
 use crate::special::autodiff::{Dual, Real};
-use crate::special::bulirsch::cel_multi2;
+use crate::special::bulirsch::{cel_multi2, cel_multi2_x2};
 use std::f64::consts::PI;
 use std::sync::OnceLock;
 
@@ -181,29 +181,24 @@ fn trapezoid_j_i<T: Real>(n: T, m: T, g: T) -> (T, T) {
     (j.scale(h), i.scale(h))
 }
 
-/// Per-end terms (tq, tz, tp) at signed height h from the end (see module docs).
+/// What one end needs before the elliptic integrals: A^2, A, m, kc^2, kc and beta.
+#[derive(Clone, Copy)]
+struct EndPrep<T> {
+    a2: T,
+    a: T,
+    m: T,
+    kc2: T,
+    beta: T,
+}
+
 #[inline]
-fn end_terms<T: Real>(r: f64, rho: T, dif: T, h: T) -> (T, T, T) {
-    let rr = T::cst(r);
-    let sum = rr + rho;
+fn end_prep<T: Real>(r: f64, rho: T, dif: T, sum: T, h: T) -> EndPrep<T> {
     let a2 = h * h + sum * sum;
     let a = a2.sqrt();
     let m = (rho / a2).scale(4.0 * r);
     // kc^2 = 1 - m, taken as 1 - m where that is exact enough (so that its derivative, used by
     // the slab quadrature and the gradient, is -dm and does not cancel), directly near the rim.
-    let kc2 = if m.val() < 0.5 {
-        T::cst(1.0) - m
-    } else {
-        (h * h + dif * dif) / a2
-    };
-    if kc2.val() == 0.0 {
-        // On the rim circle: the field is logarithmically infinite.
-        let inf = T::cst(f64::INFINITY);
-        return (inf, inf, inf);
-    }
-    let g = dif / sum;
-    let n = (rho / (sum * sum)).scale(4.0 * r);
-    let kc = kc2.sqrt();
+    let kc2 = if m.val() < 0.5 { T::cst(1.0) - m } else { (h * h + dif * dif) / a2 };
     // beta = h / A; far from the end (|h| > R + rho) as sign(h) (1 - s^2/(A (A + |h|))), whose
     // derivatives do not cancel (the plain quotient's d/dh is (A^2 - h^2)/A^3).
     let beta = if h.val().abs() > sum.val() {
@@ -213,90 +208,147 @@ fn end_terms<T: Real>(r: f64, rho: T, dif: T, h: T) -> (T, T, T) {
     } else {
         h / a
     };
-    let pref_p = (T::cst(1.0) / (sum * sum)).scale(-4.0 * r * r / PI);
+    EndPrep { a2, a, m, kc2, beta }
+}
 
-    let (tq, tz, tp);
-    if n.val() < 0.25 {
-        // Near the axis or far out: m <= n < 1/4, everything by the trapezoidal rule.
-        let (j2, iz) = trapezoid_j_i(n, m, g);
-        let (j1, _) = if m.val() == n.val() {
-            (j2, iz)
-        } else {
-            trapezoid_j_i(m, m, g)
-        };
-        tq = (j1 / (a2 * a)).scale(-4.0 * r * r / PI);
-        tz = (beta * iz / sum).scale(r / PI);
-        tp = pref_p * beta * j2;
-    } else {
-        let g2 = g * g;
-        let one = T::cst(1.0);
-        let ([p1, c101], [cz, c01]) = if g2.val() == 0.0 {
-            // rho = R exactly: cel(kc, g^2, 1, g) -> K(kc) + sign(g) pi/(2 kc) as g -> 0. Off
-            // the lateral surface (|z| > L) the two ends' jumps cancel and the mean K is right;
-            // on it `end_terms_at` adds the outside limit's jump. c01 is then not needed.
-            let ([p1, c101], [k]) = cel_multi2(
-                kc,
-                one,
-                [(one, -one), (T::cst(0.0), one)],
-                one,
-                [(one, one)],
-            );
-            ([p1, c101], [k, T::cst(0.0)])
-        } else {
-            cel_multi2(
-                kc,
-                one,
-                [(one, -one), (T::cst(0.0), one)],
-                g2,
-                [(one, g), (T::cst(0.0), one)],
-            )
-        };
-        if m.val() < 0.25 {
-            let (j1, _) = trapezoid_j_i(m, m, g);
-            tq = (j1 / (a2 * a)).scale(-4.0 * r * r / PI);
-        } else {
-            tq = (p1 / (a * rho)).scale(r / PI);
-        }
-        tz = (beta * cz / sum).scale(r / PI);
-        let j2 = if g2.val() == 0.0 {
-            c101
-        } else {
-            (c101 - g2 * c01) / n
-        };
-        tp = pref_p * beta * j2;
+/// Per-end terms (tq, tz, tp) at signed height h from the end (see module docs).
+#[inline]
+fn end_terms<T: Real>(r: f64, rho: T, dif: T, h: T) -> (T, T, T) {
+    let sum = T::cst(r) + rho;
+    let e = end_prep(r, rho, dif, sum, h);
+    if e.kc2.val() == 0.0 {
+        // On the rim circle: the field is logarithmically infinite.
+        let inf = T::cst(f64::INFINITY);
+        return (inf, inf, inf);
     }
+    let g = dif / sum;
+    let n = (rho / (sum * sum)).scale(4.0 * r);
+    if n.val() < 0.25 {
+        return end_terms_trapezoid(r, sum, g, n, &e);
+    }
+    let g2 = g * g;
+    let one = T::cst(1.0);
+    let cels = if g2.val() == 0.0 {
+        // rho = R exactly: cel(kc, g^2, 1, g) -> K(kc) + sign(g) pi/(2 kc) as g -> 0. Off the
+        // lateral surface (|z| > L) the two ends' jumps cancel and the mean K is right; on it
+        // `end_terms_at` adds the outside limit's jump. c01 is then not needed.
+        let ([p1, c101], [k]) = cel_multi2(e.kc2.sqrt(), one, [(one, -one), (T::cst(0.0), one)], one, [(one, one)]);
+        ([p1, c101], [k, T::cst(0.0)])
+    } else {
+        cel_multi2(e.kc2.sqrt(), one, [(one, -one), (T::cst(0.0), one)], g2, [(one, g), (T::cst(0.0), one)])
+    };
+    end_terms_from_cel(r, rho, sum, g, g2, n, &e, cels)
+}
+
+/// Both ends at once (interleaved elliptic integrals when both take the cel branch).
+#[inline]
+fn end_terms_pair<T: Real>(r: f64, rho: T, dif: T, hp: T, hm: T) -> [(T, T, T); 2] {
+    let sum = T::cst(r) + rho;
+    let g = dif / sum;
+    let n = (rho / (sum * sum)).scale(4.0 * r);
+    let g2 = g * g;
+    if n.val() < 0.25 || g2.val() == 0.0 {
+        return [end_terms(r, rho, dif, hp), end_terms(r, rho, dif, hm)];
+    }
+    let ep = end_prep(r, rho, dif, sum, hp);
+    let em = end_prep(r, rho, dif, sum, hm);
+    if ep.kc2.val() == 0.0 || em.kc2.val() == 0.0 {
+        return [end_terms(r, rho, dif, hp), end_terms(r, rho, dif, hm)];
+    }
+    let one = T::cst(1.0);
+    let [cp, cm] = cel_multi2_x2(
+        [ep.kc2.sqrt(), em.kc2.sqrt()],
+        one,
+        [(one, -one), (T::cst(0.0), one)],
+        g2,
+        [(one, g), (T::cst(0.0), one)],
+    );
+    [
+        end_terms_from_cel(r, rho, sum, g, g2, n, &ep, cp),
+        end_terms_from_cel(r, rho, sum, g, g2, n, &em, cm),
+    ]
+}
+
+/// The cel branch (n >= 1/4): p1 = cel(kc,1,1,-1), c101 = cel(kc,1,0,1), cz = cel(kc,g^2,1,g),
+/// c01 = cel(kc,g^2,0,1) (unused when g = 0).
+#[inline]
+#[allow(clippy::too_many_arguments)]
+fn end_terms_from_cel<T: Real>(
+    r: f64,
+    rho: T,
+    sum: T,
+    g: T,
+    g2: T,
+    n: T,
+    e: &EndPrep<T>,
+    ([p1, c101], [cz, c01]): ([T; 2], [T; 2]),
+) -> (T, T, T) {
+    let pref_p = (T::cst(1.0) / (sum * sum)).scale(-4.0 * r * r / PI);
+    let tq = if e.m.val() < 0.25 {
+        let (j1, _) = trapezoid_j_i(e.m, e.m, g);
+        (j1 / (e.a2 * e.a)).scale(-4.0 * r * r / PI)
+    } else {
+        (p1 / (e.a * rho)).scale(r / PI)
+    };
+    let tz = (e.beta * cz / sum).scale(r / PI);
+    let j2 = if g2.val() == 0.0 { c101 } else { (c101 - g2 * c01) / n };
+    let tp = pref_p * e.beta * j2;
+    (tq, tz, tp)
+}
+
+/// The trapezoid branch (n < 1/4: near the axis or far out, where m <= n < 1/4).
+#[inline]
+fn end_terms_trapezoid<T: Real>(r: f64, sum: T, g: T, n: T, e: &EndPrep<T>) -> (T, T, T) {
+    let (j2, iz) = trapezoid_j_i(n, e.m, g);
+    let (j1, _) = if e.m.val() == n.val() { (j2, iz) } else { trapezoid_j_i(e.m, e.m, g) };
+    let tq = (j1 / (e.a2 * e.a)).scale(-4.0 * r * r / PI);
+    let tz = (e.beta * iz / sum).scale(r / PI);
+    let pref_p = (T::cst(1.0) / (sum * sum)).scale(-4.0 * r * r / PI);
+    let tp = pref_p * e.beta * j2;
     (tq, tz, tp)
 }
 
 /// Charge-form cap term C_z = -Omega/(4 pi) of the disk at signed height h (Omega = solid
-/// angle), for r_c = sqrt(rho^2 + h^2) > 4R: Legendre series of the disk potential,
+/// angle), for r_c = sqrt(rho^2 + h^2) > 10R: Legendre series of the disk potential,
 /// Phi_d = 2 pi sum_{l>=1} binom(1/2, l) R^(2l) P_{2l-2}(cos) / r^(2l-1), differentiated in z.
 fn cap_series_cz<T: Real>(r: f64, rho: T, h: T) -> T {
     let rc = (rho * rho + h * h).sqrt();
     let c = h / rc;
     let x = T::cst(r) / rc;
     let xv = x.val();
-    let mut lmax = 1;
     // the term l is (R/r)^(2l - 2) relative to the first: stop when that is below 1e-18.
-    while lmax < 30 && xv.powi(2 * lmax as i32) > 1e-18 {
+    let mut lmax = 1;
+    while lmax < CAP_SERIES_MAX_L && xv.powi(2 * lmax as i32) > 1e-18 {
         lmax += 1;
     }
-    let mut pl = [T::cst(0.0); 64];
-    let mut dpl = [T::cst(0.0); 64];
-    legendre(c, 2 * lmax, &mut pl, &mut dpl);
     let x2 = x * x;
     let mut xp = x2; // x^(2l)
     let mut binom = 0.5; // binom(1/2, l)
     let mut sum = T::cst(0.0);
+    // Legendre P_n(c) by the upward recurrence; P_{2l-1} is used.
+    let (mut p_prev, mut p_cur) = (T::cst(1.0), c); // P_0, P_1
+    let mut n = 1;
     for l in 1..=lmax {
         let lf = l as f64;
-        sum = sum + (xp * pl[2 * l - 1]).scale(binom * (2.0 * lf - 1.0));
+        while n < 2 * l - 1 {
+            let nf = n as f64;
+            let p_next = (c * p_cur).scale((2.0 * nf + 1.0) / (nf + 1.0)) - p_prev.scale(nf / (nf + 1.0));
+            p_prev = p_cur;
+            p_cur = p_next;
+            n += 1;
+        }
+        sum = sum + (xp * p_cur).scale(binom * (2.0 * lf - 1.0));
         binom *= (0.5 - lf) / (lf + 1.0);
         xp = xp * x2;
     }
-    // C_z = (1/4pi) dPhi_d/dh = -(1/2) sum binom (2l-1) (R/r)^(2l) P_{2l-1}(c) / 1 ... / r^0
+    // C_z = (1/4pi) dPhi_d/dh = -(1/2) sum_l binom(1/2, l) (2l-1) (R/r)^(2l) P_{2l-1}(cos)
     sum.scale(-0.5)
 }
+
+/// The cap series is used beyond this many radii from the cap centre (where tz - 1/2 would
+/// cancel by more than ~100) and needs at most this many terms there.
+const CAP_SERIES_MIN_DISTANCE: f64 = 10.0;
+const CAP_SERIES_MAX_L: usize = 12;
 
 /// Gauss-Legendre nodes and weights on [-1, 1] for n = 1..=24 (computed once, Newton on P_n).
 fn gauss_legendre(n: usize) -> &'static [(f64, f64)] {
@@ -340,7 +392,7 @@ fn bernstein(l: f64, dif: f64, z: f64) -> f64 {
     let (u, v) = (z / l, dif.abs() / l);
     // s = sqrt(w^2 - 1), w = u + i v
     let (re, im) = (u * u - v * v - 1.0, 2.0 * u * v);
-    let modulus = re.hypot(im);
+    let modulus = (re * re + im * im).sqrt();
     let mut sr = ((modulus + re) * 0.5).max(0.0).sqrt();
     let mut si = ((modulus - re) * 0.5).max(0.0).sqrt();
     if im < 0.0 {
@@ -350,7 +402,7 @@ fn bernstein(l: f64, dif: f64, z: f64) -> f64 {
         sr = -sr;
         si = -si;
     }
-    (u + sr).hypot(v + si)
+    ((u + sr) * (u + sr) + (v + si) * (v + si)).sqrt()
 }
 
 /// Use the slab quadrature when the closed form would cancel by more than this factor.
@@ -367,7 +419,7 @@ pub fn radial_gap(r: f64, x: f64, y: f64) -> f64 {
     let (s1, e1) = two_sum(r2, -x2);
     let (s2, e2) = two_sum(s1, -y2);
     let num = s2 + (e1 + e2 + (r2e - x2e - y2e));
-    num / (r + x.hypot(y))
+    num / (r + (x * x + y * y).sqrt())
 }
 
 /// Hess psi in cylindrical form at (rho, z); `dif` = R - rho (value from [`radial_gap`]).
@@ -376,7 +428,7 @@ pub fn cyl_hessian<T: Real>(g: &KernelGeometry, rho: T, dif: T, z: T) -> (CylHes
     let (rv, zv, dv) = (rho.val(), z.val(), dif.val());
     let inside = dv > 0.0 && zv.abs() < l;
     let chi = if inside { 1.0 } else { 0.0 };
-    if rv.hypot(zv) > 4.0 * g.a {
+    if rv * rv + zv * zv > 16.0 * g.a * g.a {
         return (multipole(g, rho, z), Regime::Multipole);
     }
     let rb = bernstein(l, dv, zv);
@@ -386,8 +438,11 @@ pub fn cyl_hessian<T: Real>(g: &KernelGeometry, rho: T, dif: T, z: T) -> (CylHes
     // Closed forms at the two ends (side: which sign h = 0 counts as, the outside of that cap).
     let xp = z + T::cst(l);
     let xm = z - T::cst(l);
-    let (tq_p, tz_p, tp_p) = end_terms_at(r, rho, dif, xp, zv, l);
-    let (tq_m, tz_m, tp_m) = end_terms_at(r, rho, dif, xm, zv, l);
+    let [(tq_p, tz_p, tp_p), (tq_m, tz_m, tp_m)] = if dv == 0.0 && zv.abs() <= l {
+        [end_terms_at(r, rho, dif, xp, zv, l), end_terms_at(r, rho, dif, xm, zv, l)]
+    } else {
+        end_terms_pair(r, rho, dif, xp, xm)
+    };
     let cz_p = cap_cz(r, rho, dif, xp, tz_p, -1.0);
     let cz_m = cap_cz(r, rho, dif, xm, tz_m, 1.0);
     // Transverse per-end terms tend to sign(h) tp_inf far from their end; subtract it.
@@ -447,10 +502,10 @@ fn offset_tp<T: Real>(r: f64, rho: T, dif: T, h: T, tp: T, tp_inf: T, side: f64)
     (-acc.scale(s), s)
 }
 
-const TAIL_NODES: usize = 24;
+const TAIL_NODES: usize = 16;
 
 /// Closed-form ends cancelling by more than this factor are replaced by the slab quadrature.
-const CANCELLATION_MAX: f64 = 30.0;
+const CANCELLATION_MAX: f64 = 100.0;
 /// ... when 24 Gauss-Legendre nodes then reach 1e-17 (rho_B^-48 < 1e-17).
 const SLAB_BERNSTEIN_FALLBACK: f64 = 2.3;
 
@@ -498,7 +553,9 @@ fn end_terms_at<T: Real>(r: f64, rho: T, dif: T, h: T, zv: f64, l: f64) -> (T, T
 /// +1 for the top cap, whose outside is h > 0, -1 for the bottom cap), series when far.
 fn cap_cz<T: Real>(r: f64, rho: T, dif: T, h: T, tz: T, side: f64) -> T {
     let (rv, hv) = (rho.val(), h.val());
-    if rv.hypot(hv) > 4.0 * r {
+    // (For rho > R the closed form tends to 0 from O(1) pieces, for rho < R to 1/2: both cancel
+    // far from the cap.)
+    if rv * rv + hv * hv > (CAP_SERIES_MIN_DISTANCE * r) * (CAP_SERIES_MIN_DISTANCE * r) {
         return cap_series_cz(r, rho, h);
     }
     if dif.val() > 0.0 {
