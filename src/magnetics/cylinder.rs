@@ -88,3 +88,4 @@ impl Cylinder {
         Matrix3::from_fn(|i, j| (0..3).map(|k| t[i][k].d[j] * m[k]).sum())
     }
 }
+

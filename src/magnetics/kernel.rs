@@ -181,24 +181,46 @@ fn trapezoid_j_i<T: Real>(n: T, m: T, g: T) -> (T, T) {
     (j.scale(h), i.scale(h))
 }
 
-/// What one end needs before the elliptic integrals: A^2, A, m, kc^2, kc and beta.
+/// What one end needs before the elliptic integrals: 1/A^2, 1/A, m, kc^2 and beta.
 #[derive(Clone, Copy)]
 struct EndPrep<T> {
-    a2: T,
-    a: T,
+    inv_a2: T,
+    inv_a: T,
     m: T,
     kc2: T,
     beta: T,
 }
 
+/// What both ends share: R + rho and its inverse, g = (R - rho)/(R + rho), g^2, n = 1 - g^2.
+#[derive(Clone, Copy)]
+struct PointPrep<T> {
+    sum: T,
+    inv_sum: T,
+    g: T,
+    g2: T,
+    n: T,
+}
+
 #[inline]
-fn end_prep<T: Real>(r: f64, rho: T, dif: T, sum: T, h: T) -> EndPrep<T> {
+fn point_prep<T: Real>(r: f64, rho: T, dif: T) -> PointPrep<T> {
+    let sum = T::cst(r) + rho;
+    let inv_sum = T::cst(1.0) / sum;
+    let g = dif * inv_sum;
+    let n = (rho * inv_sum * inv_sum).scale(4.0 * r);
+    PointPrep { sum, inv_sum, g, g2: g * g, n }
+}
+
+#[inline]
+fn end_prep<T: Real>(r: f64, rho: T, dif: T, pt: &PointPrep<T>, h: T) -> EndPrep<T> {
+    let sum = pt.sum;
     let a2 = h * h + sum * sum;
+    let inv_a2 = T::cst(1.0) / a2;
     let a = a2.sqrt();
-    let m = (rho / a2).scale(4.0 * r);
+    let inv_a = a * inv_a2;
+    let m = (rho * inv_a2).scale(4.0 * r);
     // kc^2 = 1 - m, taken as 1 - m where that is exact enough (so that its derivative, used by
     // the slab quadrature and the gradient, is -dm and does not cancel), directly near the rim.
-    let kc2 = if m.val() < 0.5 { T::cst(1.0) - m } else { (h * h + dif * dif) / a2 };
+    let kc2 = if m.val() < 0.5 { T::cst(1.0) - m } else { (h * h + dif * dif) * inv_a2 };
     // beta = h / A; far from the end (|h| > R + rho) as sign(h) (1 - s^2/(A (A + |h|))), whose
     // derivatives do not cancel (the plain quotient's d/dh is (A^2 - h^2)/A^3).
     let beta = if h.val().abs() > sum.val() {
@@ -206,52 +228,46 @@ fn end_prep<T: Real>(r: f64, rho: T, dif: T, sum: T, h: T) -> EndPrep<T> {
         let habs = if sg < 0.0 { -h } else { h };
         (T::cst(1.0) - sum * sum / (a * (a + habs))).scale(sg)
     } else {
-        h / a
+        h * inv_a
     };
-    EndPrep { a2, a, m, kc2, beta }
+    EndPrep { inv_a2, inv_a, m, kc2, beta }
 }
 
 /// Per-end terms (tq, tz, tp) at signed height h from the end (see module docs).
 #[inline]
 fn end_terms<T: Real>(r: f64, rho: T, dif: T, h: T) -> (T, T, T) {
-    let sum = T::cst(r) + rho;
-    let e = end_prep(r, rho, dif, sum, h);
+    let pt = point_prep(r, rho, dif);
+    let e = end_prep(r, rho, dif, &pt, h);
     if e.kc2.val() == 0.0 {
         // On the rim circle: the field is logarithmically infinite.
         let inf = T::cst(f64::INFINITY);
         return (inf, inf, inf);
     }
-    let g = dif / sum;
-    let n = (rho / (sum * sum)).scale(4.0 * r);
-    if n.val() < 0.25 {
-        return end_terms_trapezoid(r, sum, g, n, &e);
+    if pt.n.val() < 0.25 {
+        return end_terms_trapezoid(r, &pt, &e);
     }
-    let g2 = g * g;
     let one = T::cst(1.0);
-    let cels = if g2.val() == 0.0 {
+    let cels = if pt.g2.val() == 0.0 {
         // rho = R exactly: cel(kc, g^2, 1, g) -> K(kc) + sign(g) pi/(2 kc) as g -> 0. Off the
         // lateral surface (|z| > L) the two ends' jumps cancel and the mean K is right; on it
         // `end_terms_at` adds the outside limit's jump. c01 is then not needed.
         let ([p1, c101], [k]) = cel_multi2(e.kc2.sqrt(), one, [(one, -one), (T::cst(0.0), one)], one, [(one, one)]);
         ([p1, c101], [k, T::cst(0.0)])
     } else {
-        cel_multi2(e.kc2.sqrt(), one, [(one, -one), (T::cst(0.0), one)], g2, [(one, g), (T::cst(0.0), one)])
+        cel_multi2(e.kc2.sqrt(), one, [(one, -one), (T::cst(0.0), one)], pt.g2, [(one, pt.g), (T::cst(0.0), one)])
     };
-    end_terms_from_cel(r, rho, sum, g, g2, n, &e, cels)
+    end_terms_from_cel(r, &pt, &e, cels)
 }
 
 /// Both ends at once (interleaved elliptic integrals when both take the cel branch).
 #[inline]
 fn end_terms_pair<T: Real>(r: f64, rho: T, dif: T, hp: T, hm: T) -> [(T, T, T); 2] {
-    let sum = T::cst(r) + rho;
-    let g = dif / sum;
-    let n = (rho / (sum * sum)).scale(4.0 * r);
-    let g2 = g * g;
-    if n.val() < 0.25 || g2.val() == 0.0 {
+    let pt = point_prep(r, rho, dif);
+    if pt.n.val() < 0.25 || pt.g2.val() == 0.0 {
         return [end_terms(r, rho, dif, hp), end_terms(r, rho, dif, hm)];
     }
-    let ep = end_prep(r, rho, dif, sum, hp);
-    let em = end_prep(r, rho, dif, sum, hm);
+    let ep = end_prep(r, rho, dif, &pt, hp);
+    let em = end_prep(r, rho, dif, &pt, hm);
     if ep.kc2.val() == 0.0 || em.kc2.val() == 0.0 {
         return [end_terms(r, rho, dif, hp), end_terms(r, rho, dif, hm)];
     }
@@ -260,50 +276,47 @@ fn end_terms_pair<T: Real>(r: f64, rho: T, dif: T, hp: T, hm: T) -> [(T, T, T); 
         [ep.kc2.sqrt(), em.kc2.sqrt()],
         one,
         [(one, -one), (T::cst(0.0), one)],
-        g2,
-        [(one, g), (T::cst(0.0), one)],
+        pt.g2,
+        [(one, pt.g), (T::cst(0.0), one)],
     );
-    [
-        end_terms_from_cel(r, rho, sum, g, g2, n, &ep, cp),
-        end_terms_from_cel(r, rho, sum, g, g2, n, &em, cm),
-    ]
+    [end_terms_from_cel(r, &pt, &ep, cp), end_terms_from_cel(r, &pt, &em, cm)]
 }
+
+/// Below this m, tq comes from the trapezoidal J(kc, kc^2) instead of P1 = cel(kc, 1, 1, -1)
+/// = -m J, whose absolute rounding would then be ~eps/(m J) relative (2e-14 at m = 0.05).
+const TQ_TRAPEZOID_BELOW_M: f64 = 0.05;
 
 /// The cel branch (n >= 1/4): p1 = cel(kc,1,1,-1), c101 = cel(kc,1,0,1), cz = cel(kc,g^2,1,g),
 /// c01 = cel(kc,g^2,0,1) (unused when g = 0).
 #[inline]
-#[allow(clippy::too_many_arguments)]
 fn end_terms_from_cel<T: Real>(
     r: f64,
-    rho: T,
-    sum: T,
-    g: T,
-    g2: T,
-    n: T,
+    pt: &PointPrep<T>,
     e: &EndPrep<T>,
     ([p1, c101], [cz, c01]): ([T; 2], [T; 2]),
 ) -> (T, T, T) {
-    let pref_p = (T::cst(1.0) / (sum * sum)).scale(-4.0 * r * r / PI);
-    let tq = if e.m.val() < 0.25 {
-        let (j1, _) = trapezoid_j_i(e.m, e.m, g);
-        (j1 / (e.a2 * e.a)).scale(-4.0 * r * r / PI)
+    let pref_p = (pt.inv_sum * pt.inv_sum).scale(-4.0 * r * r / PI);
+    let tq = if e.m.val() < TQ_TRAPEZOID_BELOW_M {
+        let (j1, _) = trapezoid_j_i(e.m, e.m, pt.g);
+        (j1 * e.inv_a2 * e.inv_a).scale(-4.0 * r * r / PI)
     } else {
-        (p1 / (e.a * rho)).scale(r / PI)
+        // p1 / (A rho) = 4 R p1 / (m A^3)
+        (p1 * e.inv_a2 * e.inv_a / e.m).scale(4.0 * r * r / PI)
     };
-    let tz = (e.beta * cz / sum).scale(r / PI);
-    let j2 = if g2.val() == 0.0 { c101 } else { (c101 - g2 * c01) / n };
+    let tz = (e.beta * cz * pt.inv_sum).scale(r / PI);
+    let j2 = if pt.g2.val() == 0.0 { c101 } else { (c101 - pt.g2 * c01) / pt.n };
     let tp = pref_p * e.beta * j2;
     (tq, tz, tp)
 }
 
 /// The trapezoid branch (n < 1/4: near the axis or far out, where m <= n < 1/4).
 #[inline]
-fn end_terms_trapezoid<T: Real>(r: f64, sum: T, g: T, n: T, e: &EndPrep<T>) -> (T, T, T) {
-    let (j2, iz) = trapezoid_j_i(n, e.m, g);
-    let (j1, _) = if e.m.val() == n.val() { (j2, iz) } else { trapezoid_j_i(e.m, e.m, g) };
-    let tq = (j1 / (e.a2 * e.a)).scale(-4.0 * r * r / PI);
-    let tz = (e.beta * iz / sum).scale(r / PI);
-    let pref_p = (T::cst(1.0) / (sum * sum)).scale(-4.0 * r * r / PI);
+fn end_terms_trapezoid<T: Real>(r: f64, pt: &PointPrep<T>, e: &EndPrep<T>) -> (T, T, T) {
+    let (j2, iz) = trapezoid_j_i(pt.n, e.m, pt.g);
+    let (j1, _) = if e.m.val() == pt.n.val() { (j2, iz) } else { trapezoid_j_i(e.m, e.m, pt.g) };
+    let tq = (j1 * e.inv_a2 * e.inv_a).scale(-4.0 * r * r / PI);
+    let tz = (e.beta * iz * pt.inv_sum).scale(r / PI);
+    let pref_p = (pt.inv_sum * pt.inv_sum).scale(-4.0 * r * r / PI);
     let tp = pref_p * e.beta * j2;
     (tq, tz, tp)
 }
@@ -431,9 +444,13 @@ pub fn cyl_hessian<T: Real>(g: &KernelGeometry, rho: T, dif: T, z: T) -> (CylHes
     if rv * rv + zv * zv > 16.0 * g.a * g.a {
         return (multipole(g, rho, z), Regime::Multipole);
     }
-    let rb = bernstein(l, dv, zv);
-    if rb > SLAB_BERNSTEIN_MIN && dv != 0.0 {
-        return (slab_quadrature(g, rho, dif, z, chi, rb), Regime::SlabQuadrature);
+    // rho_B <= 2|w| with w = (z + i|R - rho|)/L, so only |w| > SLAB_BERNSTEIN_MIN/2 can qualify.
+    let w2 = (zv * zv + dv * dv) / (l * l);
+    if w2 > 0.25 * SLAB_BERNSTEIN_MIN * SLAB_BERNSTEIN_MIN && dv != 0.0 {
+        let rb = bernstein(l, dv, zv);
+        if rb > SLAB_BERNSTEIN_MIN {
+            return (slab_quadrature(g, rho, dif, z, chi, rb), Regime::SlabQuadrature);
+        }
     }
     // Closed forms at the two ends (side: which sign h = 0 counts as, the outside of that cap).
     let xp = z + T::cst(l);
@@ -465,8 +482,11 @@ pub fn cyl_hessian<T: Real>(g: &KernelGeometry, rho: T, dif: T, z: T) -> (CylHes
     };
     let zero = T::cst(0.0);
     let worst = kappa(dp_p, dp_m, p_inf).max(kappa(tq_p, tq_m, zero)).max(kappa(cz_p, cz_m, zero));
-    if worst > CANCELLATION_MAX && rb > SLAB_BERNSTEIN_FALLBACK && dv != 0.0 {
-        return (slab_quadrature(g, rho, dif, z, chi, rb), Regime::SlabQuadrature);
+    if worst > CANCELLATION_MAX && dv != 0.0 {
+        let rb = bernstein(l, dv, zv);
+        if rb > SLAB_BERNSTEIN_FALLBACK {
+            return (slab_quadrature(g, rho, dif, z, chi, rb), Regime::SlabQuadrature);
+        }
     }
     (CylHessian { p, q, z: zz, prr: -T::cst(chi) - zz - p }, Regime::ClosedForm)
 }
@@ -582,7 +602,8 @@ pub fn field_tensor<T: Real>(g: &KernelGeometry, x: T, y: T, z: T) -> ([[T; 3]; 
     let (c2, s2, cs) = if on_axis {
         (T::cst(1.0), T::cst(0.0), T::cst(0.0))
     } else {
-        (x * x / rho2, y * y / rho2, x * y / rho2)
+        let inv = T::cst(1.0) / rho2;
+        (x * x * inv, y * y * inv, x * y * inv)
     };
     let d = hc.prr - hc.p;
     let txx = hc.p + c2 * d;
