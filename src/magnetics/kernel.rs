@@ -426,13 +426,19 @@ const SLAB_BERNSTEIN_MIN: f64 = 8.0;
 /// of eps R, which near the lateral surface would be most of R - rho).
 pub fn radial_gap(r: f64, x: f64, y: f64) -> f64 {
     use crate::special::double_double::{two_prod, two_sum};
+    let rho2 = x * x + y * y;
+    let naive = r * r - rho2;
+    if naive.abs() > 0.1 * r * r {
+        // Far from the lateral surface the plain difference is good to a few eps.
+        return naive / (r + rho2.sqrt());
+    }
     let (r2, r2e) = two_prod(r, r);
     let (x2, x2e) = two_prod(x, x);
     let (y2, y2e) = two_prod(y, y);
     let (s1, e1) = two_sum(r2, -x2);
     let (s2, e2) = two_sum(s1, -y2);
     let num = s2 + (e1 + e2 + (r2e - x2e - y2e));
-    num / (r + (x * x + y * y).sqrt())
+    num / (r + rho2.sqrt())
 }
 
 /// Hess psi in cylindrical form at (rho, z); `dif` = R - rho (value from [`radial_gap`]).
