@@ -759,10 +759,19 @@ fn inv_s3_taylor<const N: usize>(r: f64, h0: f64) -> [f64; N] {
 /// psi0^(k) = (g^(k-1)(z+L) - g^(k-1)(z-L))/2, g' = -sign(h) R^2/(s (s + |h|)),
 /// g^(j) = R^2 (j-2)! [t^(j-2)] (R^2 + (h+t)^2)^(-3/2) for j >= 2.
 fn on_axis_derivatives(r: f64, l: f64, z: f64) -> [f64; 9] {
-    let g = |h: f64| -> [f64; 8] {
+    // sign(h): h = 0 is a point on a cap face, taken from outside (above the top cap, below
+    // the bottom one), as everywhere on the surface.
+    let g = |h: f64, sign_at_zero: f64| -> [f64; 8] {
         let s = r.hypot(h);
         let mut out = [0.0; 8];
-        out[1] = -h.signum() * r * r / (s * (s + h.abs()));
+        let sg = if h > 0.0 {
+            1.0
+        } else if h < 0.0 {
+            -1.0
+        } else {
+            sign_at_zero
+        };
+        out[1] = -sg * r * r / (s * (s + h.abs()));
         let c = inv_s3_taylor::<6>(r, h);
         let mut fact = 1.0;
         for j in 2..8 {
@@ -773,7 +782,7 @@ fn on_axis_derivatives(r: f64, l: f64, z: f64) -> [f64; 9] {
         }
         out
     };
-    let (gp, gm) = (g(z + l), g(z - l));
+    let (gp, gm) = (g(z + l, -1.0), g(z - l, 1.0));
     let mut d = [0.0; 9];
     for k in 2..9 {
         d[k] = 0.5 * (gp[k - 1] - gm[k - 1]);
@@ -783,8 +792,7 @@ fn on_axis_derivatives(r: f64, l: f64, z: f64) -> [f64; 9] {
 
 /// Near-axis form of the tensor and its exact gradient, from the off-axis expansion of the
 /// harmonic u = psi + chi rho^2/4: u = sum_k (-1)^k (rho^2/4)^k/(k!)^2 u0^(2k)(z), kept to
-/// rho^4 (valid for rho < 1e-3 of the distance to the nearest cap plane and of R; the next term
-/// is below 1e-18 relatively). Entries are (value, d/dx, d/dy, d/dz).
+/// rho^4 (valid for rho < 1e-3 R, see [`near_axis`]; the next term is below 1e-18 relatively). Entries are (value, d/dx, d/dy, d/dz).
 pub fn near_axis_tensor(g: &KernelGeometry, x: f64, y: f64, z: f64) -> [[Dual<f64, 3>; 3]; 3] {
     type D3 = Dual<f64, 3>;
     let (r, l) = (g.r, g.l);
@@ -814,9 +822,11 @@ pub fn near_axis_tensor(g: &KernelGeometry, x: f64, y: f64, z: f64) -> [[Dual<f6
 }
 
 /// True where [`near_axis_tensor`] applies.
+/// The expansion's radius of convergence is the distance to the rim circles (the on-axis
+/// function, continued analytically from either side of a cap, is singular only at
+/// z = +-L +- iR), so it holds within 1e-3 R of the axis everywhere but on the caps themselves.
 pub fn near_axis(g: &KernelGeometry, rho: f64, z: f64) -> bool {
-    let d = g.r.min((z - g.l).abs()).min((z + g.l).abs());
-    rho < 1e-3 * d && rho.hypot(z) <= 4.0 * g.a
+    rho < 1e-3 * g.r && rho * rho + z * z <= 16.0 * g.a * g.a
 }
 
 #[cfg(test)]
