@@ -350,6 +350,9 @@ fn stress_regions() {
     stress(true);
 }
 
+/// Gradient goal, as case 108.
+const GRADIENT_GOAL: f64 = 1e-10;
+
 fn stress(enforce_goal: bool) {
     let regions: Vec<RegionSpec> = vec![
         ("(a) far field to 1e6 a", region_a, 0xA),
@@ -417,6 +420,13 @@ fn stress(enforce_goal: bool) {
             problems.push(format!(
                 "{}: worst |H - H_oracle|/|H| = {:.3e} > {GOAL:e} at {}",
                 r.name, r.worst_h, r.worst_h_where
+            ));
+        }
+        // The gradient is held to case 108's tolerance (1e-10 of its Frobenius norm).
+        if r.worst_g.is_nan() || (enforce_goal && r.worst_g > GRADIENT_GOAL) {
+            problems.push(format!(
+                "{}: worst |G - G_oracle|/|G| = {:.3e} > {GRADIENT_GOAL:e} at {}",
+                r.name, r.worst_g, r.worst_g_where
             ));
         }
     }

@@ -1,8 +1,7 @@
 //! Field of one uniformly magnetized cylinder in its own frame.
 
-use super::kernel::{field_tensor, near_axis, near_axis_tensor, radial_gap, KernelGeometry, Regime};
+use super::kernel::{tensor_with_gradient, field_tensor, near_axis, near_axis_tensor, radial_gap, KernelGeometry, Regime};
 use crate::error::{invalid, Result};
-use crate::special::autodiff::Dual;
 use nalgebra::{Matrix3, Vector3};
 
 /// A solid circular cylinder of radius R and semi-length L (metres), centred at the origin
@@ -77,14 +76,11 @@ impl Cylinder {
     /// closed forms' rho-odd pieces would lose digits in the derivative, the off-axis expansion
     /// of the potential is differentiated instead.
     pub fn h_gradient(&self, m: &Vector3<f64>, p: &Vector3<f64>) -> Matrix3<f64> {
-        if near_axis(&self.geometry, p.x.hypot(p.y), p.z) {
-            let t = near_axis_tensor(&self.geometry, p.x, p.y, p.z);
-            return Matrix3::from_fn(|i, j| (0..3).map(|k| t[i][k].d[j] * m[k]).sum());
-        }
-        let x = Dual::<f64, 3>::variable(p.x, 0);
-        let y = Dual::<f64, 3>::variable(p.y, 1);
-        let z = Dual::<f64, 3>::variable(p.z, 2);
-        let (t, _) = field_tensor(&self.geometry, x, y, z);
+        let t = if near_axis(&self.geometry, p.x.hypot(p.y), p.z) {
+            near_axis_tensor(&self.geometry, p.x, p.y, p.z)
+        } else {
+            tensor_with_gradient(&self.geometry, p.x, p.y, p.z)
+        };
         Matrix3::from_fn(|i, j| (0..3).map(|k| t[i][k].d[j] * m[k]).sum())
     }
 }

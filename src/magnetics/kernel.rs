@@ -47,6 +47,9 @@ pub struct CylHessian<T> {
     pub q: T,
     pub z: T,
     pub prr: T,
+    /// Prr - P, formed without the cancellation -chi - 2 P_inf where that is exact (inside a
+    /// long cylinder both are ~1 while their difference is the small end effect).
+    pub d: T,
 }
 
 /// Which formula produced a value (reported by diagnostics and benchmarks).
@@ -144,12 +147,7 @@ fn multipole<T: Real>(g: &KernelGeometry, rho: T, z: T) -> CylHessian<T> {
         tn3 = tn3 * t2;
         n += 2;
     }
-    CylHessian {
-        p,
-        q,
-        z: zz,
-        prr: -zz - p,
-    }
+    CylHessian { p, q, z: zz, prr: -zz - p, d: -zz - p - p }
 }
 
 /// sin^2(j pi/16), j = 0..=8: the nodes of the 16-point periodic trapezoidal rule on [0, pi/2].
@@ -511,7 +509,9 @@ pub fn cyl_hessian<T: Real>(g: &KernelGeometry, rho: T, dif: T, z: T) -> (CylHes
             return (slab_quadrature(g, rho, dif, z, chi, rb), Regime::SlabQuadrature);
         }
     }
-    (CylHessian { p, q, z: zz, prr: -T::cst(chi) - zz - p }, Regime::ClosedForm)
+    // Prr - P = -chi - Z - 2 P = (-chi - 2 P_inf) - Z - 2 (dp_p - dp_m): the bracket is exact.
+    let d = (-T::cst(chi) - p_inf.scale(2.0)) - zz - (dp_p - dp_m).scale(2.0);
+    (CylHessian { p, q, z: zz, prr: -T::cst(chi) - zz - p, d }, Regime::ClosedForm)
 }
 
 /// dp = tp(h) - s tp_inf with s = sign(h) (`side` at h = 0), and s. Where the subtraction would
@@ -528,7 +528,8 @@ fn offset_tp<T: Real>(r: f64, rho: T, dif: T, h: T, tp: T, tp_inf: T, side: f64)
         side
     };
     let direct = tp - tp_inf.scale(s);
-    if hv.abs() <= 4.0 * r || tp_inf.val().abs() <= CANCELLATION_MAX * direct.val().abs() {
+    let limit = if T::DERIVATIVES { 10.0 } else { CANCELLATION_MAX };
+    if hv.abs() <= 4.0 * r || tp_inf.val().abs() <= limit * direct.val().abs() {
         return (direct, s);
     }
     let habs = if hv < 0.0 { -h } else { h };
@@ -569,12 +570,8 @@ fn slab_quadrature<T: Real>(g: &KernelGeometry, rho: T, dif: T, z: T, chi: f64, 
         zz = zz + tz.d[0].scale(w * l);
     }
     let zz = zz - T::cst(chi);
-    CylHessian {
-        p,
-        q,
-        z: zz,
-        prr: -T::cst(chi) - zz - p,
-    }
+    let prr = -T::cst(chi) - zz - p;
+    CylHessian { p, q, z: zz, prr, d: prr - p }
 }
 
 /// Per-end terms, taking the outside limit on the lateral surface (rho = R, |z| <= L).
@@ -622,19 +619,60 @@ pub fn field_tensor<T: Real>(g: &KernelGeometry, x: T, y: T, z: T) -> ([[T; 3]; 
     let rho = if on_axis { T::cst(0.0) } else { rho2.sqrt() };
     let dif = (T::cst(g.r) - rho).with_value(radial_gap(g.r, x.val(), y.val()));
     let (hc, regime) = cyl_hessian(g, rho, dif, z);
-    let (c2, s2, cs) = if on_axis {
+    (assemble(x, y, &hc), regime)
+}
+
+/// The Cartesian tensor from its cylindrical parts at (x, y):
+/// T = P I_xy + (Prr - P) e_rho e_rho^T + Q (x, y) e_z^T + sym. + Z e_z e_z^T.
+pub fn assemble<T: Real>(x: T, y: T, hc: &CylHessian<T>) -> [[T; 3]; 3] {
+    let rho2 = x * x + y * y;
+    let (c2, s2, cs) = if rho2.val() == 0.0 {
         (T::cst(1.0), T::cst(0.0), T::cst(0.0))
     } else {
         let inv = T::cst(1.0) / rho2;
         (x * x * inv, y * y * inv, x * y * inv)
     };
-    let d = hc.prr - hc.p;
+    let d = hc.d;
     let txx = hc.p + c2 * d;
     let tyy = hc.p + s2 * d;
     let txy = cs * d;
     let txz = x * hc.q;
     let tyz = y * hc.q;
-    ([[txx, txy, txz], [txy, tyy, tyz], [txz, tyz, hc.z]], regime)
+    [[txx, txy, txz], [txy, tyy, tyz], [txz, tyz, hc.z]]
+}
+
+/// The tensor with its exact gradient (entries: value, d/dx, d/dy, d/dz) away from the axis.
+///
+/// Automatic differentiation in rho of the closed forms loses digits near the lateral surface
+/// (the characteristic p = g^2 -> 0 enters as g/|g|), so only psi_rho/rho is differentiated in
+/// rho; every other rho-derivative follows from z-derivatives (which never touch g) through
+/// Laplace's equation (psi_rhorho + psi_rho/rho + psi_zz = -chi) and the symmetry of mixed
+/// derivatives:  d_rho Z = rho d_z Q,  d_rho(rho Q) = -d_z Z - d_z P,  d_rho Prr = -d_rho Z - d_rho P.
+pub fn tensor_with_gradient(g: &KernelGeometry, x: f64, y: f64, z: f64) -> [[Dual<f64, 3>; 3]; 3] {
+    type D2 = Dual<f64, 2>;
+    type D3 = Dual<f64, 3>;
+    let rho = (x * x + y * y).sqrt();
+    let rho_d = D2::variable(rho, 0);
+    let dif = (D2::cst(g.r) - rho_d).with_value(radial_gap(g.r, x, y));
+    let (hc, _) = cyl_hessian(g, rho_d, dif, D2::variable(z, 1));
+    let (p, p_r, p_z) = (hc.p.v, hc.p.d[0], hc.p.d[1]);
+    let (q, q_z) = (hc.q.v, hc.q.d[1]);
+    let (zz, z_z) = (hc.z.v, hc.z.d[1]);
+    let z_r = rho * q_z;
+    let q_r = (-z_z - p_z - q) / rho;
+    let prr_r = -z_r - p_r;
+    let prr_z = -z_z - p_z;
+    let (d_r, d_z) = (prr_r - p_r, prr_z - p_z);
+    let (ux, uy) = (x / rho, y / rho);
+    let lift = |v: f64, dr: f64, dz: f64| D3 { v, d: [ux * dr, uy * dr, dz] };
+    let hc3 = CylHessian {
+        p: lift(p, p_r, p_z),
+        q: lift(q, q_r, q_z),
+        z: lift(zz, z_r, z_z),
+        prr: lift(hc.prr.v, prr_r, prr_z),
+        d: lift(hc.d.v, d_r, d_z),
+    };
+    assemble(D3::variable(x, 0), D3::variable(y, 1), &hc3)
 }
 
 #[cfg(test)]

@@ -28,6 +28,9 @@ pub trait Real:
     /// so 1e-9 leaves ~1e-18 in it, but the derivative parts carry the first-order remainder:
     /// dual numbers iterate to 1e-15.
     const AGM_TOLERANCE: f64 = 1e-9;
+    /// True for dual numbers: derivatives of a difference cancel sooner than its value, so
+    /// cancellation guards switch to their stable forms at lower ratios.
+    const DERIVATIVES: bool = false;
 }
 
 impl Real for f64 {
@@ -146,6 +149,7 @@ impl<T: Real, const N: usize> Neg for Dual<T, N> {
 
 impl<T: Real, const N: usize> Real for Dual<T, N> {
     const AGM_TOLERANCE: f64 = 1e-15;
+    const DERIVATIVES: bool = true;
     #[inline(always)]
     fn cst(v: f64) -> Self {
         Dual::constant(T::cst(v))
