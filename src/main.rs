@@ -31,6 +31,12 @@ enum Command {
     },
     /// Field of a uniformly magnetized cylinder at the points of a CSV file (header x,y,z in m).
     Field(porelab::magnetics::cli::FieldArgs),
+    /// Contact of shape pairs, one JSON pair per line ({"a": SHAPE, "b": SHAPE}).
+    Contact(porelab::contact::cli::ContactArgs),
+    /// Volume, principal inertia (unit density) and bounding radius of one particle shape.
+    Shape(porelab::shape::cli::ShapeArgs),
+    /// Happel-Brenner translational resistances of an ellipsoid in Stokes flow.
+    Drag(porelab::hydro::cli::DragArgs),
     /// Work-precision benchmarks.
     Bench {
         #[command(subcommand)]
@@ -63,6 +69,9 @@ fn main() -> ExitCode {
             ReferenceAction::List => porelab::reference::cli_list().map(|_| ExitCode::SUCCESS),
         },
         Command::Field(args) => porelab::magnetics::cli::run_field(&args),
+        Command::Contact(args) => porelab::contact::cli::run_contact(&args),
+        Command::Shape(args) => porelab::shape::cli::run_shape(&args),
+        Command::Drag(args) => porelab::hydro::cli::run_drag(&args),
         Command::Bench { what } => match what {
             BenchWhat::Field(args) => {
                 porelab::magnetics::bench::run(&args).map(|_| ExitCode::SUCCESS)

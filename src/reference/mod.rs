@@ -8,6 +8,7 @@
 
 // Generator modules (one `pub mod` line each), e.g. `pub mod cylinder_field;`.
 pub mod cylinder_field;
+pub mod shape_quadrature;
 
 use crate::{Error, Result};
 use std::collections::BTreeMap;
@@ -32,6 +33,11 @@ pub static GENERATORS: &[Generator] = &[
         name: "cylinder-field",
         description: "H and grad H of a uniformly magnetized cylinder (adaptive Gauss-Kronrod of elementary kernels + multipole far field); also three_cylinders.csv",
         generate: cylinder_field::regen_cylinder_field,
+    },
+    Generator {
+        name: "shape-quadrature",
+        description: "volume and inertia of superquadrics and spherocylinders by nested adaptive Gauss-Kronrod over z-slices (no Gamma functions)",
+        generate: shape_quadrature::regen_shape_quadrature,
     },
 ];
 

@@ -2,14 +2,20 @@
 
 use super::case::Runner;
 
+mod contact;
+mod drag;
 mod elliptic_cases;
 mod field_analytic;
 mod field_oracle;
+mod shapes;
 
 /// The runner for case `id` ("104"), if one is registered.
 pub fn runner_for(id: &str) -> Option<Runner> {
     match id {
         "001" => Some(elliptic_cases::case_001),
+        "002" => Some(shapes::case_002),
+        "003" => Some(shapes::case_003),
+        "201" => Some(drag::case_201),
         "101" => Some(field_analytic::case_101),
         "102" => Some(field_analytic::case_102),
         "103" => Some(field_analytic::case_103),
@@ -18,6 +24,11 @@ pub fn runner_for(id: &str) -> Option<Runner> {
         "104" => Some(field_oracle::case_104),
         "107" => Some(field_oracle::case_107),
         "108" => Some(field_oracle::case_108),
+        "301" => Some(contact::case_301),
+        "302" => Some(contact::case_302),
+        "303" => Some(contact::case_303),
+        "304" => Some(contact::case_304),
+        "305" => Some(contact::case_305),
         _ => None,
     }
 }
