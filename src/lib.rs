@@ -5,6 +5,7 @@
 //! fields) -> engines; `validation` runs the numbered cases, `reference` regenerates the
 //! independent oracle tables without calling the code under test.
 
+pub mod brownian;
 pub mod consts;
 pub mod contact;
 pub mod error;

@@ -2,6 +2,7 @@
 
 use super::case::Runner;
 
+mod brownian;
 mod contact;
 mod drag;
 mod elliptic_cases;
@@ -29,6 +30,15 @@ pub fn runner_for(id: &str) -> Option<Runner> {
         "303" => Some(contact::case_303),
         "304" => Some(contact::case_304),
         "305" => Some(contact::case_305),
+        "401" => Some(brownian::case_401),
+        "402" => Some(brownian::case_402),
+        "403" => Some(brownian::case_403),
+        "404" => Some(brownian::case_404),
+        "405" => Some(brownian::case_405),
+        "406" => Some(brownian::case_406),
+        "407" => Some(brownian::case_407),
+        "408" => Some(brownian::case_408),
+        "409" => Some(brownian::case_409),
         _ => None,
     }
 }
