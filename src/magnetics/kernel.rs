@@ -216,6 +216,8 @@ struct PointPrep<T> {
     g: T,
     g2: T,
     n: T,
+    /// 1/n = (R + rho)^2 / (4 R rho) (infinite on the axis, where n is not used as a divisor).
+    inv_n: T,
 }
 
 #[inline]
@@ -224,7 +226,8 @@ fn point_prep<T: Real>(r: f64, rho: T, dif: T) -> PointPrep<T> {
     let inv_sum = T::cst(1.0) / sum;
     let g = dif * inv_sum;
     let n = (rho * inv_sum * inv_sum).scale(4.0 * r);
-    PointPrep { sum, inv_sum, g, g2: g * g, n }
+    let inv_n = if rho.val() > 0.0 { (sum * sum / rho).scale(0.25 / r) } else { T::cst(f64::INFINITY) };
+    PointPrep { sum, inv_sum, g, g2: g * g, n, inv_n }
 }
 
 #[inline]
@@ -320,7 +323,7 @@ fn end_terms_from_cel<T: Real>(
         (p1 * e.inv_a2 * e.inv_a / e.m).scale(4.0 * r * r / PI)
     };
     let tz = (e.beta * cz * pt.inv_sum).scale(r / PI);
-    let j2 = if pt.g2.val() == 0.0 { c101 } else { (c101 - pt.g2 * c01) / pt.n };
+    let j2 = if pt.g2.val() == 0.0 { c101 } else { (c101 - pt.g2 * c01) * pt.inv_n };
     let tp = pref_p * e.beta * j2;
     (tq, tz, tp)
 }

@@ -81,12 +81,13 @@ pub fn cel_lanes<T: Real, const L: usize, const N: usize, const M: usize>(
     }
     let mut out = [([zero; N], [zero; M]); L];
     for k in 0..L {
-        let (den1, den2) = (m[k] * (m[k] + pp1[k]), m[k] * (m[k] + pp2[k]));
+        let inv_den1 = T::cst(std::f64::consts::FRAC_PI_2) / (m[k] * (m[k] + pp1[k]));
+        let inv_den2 = T::cst(std::f64::consts::FRAC_PI_2) / (m[k] * (m[k] + pp2[k]));
         for i in 0..N {
-            out[k].0[i] = (a1[k][i] * m[k] + b1[k][i]).scale(std::f64::consts::FRAC_PI_2) / den1;
+            out[k].0[i] = (a1[k][i] * m[k] + b1[k][i]) * inv_den1;
         }
         for i in 0..M {
-            out[k].1[i] = (a2[k][i] * m[k] + b2[k][i]).scale(std::f64::consts::FRAC_PI_2) / den2;
+            out[k].1[i] = (a2[k][i] * m[k] + b2[k][i]) * inv_den2;
         }
     }
     out
