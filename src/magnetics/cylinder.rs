@@ -1,6 +1,9 @@
 //! Field of one uniformly magnetized cylinder in its own frame.
 
-use super::kernel::{tensor_with_gradient, field_tensor, near_axis, near_axis_tensor, radial_gap, KernelGeometry, Regime};
+use super::kernel::{
+    field_tensor, near_axis, near_axis_tensor, radial_gap, tensor_with_gradient, KernelGeometry,
+    Regime,
+};
 use crate::error::{invalid, Result};
 use nalgebra::{Matrix3, Vector3};
 
@@ -84,4 +87,3 @@ impl Cylinder {
         Matrix3::from_fn(|i, j| (0..3).map(|k| t[i][k].d[j] * m[k]).sum())
     }
 }
-

@@ -147,7 +147,13 @@ fn multipole<T: Real>(g: &KernelGeometry, rho: T, z: T) -> CylHessian<T> {
         tn3 = tn3 * t2;
         n += 2;
     }
-    CylHessian { p, q, z: zz, prr: -zz - p, d: -zz - p - p }
+    CylHessian {
+        p,
+        q,
+        z: zz,
+        prr: -zz - p,
+        d: -zz - p - p,
+    }
 }
 
 /// sin^2(j pi/16), j = 0..=8: the nodes of the 16-point periodic trapezoidal rule on [0, pi/2].
@@ -226,8 +232,19 @@ fn point_prep<T: Real>(r: f64, rho: T, dif: T) -> PointPrep<T> {
     let inv_sum = T::cst(1.0) / sum;
     let g = dif * inv_sum;
     let n = (rho * inv_sum * inv_sum).scale(4.0 * r);
-    let inv_n = if rho.val() > 0.0 { (sum * sum / rho).scale(0.25 / r) } else { T::cst(f64::INFINITY) };
-    PointPrep { sum, inv_sum, g, g2: g * g, n, inv_n }
+    let inv_n = if rho.val() > 0.0 {
+        (sum * sum / rho).scale(0.25 / r)
+    } else {
+        T::cst(f64::INFINITY)
+    };
+    PointPrep {
+        sum,
+        inv_sum,
+        g,
+        g2: g * g,
+        n,
+        inv_n,
+    }
 }
 
 #[inline]
@@ -240,7 +257,11 @@ fn end_prep<T: Real>(r: f64, rho: T, dif: T, pt: &PointPrep<T>, h: T) -> EndPrep
     let m = (rho * inv_a2).scale(4.0 * r);
     // kc^2 = 1 - m, taken as 1 - m where that is exact enough (so that its derivative, used by
     // the slab quadrature and the gradient, is -dm and does not cancel), directly near the rim.
-    let kc2 = if m.val() < 0.5 { T::cst(1.0) - m } else { (h * h + dif * dif) * inv_a2 };
+    let kc2 = if m.val() < 0.5 {
+        T::cst(1.0) - m
+    } else {
+        (h * h + dif * dif) * inv_a2
+    };
     // beta = h / A; far from the end (|h| > R + rho) as sign(h) (1 - s^2/(A (A + |h|))), whose
     // derivatives do not cancel (the plain quotient's d/dh is (A^2 - h^2)/A^3).
     let beta = if h.val().abs() > sum.val() {
@@ -250,7 +271,13 @@ fn end_prep<T: Real>(r: f64, rho: T, dif: T, pt: &PointPrep<T>, h: T) -> EndPrep
     } else {
         h * inv_a
     };
-    EndPrep { inv_a2, inv_a, m, kc2, beta }
+    EndPrep {
+        inv_a2,
+        inv_a,
+        m,
+        kc2,
+        beta,
+    }
 }
 
 /// Per-end terms (tq, tz, tp) at signed height h from the end (see module docs).
@@ -271,10 +298,22 @@ fn end_terms<T: Real>(r: f64, rho: T, dif: T, h: T) -> (T, T, T) {
         // rho = R exactly: cel(kc, g^2, 1, g) -> K(kc) + sign(g) pi/(2 kc) as g -> 0. Off the
         // lateral surface (|z| > L) the two ends' jumps cancel and the mean K is right; on it
         // `end_terms_at` adds the outside limit's jump. c01 is then not needed.
-        let ([p1, c101], [k]) = cel_multi2(e.kc2.sqrt(), one, [(one, -one), (T::cst(0.0), one)], one, [(one, one)]);
+        let ([p1, c101], [k]) = cel_multi2(
+            e.kc2.sqrt(),
+            one,
+            [(one, -one), (T::cst(0.0), one)],
+            one,
+            [(one, one)],
+        );
         ([p1, c101], [k, T::cst(0.0)])
     } else {
-        cel_multi2(e.kc2.sqrt(), one, [(one, -one), (T::cst(0.0), one)], pt.g2, [(one, pt.g), (T::cst(0.0), one)])
+        cel_multi2(
+            e.kc2.sqrt(),
+            one,
+            [(one, -one), (T::cst(0.0), one)],
+            pt.g2,
+            [(one, pt.g), (T::cst(0.0), one)],
+        )
     };
     end_terms_from_cel(r, &pt, &e, cels)
 }
@@ -299,7 +338,10 @@ fn end_terms_pair<T: Real>(r: f64, rho: T, dif: T, hp: T, hm: T) -> [(T, T, T); 
         pt.g2,
         [(one, pt.g), (T::cst(0.0), one)],
     );
-    [end_terms_from_cel(r, &pt, &ep, cp), end_terms_from_cel(r, &pt, &em, cm)]
+    [
+        end_terms_from_cel(r, &pt, &ep, cp),
+        end_terms_from_cel(r, &pt, &em, cm),
+    ]
 }
 
 /// Below this m, tq comes from the trapezoidal J(kc, kc^2) instead of P1 = cel(kc, 1, 1, -1)
@@ -323,7 +365,11 @@ fn end_terms_from_cel<T: Real>(
         (p1 * e.inv_a2 * e.inv_a / e.m).scale(4.0 * r * r / PI)
     };
     let tz = (e.beta * cz * pt.inv_sum).scale(r / PI);
-    let j2 = if pt.g2.val() == 0.0 { c101 } else { (c101 - pt.g2 * c01) * pt.inv_n };
+    let j2 = if pt.g2.val() == 0.0 {
+        c101
+    } else {
+        (c101 - pt.g2 * c01) * pt.inv_n
+    };
     let tp = pref_p * e.beta * j2;
     (tq, tz, tp)
 }
@@ -363,7 +409,8 @@ fn cap_series_cz<T: Real>(r: f64, rho: T, h: T) -> T {
         let lf = l as f64;
         while n < 2 * l - 1 {
             let nf = n as f64;
-            let p_next = (c * p_cur).scale((2.0 * nf + 1.0) / (nf + 1.0)) - p_prev.scale(nf / (nf + 1.0));
+            let p_next =
+                (c * p_cur).scale((2.0 * nf + 1.0) / (nf + 1.0)) - p_prev.scale(nf / (nf + 1.0));
             p_prev = p_cur;
             p_cur = p_next;
             n += 1;
@@ -473,14 +520,20 @@ pub fn cyl_hessian<T: Real>(g: &KernelGeometry, rho: T, dif: T, z: T) -> (CylHes
     if w2 > 0.25 * SLAB_BERNSTEIN_MIN * SLAB_BERNSTEIN_MIN && dv != 0.0 {
         let rb = bernstein(l, dv, zv);
         if rb > SLAB_BERNSTEIN_MIN {
-            return (slab_quadrature(g, rho, dif, z, chi, rb), Regime::SlabQuadrature);
+            return (
+                slab_quadrature(g, rho, dif, z, chi, rb),
+                Regime::SlabQuadrature,
+            );
         }
     }
     // Closed forms at the two ends (side: which sign h = 0 counts as, the outside of that cap).
     let xp = z + T::cst(l);
     let xm = z - T::cst(l);
     let [(tq_p, tz_p, tp_p), (tq_m, tz_m, tp_m)] = if dv == 0.0 && zv.abs() <= l {
-        [end_terms_at(r, rho, dif, xp, zv, l), end_terms_at(r, rho, dif, xm, zv, l)]
+        [
+            end_terms_at(r, rho, dif, xp, zv, l),
+            end_terms_at(r, rho, dif, xm, zv, l),
+        ]
     } else {
         end_terms_pair(r, rho, dif, xp, xm)
     };
@@ -502,19 +555,34 @@ pub fn cyl_hessian<T: Real>(g: &KernelGeometry, rho: T, dif: T, z: T) -> (CylHes
     // If the two ends still cancel (e.g. far from a thin slab), and Gauss-Legendre along the
     // axis converges to rounding with at most 24 nodes, integrate instead of subtracting.
     let kappa = |a: T, b: T, c: T| {
-        (a.val().abs() + b.val().abs() + c.val().abs()) / (a.val() - b.val() + c.val()).abs().max(1e-300)
+        (a.val().abs() + b.val().abs() + c.val().abs())
+            / (a.val() - b.val() + c.val()).abs().max(1e-300)
     };
     let zero = T::cst(0.0);
-    let worst = kappa(dp_p, dp_m, p_inf).max(kappa(tq_p, tq_m, zero)).max(kappa(cz_p, cz_m, zero));
+    let worst = kappa(dp_p, dp_m, p_inf)
+        .max(kappa(tq_p, tq_m, zero))
+        .max(kappa(cz_p, cz_m, zero));
     if worst > CANCELLATION_MAX && dv != 0.0 {
         let rb = bernstein(l, dv, zv);
         if rb > SLAB_BERNSTEIN_FALLBACK {
-            return (slab_quadrature(g, rho, dif, z, chi, rb), Regime::SlabQuadrature);
+            return (
+                slab_quadrature(g, rho, dif, z, chi, rb),
+                Regime::SlabQuadrature,
+            );
         }
     }
     // Prr - P = -chi - Z - 2 P = (-chi - 2 P_inf) - Z - 2 (dp_p - dp_m): the bracket is exact.
     let d = (-T::cst(chi) - p_inf.scale(2.0)) - zz - (dp_p - dp_m).scale(2.0);
-    (CylHessian { p, q, z: zz, prr: -T::cst(chi) - zz - p, d }, Regime::ClosedForm)
+    (
+        CylHessian {
+            p,
+            q,
+            z: zz,
+            prr: -T::cst(chi) - zz - p,
+            d,
+        },
+        Regime::ClosedForm,
+    )
 }
 
 /// dp = tp(h) - s tp_inf with s = sign(h) (`side` at h = 0), and s. Where the subtraction would
@@ -531,7 +599,11 @@ fn offset_tp<T: Real>(r: f64, rho: T, dif: T, h: T, tp: T, tp_inf: T, side: f64)
         side
     };
     let direct = tp - tp_inf.scale(s);
-    let limit = if T::DERIVATIVES { 10.0 } else { CANCELLATION_MAX };
+    let limit = if T::DERIVATIVES {
+        10.0
+    } else {
+        CANCELLATION_MAX
+    };
     if hv.abs() <= 4.0 * r || tp_inf.val().abs() <= limit * direct.val().abs() {
         return (direct, s);
     }
@@ -558,7 +630,14 @@ const SLAB_BERNSTEIN_FALLBACK: f64 = 2.3;
 
 /// psi quantities as integrals over z' in [-L, L] of d/dh of the (smooth, current-form)
 /// per-end terms, by Gauss-Legendre with enough nodes for rho_B^(-2n) < 1e-17.
-fn slab_quadrature<T: Real>(g: &KernelGeometry, rho: T, dif: T, z: T, chi: f64, rb: f64) -> CylHessian<T> {
+fn slab_quadrature<T: Real>(
+    g: &KernelGeometry,
+    rho: T,
+    dif: T,
+    z: T,
+    chi: f64,
+    rb: f64,
+) -> CylHessian<T> {
     let (r, l) = (g.r, g.l);
     let n = ((17.0 * std::f64::consts::LN_10) / (2.0 * rb.ln())).ceil() as usize + 1;
     let n = n.clamp(2, 24);
@@ -574,7 +653,13 @@ fn slab_quadrature<T: Real>(g: &KernelGeometry, rho: T, dif: T, z: T, chi: f64, 
     }
     let zz = zz - T::cst(chi);
     let prr = -T::cst(chi) - zz - p;
-    CylHessian { p, q, z: zz, prr, d: prr - p }
+    CylHessian {
+        p,
+        q,
+        z: zz,
+        prr,
+        d: prr - p,
+    }
 }
 
 /// Per-end terms, taking the outside limit on the lateral surface (rho = R, |z| <= L).
@@ -667,7 +752,10 @@ pub fn tensor_with_gradient(g: &KernelGeometry, x: f64, y: f64, z: f64) -> [[Dua
     let prr_z = -z_z - p_z;
     let (d_r, d_z) = (prr_r - p_r, prr_z - p_z);
     let (ux, uy) = (x / rho, y / rho);
-    let lift = |v: f64, dr: f64, dz: f64| D3 { v, d: [ux * dr, uy * dr, dz] };
+    let lift = |v: f64, dr: f64, dz: f64| D3 {
+        v,
+        d: [ux * dr, uy * dr, dz],
+    };
     let hc3 = CylHessian {
         p: lift(p, p_r, p_z),
         q: lift(q, q_r, q_z),

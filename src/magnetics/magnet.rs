@@ -67,7 +67,11 @@ impl Magnet {
     /// B (T) at world point p given H (A/m) there: mu0 (H + M) strictly inside, mu0 H elsewhere.
     pub fn b_from_h(&self, p: &Vector3<f64>, h: &Vector3<f64>) -> Vector3<f64> {
         let inside = self.cylinder.contains(&self.to_local(p));
-        (h + if inside { self.magnetization } else { Vector3::zeros() }) * crate::consts::MU0
+        (h + if inside {
+            self.magnetization
+        } else {
+            Vector3::zeros()
+        }) * crate::consts::MU0
     }
     /// dH_i/dx_j (A/m^2) at world point p.
     pub fn h_gradient(&self, p: &Vector3<f64>) -> Matrix3<f64> {

@@ -182,7 +182,8 @@ impl<T: Real, const N: usize> Real for Dual<T, N> {
             v: self.v.scale(s),
             d,
         }
-    }    #[inline(always)]
+    }
+    #[inline(always)]
     fn with_value(self, v: f64) -> Self {
         Dual {
             v: self.v.with_value(v),

@@ -136,4 +136,3 @@ mod tests {
         assert!(worst < 1e-13, "worst relative difference {worst}");
     }
 }
-
