@@ -587,7 +587,7 @@ pub fn cyl_hessian<T: Real>(g: &KernelGeometry, rho: T, dif: T, z: T) -> (CylHes
 
 /// dp = tp(h) - s tp_inf with s = sign(h) (`side` at h = 0), and s. Where the subtraction would
 /// cancel (far from the end, |h| > 4R) dp is computed as the tail integral
-/// dp(h) = -s int_{|h|}^inf tp'(s u) du, with u = |h|/t and 12-point Gauss-Legendre in t on
+/// dp(h) = -s int_{|h|}^inf tp'(s u) du, with u = |h|/t and 10-point Gauss-Legendre in t on
 /// [0, 1] (the integrand ~ t/h^2 is analytic there; its singularities sit at |t| >= 4).
 fn offset_tp<T: Real>(r: f64, rho: T, dif: T, h: T, tp: T, tp_inf: T, side: f64) -> (T, f64) {
     let hv = h.val();
@@ -599,8 +599,9 @@ fn offset_tp<T: Real>(r: f64, rho: T, dif: T, h: T, tp: T, tp_inf: T, side: f64)
         side
     };
     let direct = tp - tp_inf.scale(s);
+    // Derivatives of the difference cancel sooner than its value: switch earlier for duals.
     let limit = if T::DERIVATIVES {
-        10.0
+        30.0
     } else {
         CANCELLATION_MAX
     };
@@ -621,7 +622,7 @@ fn offset_tp<T: Real>(r: f64, rho: T, dif: T, h: T, tp: T, tp_inf: T, side: f64)
     (-acc.scale(s), s)
 }
 
-const TAIL_NODES: usize = 16;
+const TAIL_NODES: usize = 10;
 
 /// Closed-form ends cancelling by more than this factor are replaced by the slab quadrature.
 const CANCELLATION_MAX: f64 = 300.0;
