@@ -5,6 +5,7 @@
 //! fields) -> engines; `validation` runs the numbered cases, `reference` regenerates the
 //! independent oracle tables without calling the code under test.
 
+pub mod analysis;
 pub mod brownian;
 pub mod consts;
 pub mod contact;
@@ -12,6 +13,7 @@ pub mod error;
 pub mod hydro;
 pub mod io;
 pub mod magnetics;
+pub mod packing;
 pub mod reference;
 pub mod shape;
 pub mod special;

@@ -8,6 +8,7 @@ mod drag;
 mod elliptic_cases;
 mod field_analytic;
 mod field_oracle;
+mod packing;
 mod shapes;
 
 /// The runner for case `id` ("104"), if one is registered.
@@ -39,6 +40,10 @@ pub fn runner_for(id: &str) -> Option<Runner> {
         "407" => Some(brownian::case_407),
         "408" => Some(brownian::case_408),
         "409" => Some(brownian::case_409),
+        "501" => Some(packing::case_501),
+        "502" => Some(packing::case_502),
+        "503" => Some(packing::case_503),
+        "504" => Some(packing::case_504),
         _ => None,
     }
 }

@@ -1,0 +1,689 @@
+//! Random dense packings by the mechanical contraction method (MCM; thesis 003 ch. 2-3).
+//!
+//! **Reduced units**: lengths in particle diameters (D = 2R = 1), volumes in D^3, mass equal to
+//! the particle volume (density 1, thesis sec. 3.6). A spherocylinder has radius R = 1/2 and a
+//! cylinder of length L (= aspect L/D) between its hemisphere centres; L = 0 is a sphere.
+//!
+//! The algorithm (sec. 2.2.1, 3.2): a dilute random overlap-free start (random sequential
+//! addition at `phi0`, fixed seed, ChaCha8) in a periodic cubic box; the box volume is reduced
+//! by Delta V and positions are scaled (orientations kept); overlaps deeper than
+//! `overlap_tol` are removed by translating and rotating the overlapping particles
+//! ([`Scheme::Revised`], eq. 3.2-3.13, or [`Scheme::Original`], eq. 2.4-2.10). When the
+//! overlaps cannot be removed within `tries_per_particle * N` particle moves, the run reverts
+//! to the last overlap-free configuration and halves Delta V, at most `halvings` times; the
+//! last overlap-free configuration is the result.
+//!
+//! Overlap removal visits the particles in index order (Gauss-Seidel: each move sees the moves
+//! before it), with neighbour (Verlet) lists built by the periodic cell list
+//! ([`crate::contact::CellList`]) and rebuilt when a particle end has moved half the skin; a
+//! particle is rechecked only when it or a neighbour moved. Each move counts as one try. Runs
+//! are deterministic for a given seed.
+
+use crate::contact::{closest_points_segments, CellList};
+use crate::error::invalid;
+use crate::Result;
+use nalgebra::{Matrix3, Unit, UnitQuaternion, Vector3};
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+
+/// Particle radius in reduced units (diameter 1).
+pub const RADIUS: f64 = 0.5;
+
+/// Which overlap-removal scheme moves the particles.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Scheme {
+    /// Thesis ch. 3 (eq. 3.2-3.13): Lagrange multiplier with the kinetic-energy constraint
+    /// (mass = volume, full inertia tensor), step delta_min * dt, Rodrigues rotation.
+    Revised,
+    /// Thesis ch. 2 (eq. 2.4-2.10): velocities sum_j delta_ij k_ij (unit mass), rotation rate
+    /// divided by xi = I_xy / m (the moment of inertia per unit mass, sec. 2.3), step
+    /// beta * min_j delta_ij / (removal rate), axis renormalised.
+    Original,
+}
+
+/// Parameters of an MCM run (reduced units, see the module docs).
+#[derive(Debug, Clone)]
+pub struct McmParams {
+    /// Number of particles (>= 2).
+    pub n: usize,
+    /// Cylinder length L between the hemisphere centres in diameters (0 = spheres).
+    pub length: f64,
+    /// Packing fraction of the random start (0 < phi0 <= 0.2; thesis: 0.05).
+    pub phi0: f64,
+    /// Initial volume step per particle: Delta V = `delta_v_per_particle` * N (D^3).
+    pub delta_v_per_particle: f64,
+    /// How many times Delta V is halved after a failed step (thesis: typically 4).
+    pub halvings: u32,
+    /// Allowed particle moves per compression step, per particle (thesis: about 200).
+    pub tries_per_particle: f64,
+    /// Overlaps not deeper than this count as removed (thesis sec. 2.2.6: 1e-4).
+    pub overlap_tol: f64,
+    /// Revised scheme: time step (thesis: 0.1).
+    pub dt: f64,
+    /// Revised scheme: kinetic-energy constant c of eq. 3.4 (thesis: 1).
+    pub energy: f64,
+    /// Original scheme: beta of eq. 2.10 (thesis: about 0.5).
+    pub beta: f64,
+    pub scheme: Scheme,
+    pub seed: u64,
+    /// Safety limit on accepted compression steps.
+    pub max_steps: usize,
+}
+
+impl McmParams {
+    /// Spheres (L = 0) or spherocylinders of cylinder length `length` with the defaults above.
+    pub fn new(n: usize, length: f64, seed: u64) -> McmParams {
+        McmParams {
+            n,
+            length,
+            phi0: 0.05,
+            delta_v_per_particle: 0.01,
+            halvings: 6,
+            tries_per_particle: 200.0,
+            overlap_tol: 1e-4,
+            dt: 0.1,
+            energy: 1.0,
+            beta: 0.5,
+            scheme: Scheme::Revised,
+            seed,
+            max_steps: 1_000_000,
+        }
+    }
+
+    /// Checks every parameter; the message names the value and the rule.
+    pub fn validate(&self) -> Result<()> {
+        if self.n < 2 {
+            return invalid(format!("n = {}: need at least 2 particles", self.n));
+        }
+        if !(self.length.is_finite() && self.length >= 0.0) {
+            return invalid(format!(
+                "length = {}: cylinder length must be finite and >= 0 (0 = spheres)",
+                self.length
+            ));
+        }
+        if !(self.phi0.is_finite() && self.phi0 > 0.0 && self.phi0 <= 0.2) {
+            return invalid(format!(
+                "phi0 = {}: start packing fraction must be in (0, 0.2]",
+                self.phi0
+            ));
+        }
+        for (name, v) in [
+            ("delta_v_per_particle", self.delta_v_per_particle),
+            ("tries_per_particle", self.tries_per_particle),
+            ("overlap_tol", self.overlap_tol),
+            ("dt", self.dt),
+            ("energy", self.energy),
+            ("beta", self.beta),
+        ] {
+            if !(v.is_finite() && v > 0.0) {
+                return invalid(format!("{name} = {v}: must be positive and finite"));
+            }
+        }
+        if self.overlap_tol >= 0.1 {
+            return invalid(format!(
+                "overlap_tol = {}: must be below 0.1 diameters",
+                self.overlap_tol
+            ));
+        }
+        if self.halvings > 60 {
+            return invalid(format!("halvings = {}: at most 60", self.halvings));
+        }
+        Ok(())
+    }
+}
+
+/// Volume of one particle (R = 1/2, cylinder length L; thesis eq. 2.2).
+pub fn particle_volume(length: f64) -> f64 {
+    std::f64::consts::PI * RADIUS * RADIUS * (4.0 / 3.0 * RADIUS + length)
+}
+
+/// Principal moments of inertia (I_xy, I_z) of a z-aligned spherocylinder of mass m
+/// (thesis eq. 2.3).
+pub fn principal_inertia(length: f64, mass: f64) -> (f64, f64) {
+    let (l, r) = (length, RADIUS);
+    let den = 3.0 * l + 4.0 * r;
+    let ixy = mass / 20.0
+        * (5.0 * l.powi(3) + 20.0 * l * l * r + 45.0 * l * r * r + 32.0 * r.powi(3))
+        / den;
+    let iz = mass / 10.0 * (15.0 * l * r * r + 16.0 * r.powi(3)) / den;
+    (ixy, iz)
+}
+
+/// A configuration: monodisperse spherocylinders (or spheres) in a periodic cubic box [0, L)^3.
+#[derive(Debug, Clone)]
+pub struct Packing {
+    pub box_length: f64,
+    /// Cylinder length L between hemisphere centres (0 = spheres).
+    pub length: f64,
+    pub positions: Vec<Vector3<f64>>,
+    /// Orientation (body -> world); the particle axis is the body z axis.
+    pub orientations: Vec<UnitQuaternion<f64>>,
+}
+
+impl Packing {
+    pub fn n(&self) -> usize {
+        self.positions.len()
+    }
+    pub fn is_sphere(&self) -> bool {
+        self.length == 0.0
+    }
+    /// Unit axis of particle i (world).
+    pub fn axis(&self, i: usize) -> Vector3<f64> {
+        self.orientations[i] * Vector3::z()
+    }
+    pub fn axes(&self) -> Vec<Vector3<f64>> {
+        (0..self.n()).map(|i| self.axis(i)).collect()
+    }
+    /// Packing fraction N V_p / V_box (thesis eq. 3.1).
+    pub fn packing_fraction(&self) -> f64 {
+        self.n() as f64 * particle_volume(self.length) / self.box_length.powi(3)
+    }
+    /// The configuration as the plain data the analysis functions take.
+    pub fn view(&self) -> crate::analysis::Rods<'_> {
+        crate::analysis::Rods {
+            box_length: self.box_length,
+            radius: RADIUS,
+            length: self.length,
+            positions: &self.positions,
+            orientations: &self.orientations,
+        }
+    }
+}
+
+/// One compression step that was accepted.
+#[derive(Debug, Clone, Copy)]
+pub struct StepRecord {
+    pub step: usize,
+    pub packing_fraction: f64,
+    pub delta_v: f64,
+    /// Particle moves needed to remove the overlaps of this step.
+    pub tries: u64,
+}
+
+/// The result of an MCM run.
+#[derive(Debug, Clone)]
+pub struct McmResult {
+    /// The last overlap-free configuration.
+    pub packing: Packing,
+    /// Accepted compression steps, in order.
+    pub history: Vec<StepRecord>,
+    /// Failed (reverted) compression steps.
+    pub failed_steps: usize,
+    /// Total particle moves over the run.
+    pub total_tries: u64,
+    /// True when the run stopped because all halvings were spent (jammed), false when it hit
+    /// `max_steps`.
+    pub jammed: bool,
+}
+
+/// Overlap of one pair, as seen from particle i.
+#[derive(Debug, Clone, Copy)]
+struct Overlap {
+    /// Overlap depth delta_ij > 0.
+    depth: f64,
+    /// Unit normal from i to j.
+    normal: Vector3<f64>,
+    /// Closest-point vector between the axes, from i's axis point to j's (original scheme k_ij).
+    k: Vector3<f64>,
+    /// Contact point of i relative to its centre (r_c,ij of eq. 3.2).
+    rc: Vector3<f64>,
+    /// Position of i's axis point along its axis, in [-L/2, L/2] (l_ij of eq. 2.4).
+    l: f64,
+}
+
+/// Minimum-image separation b - a in a cubic periodic box.
+fn min_image(a: &Vector3<f64>, b: &Vector3<f64>, l: f64) -> Vector3<f64> {
+    (b - a).map(|d| d - l * (d / l).round())
+}
+
+/// Gap and contact geometry of i (at the origin) and j at separation `d` (minimum image).
+/// Returns (gap, normal i->j, k, rc_i, l_i, rc_j, l_j).
+#[allow(clippy::type_complexity)]
+fn pair_geometry(
+    length: f64,
+    ai: &Vector3<f64>,
+    aj: &Vector3<f64>,
+    d: &Vector3<f64>,
+) -> (
+    f64,
+    Vector3<f64>,
+    Vector3<f64>,
+    Vector3<f64>,
+    f64,
+    Vector3<f64>,
+    f64,
+) {
+    if length == 0.0 {
+        let dist = d.norm();
+        let n = if dist > 0.0 { d / dist } else { Vector3::x() };
+        return (
+            dist - 2.0 * RADIUS,
+            n,
+            *d,
+            RADIUS * n,
+            0.0,
+            -RADIUS * n,
+            0.0,
+        );
+    }
+    let h = 0.5 * length;
+    let (p0, p1) = (-h * ai, h * ai);
+    let (q0, q1) = (d - h * aj, d + h * aj);
+    let (s, t, p, q) = closest_points_segments(&p0, &p1, &q0, &q1);
+    let k = q - p;
+    let dist = k.norm();
+    let n = if dist > 1e-300 {
+        k / dist
+    } else {
+        let c = ai.cross(aj);
+        let mut n = if c.norm() > 1e-12 {
+            c.normalize()
+        } else {
+            let e = if ai.x.abs() < 0.9 {
+                Vector3::x()
+            } else {
+                Vector3::y()
+            };
+            ai.cross(&e).normalize()
+        };
+        if n.dot(d) < 0.0 {
+            n = -n;
+        }
+        n
+    };
+    let rc_i = p + RADIUS * n;
+    let rc_j = (q - d) - RADIUS * n;
+    (
+        dist - 2.0 * RADIUS,
+        n,
+        k,
+        rc_i,
+        (s - 0.5) * length,
+        rc_j,
+        (t - 0.5) * length,
+    )
+}
+
+/// Body-to-world inverse inertia tensor of particle i (mass = volume).
+fn inverse_inertia_world(q: &UnitQuaternion<f64>, ixy: f64, iz: f64) -> Matrix3<f64> {
+    let r = q.to_rotation_matrix();
+    let inv_body = Matrix3::from_diagonal(&Vector3::new(1.0 / ixy, 1.0 / ixy, 1.0 / iz));
+    r.matrix() * inv_body * r.matrix().transpose()
+}
+
+/// The move (translation, rotation) of one particle under the revised scheme (eq. 3.6-3.12).
+fn move_revised(
+    ov: &[Overlap],
+    q: &UnitQuaternion<f64>,
+    sphere: bool,
+    mass: f64,
+    ixy: f64,
+    iz: f64,
+    prm: &McmParams,
+) -> (Vector3<f64>, Option<UnitQuaternion<f64>>) {
+    let sum_n: Vector3<f64> = ov.iter().map(|o| o.normal).sum();
+    let dmin = ov.iter().map(|o| o.depth).fold(f64::INFINITY, f64::min);
+    // Torque-like sum of eq. 3.7 (zero for spheres: r_c is parallel to n).
+    let tau: Vector3<f64> = if sphere {
+        Vector3::zeros()
+    } else {
+        ov.iter().map(|o| o.normal.cross(&o.rc)).sum()
+    };
+    let inv_i = inverse_inertia_world(q, ixy, iz);
+    let lam2 = (sum_n.norm_squared() / mass + tau.dot(&(inv_i * tau))) / (2.0 * prm.energy); // eq. 3.8
+    if !(lam2 > 0.0) {
+        return (Vector3::zeros(), None);
+    }
+    let lam = lam2.sqrt();
+    let v = -sum_n / (lam * mass); // eq. 3.6
+    let dx = dmin * prm.dt * v; // eq. 3.9
+    if sphere {
+        return (dx, None);
+    }
+    let w = inv_i * tau / lam; // eq. 3.7
+    let wn = w.norm();
+    if wn == 0.0 {
+        return (dx, None);
+    }
+    let dtheta = wn * dmin * prm.dt; // eq. 3.12
+                                     // Rodrigues rotation (eq. 3.10-3.11) about the world axis w / |w|, applied in the world
+                                     // frame (eq. 3.13 with omega expressed in world coordinates).
+    let rot = UnitQuaternion::from_axis_angle(&Unit::new_unchecked(w / wn), dtheta);
+    (dx, Some(rot * q))
+}
+
+/// The move of one particle under the original scheme (eq. 2.7-2.10, delta-weighted sums,
+/// unit mass, xi = I_xy / m).
+fn move_original(
+    ov: &[Overlap],
+    q: &UnitQuaternion<f64>,
+    sphere: bool,
+    xi: f64,
+    prm: &McmParams,
+) -> (Vector3<f64>, Option<UnitQuaternion<f64>>) {
+    let ez = q * Vector3::z();
+    // Sign: k_ij points from i to j, so moving along -k removes the overlap.
+    let v: Vector3<f64> = -ov.iter().map(|o| o.depth * o.k).sum::<Vector3<f64>>();
+    let w: Vector3<f64> = if sphere {
+        Vector3::zeros()
+    } else {
+        // Components of k_ij perpendicular to the axis (n = 4, 5), weighted by l_ij / xi:
+        // the rate of change of e_z (eq. 2.9).
+        -ov.iter()
+            .map(|o| o.depth * o.l * (o.k - o.k.dot(&ez) * ez))
+            .sum::<Vector3<f64>>()
+            / xi
+    };
+    // eq. 2.10: the smallest time that removes a fraction beta of one overlap at its rate.
+    let mut dt = f64::INFINITY;
+    for o in ov {
+        let khat = o.normal;
+        let rate = -(v + o.l * w).dot(&khat);
+        if rate > 0.0 {
+            dt = dt.min(o.depth / rate);
+        }
+    }
+    if !dt.is_finite() {
+        return (Vector3::zeros(), None);
+    }
+    let dt = prm.beta * dt;
+    let dx = dt * v;
+    if sphere || w.norm() == 0.0 {
+        return (dx, None);
+    }
+    let new_ez = (ez + dt * w).normalize();
+    let rot =
+        UnitQuaternion::rotation_between(&ez, &new_ez).unwrap_or_else(UnitQuaternion::identity);
+    (dx, Some(rot * q))
+}
+
+/// Wraps a position into [0, L)^3.
+fn wrap(x: &Vector3<f64>, l: f64) -> Vector3<f64> {
+    x.map(|c| {
+        let w = c - l * (c / l).floor();
+        if w >= l {
+            0.0
+        } else {
+            w
+        }
+    })
+}
+
+/// Centre-distance cutoff for any contact (plus a margin for the contact tolerance).
+fn pair_cutoff(length: f64) -> f64 {
+    length + 2.0 * RADIUS + 1e-6
+}
+
+fn cell_list(box_length: f64, length: f64) -> Result<CellList> {
+    let rc = pair_cutoff(length);
+    if box_length < 2.0 * rc {
+        return invalid(format!(
+            "box length {box_length:.4} is below twice the pair cutoff {rc:.4} (L + D): the \
+             minimum image would miss contacts; use more particles"
+        ));
+    }
+    CellList::new(box_length, rc)
+}
+
+/// Neighbour (Verlet) lists: every j within the pair cutoff plus `skin` of i, by the periodic
+/// cell list.
+fn neighbour_lists(p: &Packing, skin: f64) -> Result<Vec<Vec<usize>>> {
+    let cells = CellList::new(p.box_length, pair_cutoff(p.length) + skin)?;
+    let mut nb = vec![Vec::new(); p.n()];
+    for (i, j, _) in cells.pairs(&p.positions) {
+        nb[i].push(j);
+        nb[j].push(i);
+    }
+    Ok(nb)
+}
+
+/// Overlaps deeper than `tol` of particle i with the particles in `nb`.
+fn overlaps_of(p: &Packing, i: usize, nb: &[usize], tol: f64, out: &mut Vec<Overlap>) {
+    out.clear();
+    let ai = p.axis(i);
+    let xi = p.positions[i];
+    for &j in nb {
+        let d = min_image(&xi, &p.positions[j], p.box_length);
+        let reach = pair_cutoff(p.length);
+        if d.norm_squared() >= reach * reach {
+            continue;
+        }
+        let (gap, n, k, rci, li, _, _) = pair_geometry(p.length, &ai, &p.axis(j), &d);
+        if gap < -tol {
+            out.push(Overlap {
+                depth: -gap,
+                normal: n,
+                k,
+                rc: rci,
+                l: li,
+            });
+        }
+    }
+}
+
+/// Removes overlaps deeper than the tolerance; returns Ok(tries) when the configuration is
+/// overlap-free, Err(tries) when the try budget ran out.
+///
+/// Sweeps over the particles in index order (Gauss-Seidel: each move sees the moves before
+/// it); a particle is rechecked only when it or a neighbour moved since it was last found
+/// free of overlaps, so an exhausted queue means no pair overlaps deeper than the tolerance.
+/// Each move counts as one try.
+fn remove_overlaps(
+    p: &mut Packing,
+    prm: &McmParams,
+    budget: u64,
+) -> Result<std::result::Result<u64, u64>> {
+    cell_list(p.box_length, p.length)?;
+    let n = p.n();
+    let skin = (0.5 * p.box_length - pair_cutoff(p.length)).min(0.3);
+    let sphere = p.is_sphere();
+    let mass = particle_volume(p.length);
+    let (ixy, iz) = principal_inertia(p.length, mass);
+    let xi = principal_inertia(p.length, 1.0).0;
+    let half = 0.5 * p.length;
+    let mut nb = neighbour_lists(p, skin)?;
+    let mut ref_x = p.positions.clone();
+    let mut ref_a = p.axes();
+    let mut dirty = vec![true; n];
+    let mut ov = Vec::new();
+    let mut tries = 0u64;
+    loop {
+        let mut any = false;
+        for i in 0..n {
+            if !dirty[i] {
+                continue;
+            }
+            dirty[i] = false;
+            overlaps_of(p, i, &nb[i], prm.overlap_tol, &mut ov);
+            if ov.is_empty() {
+                continue;
+            }
+            any = true;
+            if tries >= budget {
+                return Ok(Err(tries));
+            }
+            tries += 1;
+            let (dx, q) = match prm.scheme {
+                Scheme::Revised => {
+                    move_revised(&ov, &p.orientations[i], sphere, mass, ixy, iz, prm)
+                }
+                Scheme::Original => move_original(&ov, &p.orientations[i], sphere, xi, prm),
+            };
+            p.positions[i] = wrap(&(p.positions[i] + dx), p.box_length);
+            if let Some(q) = q {
+                p.orientations[i] = UnitQuaternion::new_normalize(*q.quaternion());
+            }
+            dirty[i] = true;
+            for &j in &nb[i] {
+                dirty[j] = true;
+            }
+            let disp = min_image(&ref_x[i], &p.positions[i], p.box_length).norm()
+                + half * (p.axis(i) - ref_a[i]).norm();
+            if disp > 0.5 * skin {
+                nb = neighbour_lists(p, skin)?;
+                ref_x.clone_from(&p.positions);
+                ref_a = p.axes();
+            }
+        }
+        if !any && !dirty.iter().any(|d| *d) {
+            return Ok(Ok(tries));
+        }
+    }
+}
+
+/// A random overlap-free start: random sequential addition of N particles at packing
+/// fraction phi0, uniform positions and orientations (ChaCha8 seeded with `seed`).
+pub fn random_start(n: usize, length: f64, phi0: f64, seed: u64) -> Result<Packing> {
+    let vp = particle_volume(length);
+    let box_length = (n as f64 * vp / phi0).cbrt();
+    cell_list(box_length, length)?;
+    let mut rng = ChaCha8Rng::seed_from_u64(seed);
+    let mut p = Packing {
+        box_length,
+        length,
+        positions: Vec::with_capacity(n),
+        orientations: Vec::with_capacity(n),
+    };
+    let rc2 = pair_cutoff(length).powi(2);
+    let max_attempts = 1000 * n as u64 + 1000;
+    let mut attempts = 0u64;
+    while p.n() < n {
+        attempts += 1;
+        if attempts > max_attempts {
+            return invalid(format!(
+                "phi0 = {phi0}: random sequential addition placed only {} of {n} particles in \
+                 {max_attempts} attempts; lower phi0",
+                p.n()
+            ));
+        }
+        let x = Vector3::new(rng.gen::<f64>(), rng.gen::<f64>(), rng.gen::<f64>()) * box_length;
+        // Uniform random rotation (Shoemake's method).
+        let (u1, u2, u3): (f64, f64, f64) = (rng.gen(), rng.gen(), rng.gen());
+        let tau = std::f64::consts::TAU;
+        let q = UnitQuaternion::new_normalize(nalgebra::Quaternion::new(
+            (1.0 - u1).sqrt() * (tau * u2).cos(),
+            (1.0 - u1).sqrt() * (tau * u2).sin(),
+            u1.sqrt() * (tau * u3).sin(),
+            u1.sqrt() * (tau * u3).cos(),
+        ));
+        let a = q * Vector3::z();
+        let ok = (0..p.n()).all(|j| {
+            let d = min_image(&x, &p.positions[j], box_length);
+            if d.norm_squared() >= rc2 {
+                return true;
+            }
+            pair_geometry(length, &a, &p.axis(j), &d).0 > 0.0
+        });
+        if ok {
+            p.positions.push(x);
+            p.orientations.push(q);
+        }
+    }
+    Ok(p)
+}
+
+/// Compresses `p` by `dv`: new box side (L^3 - dv)^(1/3), positions scaled, orientations kept.
+fn compress(p: &Packing, dv: f64) -> Option<Packing> {
+    let v = p.box_length.powi(3) - dv;
+    if v <= 0.0 {
+        return None;
+    }
+    let l = v.cbrt();
+    let s = l / p.box_length;
+    let mut q = p.clone();
+    q.box_length = l;
+    for x in q.positions.iter_mut() {
+        *x = wrap(&(*x * s), l);
+    }
+    Some(q)
+}
+
+/// Runs the mechanical contraction method from a random start (see the module docs).
+pub fn run(prm: &McmParams) -> Result<McmResult> {
+    prm.validate()?;
+    let start = random_start(prm.n, prm.length, prm.phi0, prm.seed)?;
+    run_from(start, prm)
+}
+
+/// Runs the MCM from a given overlap-free configuration.
+pub fn run_from(start: Packing, prm: &McmParams) -> Result<McmResult> {
+    prm.validate()?;
+    if start.n() != prm.n || start.length != prm.length {
+        return invalid(format!(
+            "start configuration: {} particles of length {} do not match n = {}, length = {}",
+            start.n(),
+            start.length,
+            prm.n,
+            prm.length
+        ));
+    }
+    let budget = (prm.tries_per_particle * start.n() as f64).ceil() as u64;
+    let mut state = start;
+    // The start must itself be overlap-free.
+    match remove_overlaps(&mut state, prm, 0)? {
+        Ok(_) => {}
+        Err(_) => {
+            return invalid("start configuration has overlaps deeper than overlap_tol");
+        }
+    }
+    let mut dv = prm.delta_v_per_particle * state.n() as f64;
+    let mut halvings_left = prm.halvings;
+    let mut history = Vec::new();
+    let mut failed = 0usize;
+    let mut total = 0u64;
+    let vp = particle_volume(prm.length);
+    loop {
+        if history.len() >= prm.max_steps {
+            return Ok(McmResult {
+                packing: state,
+                history,
+                failed_steps: failed,
+                total_tries: total,
+                jammed: false,
+            });
+        }
+        let trial = compress(&state, dv).filter(|t| t.n() as f64 * vp < t.box_length.powi(3));
+        let outcome = match trial {
+            None => None,
+            Some(mut t) => match cell_list(t.box_length, t.length) {
+                Err(e) => return Err(e),
+                Ok(_) => {
+                    let r = remove_overlaps(&mut t, prm, budget)?;
+                    Some((t, r))
+                }
+            },
+        };
+        match outcome {
+            Some((t, Ok(tries))) => {
+                total += tries;
+                state = t;
+                history.push(StepRecord {
+                    step: history.len() + 1,
+                    packing_fraction: state.packing_fraction(),
+                    delta_v: dv,
+                    tries,
+                });
+            }
+            other => {
+                if let Some((_, Err(tries))) = other {
+                    total += tries;
+                }
+                failed += 1;
+                if halvings_left == 0 {
+                    return Ok(McmResult {
+                        packing: state,
+                        history,
+                        failed_steps: failed,
+                        total_tries: total,
+                        jammed: true,
+                    });
+                }
+                halvings_left -= 1;
+                dv *= 0.5;
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests;

@@ -1,0 +1,128 @@
+use super::*;
+use crate::analysis;
+
+#[test]
+fn inertia_of_sphere_and_volume() {
+    // L = 0: I = 2/5 m R^2 for a sphere; V = pi/6 for diameter 1.
+    let (ixy, iz) = principal_inertia(0.0, 1.0);
+    assert!((ixy - 0.4 * 0.25).abs() < 1e-15 && (iz - 0.1).abs() < 1e-15);
+    assert!((particle_volume(0.0) - std::f64::consts::PI / 6.0).abs() < 1e-15);
+}
+
+#[test]
+fn bad_parameters_are_errors() {
+    let mut p = McmParams::new(10, 0.0, 1);
+    p.phi0 = 0.5;
+    assert!(run(&p).unwrap_err().to_string().contains("phi0"));
+    let mut p = McmParams::new(1, 0.0, 1);
+    assert!(p.validate().is_err());
+    p = McmParams::new(10, -1.0, 1);
+    assert!(p.validate().unwrap_err().to_string().contains("length"));
+    p = McmParams::new(10, 0.0, 1);
+    p.dt = f64::NAN;
+    assert!(p.validate().unwrap_err().to_string().contains("dt"));
+    // Too few long rods for the periodic box (the minimum image would miss contacts).
+    assert!(random_start(10, 8.0, 0.05, 1).is_err());
+}
+
+#[test]
+fn random_start_is_overlap_free_and_deterministic() {
+    for &l in &[0.0, 2.0] {
+        let a = random_start(60, l, 0.05, 7).unwrap();
+        let b = random_start(60, l, 0.05, 7).unwrap();
+        assert_eq!(a.positions, b.positions);
+        assert!((a.packing_fraction() - 0.05).abs() < 1e-12);
+        analysis::check_no_overlap(&a.view(), 0.0).unwrap();
+    }
+}
+
+#[test]
+fn two_overlapping_spheres_are_separated() {
+    for scheme in [Scheme::Revised, Scheme::Original] {
+        let mut p = Packing {
+            box_length: 10.0,
+            length: 0.0,
+            positions: vec![Vector3::new(5.0, 5.0, 5.0), Vector3::new(5.9, 5.0, 5.0)],
+            orientations: vec![UnitQuaternion::identity(); 2],
+        };
+        let mut prm = McmParams::new(2, 0.0, 1);
+        prm.scheme = scheme;
+        let r = remove_overlaps(&mut p, &prm, 10_000).unwrap();
+        assert!(r.is_ok(), "{scheme:?}: {r:?}");
+        let d = (p.positions[1] - p.positions[0]).norm();
+        assert!(d > 1.0 - prm.overlap_tol, "{scheme:?}: d = {d}");
+        // Pushes along the line of centres only.
+        for x in &p.positions {
+            assert!((x.y - 5.0).abs() < 1e-12 && (x.z - 5.0).abs() < 1e-12);
+        }
+    }
+}
+
+#[test]
+fn crossed_rods_are_separated_with_rotation() {
+    // Two L = 3 rods crossing at an angle with a deep overlap, off-centre contact: the moves
+    // must translate and rotate them apart.
+    for scheme in [Scheme::Revised, Scheme::Original] {
+        let q0 = UnitQuaternion::rotation_between(&Vector3::z(), &Vector3::x()).unwrap();
+        let q1 =
+            UnitQuaternion::rotation_between(&Vector3::z(), &Vector3::new(1.0, 1.0, 0.0)).unwrap();
+        let mut p = Packing {
+            box_length: 12.0,
+            length: 3.0,
+            positions: vec![Vector3::new(6.0, 6.0, 6.0), Vector3::new(6.8, 6.5, 6.6)],
+            orientations: vec![q0, q1],
+        };
+        let mut prm = McmParams::new(2, 3.0, 1);
+        prm.scheme = scheme;
+        let r = remove_overlaps(&mut p, &prm, 100_000).unwrap();
+        assert!(r.is_ok(), "{scheme:?}: {r:?}");
+        let w = analysis::worst_gap(&p.view()).unwrap();
+        if let Some(w) = w {
+            assert!(w.gap >= -prm.overlap_tol, "{scheme:?}: {w:?}");
+        }
+        assert!(
+            p.orientations[0].angle_to(&q0) > 0.0,
+            "{scheme:?}: no rotation"
+        );
+    }
+}
+
+#[test]
+fn small_sphere_run_is_overlap_free_dense_and_deterministic() {
+    let mut prm = McmParams::new(40, 0.0, 3);
+    prm.scheme = Scheme::Original;
+    prm.delta_v_per_particle = 0.02;
+    prm.halvings = 3;
+    prm.tries_per_particle = 50.0;
+    let a = run(&prm).unwrap();
+    let b = run(&prm).unwrap();
+    assert_eq!(a.packing.positions, b.packing.positions);
+    assert!(a.jammed);
+    analysis::check_no_overlap(&a.packing.view(), prm.overlap_tol).unwrap();
+    // Any jammed sphere packing is denser than random loose packing (~0.55); 40 spheres with
+    // few tries: only check that it compressed far beyond the start.
+    assert!(
+        a.packing.packing_fraction() > 0.45,
+        "{}",
+        a.packing.packing_fraction()
+    );
+    let hist = &a.history;
+    assert!(hist
+        .windows(2)
+        .all(|w| w[1].packing_fraction > w[0].packing_fraction));
+}
+
+#[test]
+fn small_rod_run_is_overlap_free() {
+    for scheme in [Scheme::Revised, Scheme::Original] {
+        let mut prm = McmParams::new(40, 1.0, 5);
+        prm.scheme = scheme;
+        prm.delta_v_per_particle = 0.05;
+        prm.halvings = 3;
+        prm.tries_per_particle = 100.0;
+        let a = run(&prm).unwrap();
+        analysis::check_no_overlap(&a.packing.view(), prm.overlap_tol).unwrap();
+        let phi = a.packing.packing_fraction();
+        assert!(phi > 0.3, "{scheme:?}: phi = {phi}");
+    }
+}

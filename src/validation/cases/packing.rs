@@ -1,0 +1,153 @@
+//! Packing (MCM) validation cases (5xx), thesis 003 ch. 2-3.
+//!
+//! Each case runs the mechanical contraction method ([`crate::packing`]) with fixed
+//! parameters and seed and measures the final configuration with [`crate::analysis`] (the
+//! overlap check there is an independent brute force over all pairs and all 27 periodic
+//! images). `expected.csv` lists literature bands, one per quantity:
+//! `quantity,lower,upper,source`. A row is `got` = the measured value, `expected` = the band
+//! centre, `scale` = the band half-width, so with `rtol = 1` (and `atol = 0`) in case.toml a
+//! row passes iff the value lies in [lower, upper].
+//!
+//! * 501 (fast): 100 spheres, original scheme: packing fraction in [0.55, 0.7405], overlap-free
+//!   within the contact tolerance, bitwise reproducible for the seed.
+//! * 502 (slow): 1000 spheres, original scheme: packing fraction in the band of pure MCM runs.
+//! * 503 (slow): spherocylinders L/D = 0.4 pack denser than spheres (same run parameters),
+//!   nematic order below 0.1, overlap-free.
+//! * 504 (slow): 300 spherocylinders L/D = 5: nematic order below 0.1, overlap-free.
+
+use crate::analysis;
+use crate::packing::{self, McmParams, McmResult, Scheme};
+use crate::validation::{CaseContext, Row};
+use crate::{Error, Result};
+use std::collections::BTreeMap;
+
+fn seed(ctx: &CaseContext) -> Result<u64> {
+    ctx.seed.ok_or_else(|| {
+        Error::Validation(format!(
+            "case {}: a random case needs `seed` in case.toml",
+            ctx.id
+        ))
+    })
+}
+
+/// Rows from measured quantities against the bands of expected.csv.
+fn band_rows(ctx: &CaseContext, got: &BTreeMap<&str, f64>) -> Result<Vec<Row>> {
+    let t = ctx.expected_table()?;
+    if t.is_empty() {
+        return Err(Error::Validation(format!(
+            "{}: no rows",
+            t.path().display()
+        )));
+    }
+    let mut rows = Vec::new();
+    for i in 0..t.len() {
+        let q = t.str(i, "quantity")?;
+        let (lo, hi) = (t.f64(i, "lower")?, t.f64(i, "upper")?);
+        if !(lo <= hi) {
+            return Err(Error::Validation(format!(
+                "{} line {}: lower = {lo} above upper = {hi}",
+                t.path().display(),
+                t.line(i)
+            )));
+        }
+        let v = got.get(q).copied().ok_or_else(|| {
+            Error::Validation(format!(
+                "{} line {}: quantity `{q}` is not measured by case {} (known: {:?})",
+                t.path().display(),
+                t.line(i),
+                ctx.id,
+                got.keys().collect::<Vec<_>>()
+            ))
+        })?;
+        rows.push(Row::new(
+            format!("{q} in [{lo}, {hi}]"),
+            v,
+            0.5 * (lo + hi),
+            0.5 * (hi - lo),
+        ));
+    }
+    Ok(rows)
+}
+
+/// Deepest overlap (>= 0) found by the independent brute-force check.
+fn deepest_overlap(r: &McmResult) -> Result<f64> {
+    Ok(analysis::worst_gap(&r.packing.view())?
+        .map(|g| (-g.gap).max(0.0))
+        .unwrap_or(0.0))
+}
+
+fn params(n: usize, length: f64, seed: u64) -> McmParams {
+    let mut p = McmParams::new(n, length, seed);
+    p.scheme = Scheme::Original;
+    p.delta_v_per_particle = 0.01;
+    p.halvings = 6;
+    p.tries_per_particle = 200.0;
+    p.overlap_tol = 1e-4;
+    p
+}
+
+pub fn case_501(ctx: &CaseContext) -> Result<Vec<Row>> {
+    let prm = params(100, 0.0, seed(ctx)?);
+    let a = packing::run(&prm)?;
+    let b = packing::run(&prm)?;
+    let rerun = a
+        .packing
+        .positions
+        .iter()
+        .zip(&b.packing.positions)
+        .map(|(x, y)| (x - y).amax())
+        .fold(0.0, f64::max);
+    let mut got = BTreeMap::new();
+    got.insert("packing_fraction", a.packing.packing_fraction());
+    got.insert("deepest_overlap", deepest_overlap(&a)?);
+    got.insert("rerun_max_position_difference", rerun);
+    got.insert("jammed", if a.jammed { 1.0 } else { 0.0 });
+    band_rows(ctx, &got)
+}
+
+pub fn case_502(ctx: &CaseContext) -> Result<Vec<Row>> {
+    let prm = params(1000, 0.0, seed(ctx)?);
+    let a = packing::run(&prm)?;
+    let mut got = BTreeMap::new();
+    got.insert("packing_fraction", a.packing.packing_fraction());
+    got.insert("deepest_overlap", deepest_overlap(&a)?);
+    got.insert("jammed", if a.jammed { 1.0 } else { 0.0 });
+    band_rows(ctx, &got)
+}
+
+pub fn case_503(ctx: &CaseContext) -> Result<Vec<Row>> {
+    let s = seed(ctx)?;
+    let sph = packing::run(&params(500, 0.0, s))?;
+    let rod = packing::run(&params(500, 0.4, s))?;
+    let mut got = BTreeMap::new();
+    got.insert(
+        "phi_rods_minus_phi_spheres",
+        rod.packing.packing_fraction() - sph.packing.packing_fraction(),
+    );
+    got.insert(
+        "nematic_order",
+        analysis::nematic_order(&rod.packing.axes())?,
+    );
+    got.insert(
+        "deepest_overlap",
+        deepest_overlap(&rod)?.max(deepest_overlap(&sph)?),
+    );
+    band_rows(ctx, &got)
+}
+
+pub fn case_504(ctx: &CaseContext) -> Result<Vec<Row>> {
+    // Long rods have ~100 neighbours each: a lighter schedule keeps the run in minutes.
+    let mut prm = params(300, 5.0, seed(ctx)?);
+    prm.delta_v_per_particle = 0.05;
+    prm.halvings = 3;
+    prm.tries_per_particle = 50.0;
+    let rod = packing::run(&prm)?;
+    let mut got = BTreeMap::new();
+    got.insert(
+        "nematic_order",
+        analysis::nematic_order(&rod.packing.axes())?,
+    );
+    got.insert("deepest_overlap", deepest_overlap(&rod)?);
+    got.insert("packing_fraction", rod.packing.packing_fraction());
+    band_rows(ctx, &got)
+}

@@ -1,0 +1,104 @@
+//! Stress and exploration runs of the MCM packing engine (`cargo test --release --test
+//! stress_packing -- --ignored --nocapture`).
+
+use porelab::analysis;
+use porelab::packing::{run, McmParams, Scheme};
+use std::time::Instant;
+
+fn env_f(name: &str, d: f64) -> f64 {
+    std::env::var(name)
+        .ok()
+        .and_then(|s| s.parse().ok())
+        .unwrap_or(d)
+}
+
+/// A run with parameters from the environment (MCM_N, MCM_L, MCM_DV, MCM_H, MCM_TRIES,
+/// MCM_TOL, MCM_DT, MCM_SEED, MCM_ORIG), printing packing fraction, contacts and time.
+#[test]
+#[ignore]
+fn explore() {
+    let mut p = McmParams::new(
+        env_f("MCM_N", 200.0) as usize,
+        env_f("MCM_L", 0.0),
+        env_f("MCM_SEED", 1.0) as u64,
+    );
+    p.delta_v_per_particle = env_f("MCM_DV", p.delta_v_per_particle);
+    p.halvings = env_f("MCM_H", p.halvings as f64) as u32;
+    p.tries_per_particle = env_f("MCM_TRIES", p.tries_per_particle);
+    p.overlap_tol = env_f("MCM_TOL", p.overlap_tol);
+    p.dt = env_f("MCM_DT", p.dt);
+    if env_f("MCM_ORIG", 0.0) > 0.0 {
+        p.scheme = Scheme::Original;
+    }
+    let t = Instant::now();
+    let r = run(&p).unwrap();
+    let secs = t.elapsed().as_secs_f64();
+    let v = r.packing.view();
+    let gaps = analysis::pair_gaps(&v, 1e-2).unwrap();
+    let worst = gaps.iter().map(|g| g.gap).fold(f64::INFINITY, f64::min);
+    let tol = p.overlap_tol;
+    let deltas: Vec<f64> = vec![1e-8, 1e-7, 1e-6, 1e-5];
+    let minc = if p.length == 0.0 { 4 } else { 5 };
+    let (c0, _) = analysis::extrapolated_contacts(v.n(), &gaps, &deltas, Some(minc)).unwrap();
+    let (c_raw, rat) = analysis::mean_contacts(v.n(), &gaps, 10.0 * tol, Some(minc));
+    let (c_all, _) = analysis::mean_contacts(v.n(), &gaps, 10.0 * tol, None);
+    let s = analysis::nematic_order(&r.packing.axes()).unwrap();
+    eprintln!(
+        "N={} L={} phi={:.4} steps={} failed={} tries={} worst_gap={:.2e} C(10tol)={:.3} C_norattle={:.3} rattlers={} C0={:.3} S={:.3} secs={:.2}",
+        v.n(), p.length, r.packing.packing_fraction(), r.history.len(), r.failed_steps, r.total_tries, worst, c_all, c_raw, rat, c0, s, secs
+    );
+    for d in [1e-8, 1e-6, 1e-5, 1e-4, 1e-3] {
+        eprintln!(
+            "  C({d:e}) = {:.3}",
+            analysis::mean_contacts(v.n(), &gaps, d, None).0
+        );
+    }
+    for h in r.history.iter().rev().take(3) {
+        eprintln!("  {:?}", h);
+    }
+}
+
+/// Rods too long for the periodic box: a clear error naming the rule, never a silent result.
+#[test]
+fn long_rods_in_small_box_are_an_error() {
+    let p = McmParams::new(50, 20.0, 1);
+    let e = run(&p).unwrap_err().to_string();
+    assert!(
+        e.contains("box length") && e.contains("more particles"),
+        "{e}"
+    );
+}
+
+/// A tiny Delta V with a step limit ends overlap-free (not jammed), with the history
+/// monotone.
+#[test]
+fn tiny_delta_v_ends_overlap_free() {
+    let mut p = McmParams::new(64, 1.0, 2);
+    p.delta_v_per_particle = 1e-9;
+    p.max_steps = 20;
+    let r = run(&p).unwrap();
+    assert!(!r.jammed);
+    assert_eq!(r.history.len(), 20);
+    analysis::check_no_overlap(&r.packing.view(), p.overlap_tol * (1.0 + 1e-6)).unwrap();
+}
+
+/// Aspect ratio 10 with a small try budget: whatever it reaches is overlap-free.
+#[test]
+fn aspect_ten_ends_overlap_free() {
+    let mut p = McmParams::new(300, 10.0, 3);
+    p.scheme = Scheme::Original;
+    p.delta_v_per_particle = 0.5;
+    p.halvings = 1;
+    p.tries_per_particle = 20.0;
+    match run(&p) {
+        Ok(r) => {
+            analysis::check_no_overlap(&r.packing.view(), p.overlap_tol * (1.0 + 1e-6)).unwrap();
+            eprintln!(
+                "L/D = 10: phi = {:.4}, steps = {}",
+                r.packing.packing_fraction(),
+                r.history.len()
+            );
+        }
+        Err(e) => assert!(e.to_string().contains("box length"), "{e}"),
+    }
+}
