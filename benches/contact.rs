@@ -10,10 +10,14 @@
 //! signs, built by porelab::contact::pairgen); "mixed" = random centre distances 0.5..3 times
 //! the summed bounding radii (what a neighbour list hands to the narrow phase).
 
-use nalgebra::{Isometry3, Point3, Translation3, Vector3};
+#[path = "../tests/common/parry_shapes.rs"]
+mod parry_shapes;
+
+use nalgebra::{Point3, Vector3};
 use parry3d_f64::query::details::contact_support_map_support_map;
 use parry3d_f64::shape::{Ball, Capsule, SupportMap};
-use porelab::contact::pairgen::{make_pair, random_rotation};
+use parry_shapes::{iso, sq_support_point};
+use porelab::contact::pairgen::{make_pair, random_rotation, random_signed_gap};
 use porelab::contact::{
     contact_ellipsoid_ellipsoid, contact_sphere_ellipsoid, contact_sphere_sphere,
     contact_sphere_spherocylinder, contact_spherocylinder_spherocylinder,
@@ -39,36 +43,8 @@ impl SupportMap for Ell {
 struct Sq([f64; 3], [f64; 3]);
 impl SupportMap for Sq {
     fn local_support_point(&self, d: &Vector3<f64>) -> Point3<f64> {
-        let (a, g) = (self.0, self.1);
-        let x_of = |mu: f64| {
-            Vector3::from_fn(|k, _| {
-                if d[k] == 0.0 {
-                    0.0
-                } else {
-                    a[k] * (d[k].abs() * a[k] / (mu * g[k])).powf(1.0 / (g[k] - 1.0))
-                        * d[k].signum()
-                }
-            })
-        };
-        let s = |mu: f64| {
-            let x = x_of(mu);
-            (0..3).map(|k| (x[k] / a[k]).abs().powf(g[k])).sum::<f64>()
-        };
-        let (mut lo, mut hi) = (-60.0f64, 60.0f64);
-        for _ in 0..60 {
-            let mid = 0.5 * (lo + hi);
-            if s(mid.exp()) > 1.0 {
-                lo = mid
-            } else {
-                hi = mid
-            }
-        }
-        Point3::from(x_of((0.5 * (lo + hi)).exp()))
+        sq_support_point(self.0, self.1, d, 60.0, 60)
     }
-}
-
-fn iso(p: &Pose) -> Isometry3<f64> {
-    Isometry3::from_parts(Translation3::from(p.position), p.orientation)
 }
 
 /// Runs f over all items repeatedly for >= 0.3 s; returns ns per call.
@@ -87,6 +63,9 @@ fn time<T>(items: &[T], mut f: impl FnMut(&T)) -> f64 {
     t0.elapsed().as_secs_f64() * 1e9 / (reps * items.len()) as f64
 }
 
+/// Pairs per set.
+const N: usize = 2000;
+
 #[derive(Default, Clone)]
 struct Line {
     query: String,
@@ -98,10 +77,48 @@ struct Line {
     failures: usize,
 }
 
+impl Line {
+    /// A line over the N pairs of every set.
+    fn new(query: &str, pairs: &str, ns: f64, overlap: f64) -> Line {
+        Line {
+            query: query.into(),
+            pairs: pairs.into(),
+            n: N,
+            ns,
+            overlap,
+            ..Default::default()
+        }
+    }
+}
+
+/// One parry GJK/EPA contact query between two support maps (result discarded).
+fn parry_support_maps_once(pa: &Pose, a: &impl SupportMap, pb: &Pose, b: &impl SupportMap) {
+    let (ia, ib) = (iso(pa), iso(pb));
+    black_box(contact_support_map_support_map(&ia.inv_mul(&ib), a, b, 1e9));
+}
+
+/// One superquadric common-normal contact query (result discarded).
+fn nr_contact_once(b: &(SqBody, SqBody)) {
+    let _ = black_box(contact_superquadric_superquadric(
+        &b.0,
+        &b.1,
+        &NrOptions::default(),
+    ));
+}
+
+/// Failures of the superquadric contact solver on `bodies`, and ns per query.
+fn nr_contact(bodies: &[(SqBody, SqBody)]) -> (usize, f64) {
+    let fails = bodies
+        .iter()
+        .filter(|b| contact_superquadric_superquadric(&b.0, &b.1, &NrOptions::default()).is_err())
+        .count();
+    (fails, time(bodies, nr_contact_once))
+}
+
 fn main() {
     let mut lines: Vec<Line> = Vec::new();
     let mut rng = ChaCha8Rng::seed_from_u64(2024);
-    let n = 2000;
+    let n = N;
 
     // ---- spheres
     let sph: Vec<(Pose, f64, Pose, f64)> = (0..n)
@@ -129,14 +146,7 @@ fn main() {
             p.3,
         ));
     });
-    lines.push(Line {
-        query: "sphere-sphere porelab".into(),
-        pairs: "near".into(),
-        n,
-        ns,
-        overlap: ov,
-        ..Default::default()
-    });
+    lines.push(Line::new("sphere-sphere porelab", "near", ns, ov));
     let ns = time(&sph, |p| {
         black_box(
             parry3d_f64::query::contact(
@@ -149,14 +159,7 @@ fn main() {
             .unwrap(),
         );
     });
-    lines.push(Line {
-        query: "sphere-sphere parry".into(),
-        pairs: "near".into(),
-        n,
-        ns,
-        overlap: ov,
-        ..Default::default()
-    });
+    lines.push(Line::new("sphere-sphere parry", "near", ns, ov));
 
     // ---- spherocylinders
     let sc: Vec<(Pose, f64, f64, Pose, f64, f64)> = (0..n)
@@ -191,14 +194,12 @@ fn main() {
             &p.0, p.1, p.2, &p.3, p.4, p.5,
         ));
     });
-    lines.push(Line {
-        query: "spherocylinder-spherocylinder porelab".into(),
-        pairs: "mixed".into(),
-        n,
+    lines.push(Line::new(
+        "spherocylinder-spherocylinder porelab",
+        "mixed",
         ns,
-        overlap: ov,
-        ..Default::default()
-    });
+        ov,
+    ));
     let ns = time(&sc, |p| {
         black_box(
             parry3d_f64::query::contact(
@@ -211,14 +212,12 @@ fn main() {
             .unwrap(),
         );
     });
-    lines.push(Line {
-        query: "spherocylinder-spherocylinder parry".into(),
-        pairs: "mixed".into(),
-        n,
+    lines.push(Line::new(
+        "spherocylinder-spherocylinder parry",
+        "mixed",
         ns,
-        overlap: ov,
-        ..Default::default()
-    });
+        ov,
+    ));
     let ns = time(&sc, |p| {
         black_box(contact_sphere_spherocylinder(
             &p.0.position,
@@ -228,26 +227,14 @@ fn main() {
             p.5,
         ));
     });
-    lines.push(Line {
-        query: "sphere-spherocylinder porelab".into(),
-        pairs: "mixed".into(),
-        n,
-        ns,
-        ..Default::default()
-    });
+    lines.push(Line::new("sphere-spherocylinder porelab", "mixed", ns, 0.0));
 
     // ---- ellipsoids (near-contact pairs)
     let ell: Vec<_> = (0..n)
         .map(|_| {
             let aa = [0, 1, 2].map(|_| rng.gen_range(0.3..3.0));
             let ab = [0, 1, 2].map(|_| rng.gen_range(0.3..3.0));
-            let size = aa
-                .iter()
-                .chain(ab.iter())
-                .cloned()
-                .fold(f64::INFINITY, f64::min);
-            let mag = 10f64.powf(rng.gen_range(-6.0..-2.0)) * size;
-            let delta = if rng.gen_bool(0.5) { mag } else { -mag };
+            let (_, _, delta) = random_signed_gap(&mut rng, &aa, &ab, -6.0..-2.0);
             make_pair(&mut rng, aa, [2.0; 3], ab, [2.0; 3], delta, 1.0)
         })
         .collect();
@@ -255,25 +242,21 @@ fn main() {
     let ns = time(&ell, |p| {
         black_box(pw_overlap(&p.pose_a, &p.axes_a, &p.pose_b, &p.axes_b));
     });
-    lines.push(Line {
-        query: "ellipsoid PW overlap (early exit)".into(),
-        pairs: "near".into(),
-        n,
+    lines.push(Line::new(
+        "ellipsoid PW overlap (early exit)",
+        "near",
         ns,
-        overlap: ov,
-        ..Default::default()
-    });
+        ov,
+    ));
     let ns = time(&ell, |p| {
         black_box(pw_max(&p.pose_a, &p.axes_a, &p.pose_b, &p.axes_b));
     });
-    lines.push(Line {
-        query: "ellipsoid PW max F (scale factor)".into(),
-        pairs: "near".into(),
-        n,
+    lines.push(Line::new(
+        "ellipsoid PW max F (scale factor)",
+        "near",
         ns,
-        overlap: ov,
-        ..Default::default()
-    });
+        ov,
+    ));
     let bodies: Vec<(SqBody, SqBody)> = ell
         .iter()
         .map(|p| {
@@ -283,56 +266,31 @@ fn main() {
             )
         })
         .collect();
-    let fails = bodies
-        .iter()
-        .filter(|b| contact_superquadric_superquadric(&b.0, &b.1, &NrOptions::default()).is_err())
-        .count();
-    let ns = time(&bodies, |b| {
-        let _ = black_box(contact_superquadric_superquadric(
-            &b.0,
-            &b.1,
-            &NrOptions::default(),
-        ));
-    });
+    let (fails, ns) = nr_contact(&bodies);
     lines.push(Line {
-        query: "ellipsoid NR common normal (contact)".into(),
-        pairs: "near".into(),
-        n,
-        ns,
-        overlap: ov,
         failures: fails,
-        ..Default::default()
+        ..Line::new("ellipsoid NR common normal (contact)", "near", ns, ov)
     });
     let ns = time(&ell, |p| {
         let _ = black_box(contact_ellipsoid_ellipsoid(
             &p.pose_a, p.axes_a, &p.pose_b, p.axes_b,
         ));
     });
-    lines.push(Line {
-        query: "ellipsoid NR + PW scale (contact())".into(),
-        pairs: "near".into(),
-        n,
+    lines.push(Line::new(
+        "ellipsoid NR + PW scale (contact())",
+        "near",
         ns,
-        overlap: ov,
-        ..Default::default()
-    });
+        ov,
+    ));
     let ns = time(&ell, |p| {
-        let (ia, ib) = (iso(&p.pose_a), iso(&p.pose_b));
-        black_box(contact_support_map_support_map(
-            &ia.inv_mul(&ib),
-            &Ell(p.axes_a),
-            &Ell(p.axes_b),
-            1e9,
-        ));
+        parry_support_maps_once(&p.pose_a, &Ell(p.axes_a), &p.pose_b, &Ell(p.axes_b))
     });
-    lines.push(Line {
-        query: "ellipsoid parry GJK/EPA (contact)".into(),
-        pairs: "near".into(),
-        n,
+    lines.push(Line::new(
+        "ellipsoid parry GJK/EPA (contact)",
+        "near",
         ns,
-        overlap: ov,
-        ..Default::default()
-    });
+        ov,
+    ));
     let ns = time(&ell, |p| {
         black_box(contact_sphere_ellipsoid(
             &p.pose_a.position,
@@ -341,13 +299,7 @@ fn main() {
             p.axes_b,
         ));
     });
-    lines.push(Line {
-        query: "sphere-ellipsoid porelab".into(),
-        pairs: "near-ish".into(),
-        n,
-        ns,
-        ..Default::default()
-    });
+    lines.push(Line::new("sphere-ellipsoid porelab", "near-ish", ns, 0.0));
 
     // ---- superquadrics: near pairs (full contact) and mixed pairs (overlap with prefilters)
     let sqp: Vec<_> = (0..n)
@@ -356,13 +308,7 @@ fn main() {
             let ab = [0, 1, 2].map(|_| rng.gen_range(0.5..2.0));
             let ga = [0, 1, 2].map(|_| rng.gen_range(2.0..6.0));
             let gb = [0, 1, 2].map(|_| rng.gen_range(2.0..6.0));
-            let size = aa
-                .iter()
-                .chain(ab.iter())
-                .cloned()
-                .fold(f64::INFINITY, f64::min);
-            let mag = 10f64.powf(rng.gen_range(-6.0..-2.0)) * size;
-            let delta = if rng.gen_bool(0.5) { mag } else { -mag };
+            let (_, _, delta) = random_signed_gap(&mut rng, &aa, &ab, -6.0..-2.0);
             make_pair(&mut rng, aa, ga, ab, gb, delta, 1.0)
         })
         .collect();
@@ -385,63 +331,30 @@ fn main() {
         })
         .collect();
     let ov = sqp.iter().filter(|p| p.gap < 0.0).count() as f64 / n as f64;
-    let fails = sqb
-        .iter()
-        .filter(|b| contact_superquadric_superquadric(&b.0, &b.1, &NrOptions::default()).is_err())
-        .count();
-    let ns = time(&sqb, |b| {
-        let _ = black_box(contact_superquadric_superquadric(
-            &b.0,
-            &b.1,
-            &NrOptions::default(),
-        ));
-    });
+    let (fails, ns) = nr_contact(&sqb);
     lines.push(Line {
-        query: "superquadric NR contact (k-d start)".into(),
-        pairs: "near".into(),
-        n,
-        ns,
-        overlap: ov,
         failures: fails,
-        ..Default::default()
+        ..Line::new("superquadric NR contact (k-d start)", "near", ns, ov)
     });
-    let fails = sqb_nosamples
-        .iter()
-        .filter(|b| contact_superquadric_superquadric(&b.0, &b.1, &NrOptions::default()).is_err())
-        .count();
-    let ns = time(&sqb_nosamples, |b| {
-        let _ = black_box(contact_superquadric_superquadric(
-            &b.0,
-            &b.1,
-            &NrOptions::default(),
-        ));
-    });
+    let (fails, ns) = nr_contact(&sqb_nosamples);
     lines.push(Line {
-        query: "superquadric NR contact (no samples)".into(),
-        pairs: "near".into(),
-        n,
-        ns,
-        overlap: ov,
         failures: fails,
-        ..Default::default()
+        ..Line::new("superquadric NR contact (no samples)", "near", ns, ov)
     });
     let ns = time(&sqp, |p| {
-        let (ia, ib) = (iso(&p.pose_a), iso(&p.pose_b));
-        black_box(contact_support_map_support_map(
-            &ia.inv_mul(&ib),
+        parry_support_maps_once(
+            &p.pose_a,
             &Sq(p.axes_a, p.exps_a),
+            &p.pose_b,
             &Sq(p.axes_b, p.exps_b),
-            1e9,
-        ));
+        )
     });
-    lines.push(Line {
-        query: "superquadric parry GJK/EPA (contact)".into(),
-        pairs: "near".into(),
-        n,
+    lines.push(Line::new(
+        "superquadric parry GJK/EPA (contact)",
+        "near",
         ns,
-        overlap: ov,
-        ..Default::default()
-    });
+        ov,
+    ));
 
     // mixed: random distances, overlap test with prefilters
     let mixed: Vec<(SqBody, SqBody)> = sqb
@@ -496,38 +409,27 @@ fn main() {
         hits: hits.map(|h| h as f64 / n as f64),
         failures: fails,
     });
-    let ns = time(&mixed, |b| {
-        let _ = black_box(contact_superquadric_superquadric(
-            &b.0,
-            &b.1,
-            &NrOptions::default(),
-        ));
-    });
-    lines.push(Line {
-        query: "superquadric NR contact, no prefilter".into(),
-        pairs: "mixed".into(),
-        n,
+    let ns = time(&mixed, nr_contact_once);
+    lines.push(Line::new(
+        "superquadric NR contact, no prefilter",
+        "mixed",
         ns,
-        overlap: nov as f64 / n as f64,
-        ..Default::default()
-    });
+        nov as f64 / n as f64,
+    ));
     let ns = time(&mixed, |b| {
-        let (ia, ib) = (iso(&b.0.pose), iso(&b.1.pose));
-        black_box(contact_support_map_support_map(
-            &ia.inv_mul(&ib),
+        parry_support_maps_once(
+            &b.0.pose,
             &Sq(b.0.shape.semi_axes, b.0.shape.exponents),
+            &b.1.pose,
             &Sq(b.1.shape.semi_axes, b.1.shape.exponents),
-            1e9,
-        ));
+        )
     });
-    lines.push(Line {
-        query: "superquadric parry GJK/EPA (contact)".into(),
-        pairs: "mixed".into(),
-        n,
+    lines.push(Line::new(
+        "superquadric parry GJK/EPA (contact)",
+        "mixed",
         ns,
-        overlap: nov as f64 / n as f64,
-        ..Default::default()
-    });
+        nov as f64 / n as f64,
+    ));
 
     println!(
         "{:<42} {:<8} {:>6} {:>12} {:>8} {:>8} {:>8} {:>8} {:>8} {:>6}",

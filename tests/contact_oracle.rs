@@ -20,10 +20,14 @@
 //!
 //! `cargo test --release --test contact_oracle -- --nocapture` prints the worst errors.
 
-use nalgebra::{Isometry3, Point3, Translation3, UnitQuaternion, Vector3};
+#[path = "common/parry_shapes.rs"]
+mod parry_shapes;
+
+use nalgebra::{Isometry3, Point3, UnitQuaternion, Vector3};
 use parry3d_f64::query::details::contact_support_map_support_map;
 use parry3d_f64::shape::{Capsule, SupportMap};
-use porelab::contact::pairgen::random_rotation;
+use parry_shapes::{iso, sq_support_point};
+use porelab::contact::pairgen::{min_semi_axis, random_rotation};
 use porelab::contact::{closest_points_segments, contact, ContactShape, Pose};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
@@ -44,43 +48,13 @@ impl SupportMap for OracleEllipsoid {
 struct OracleSq([f64; 3], [f64; 3]);
 impl SupportMap for OracleSq {
     fn local_support_point(&self, d: &Vector3<f64>) -> Point3<f64> {
-        let (a, g) = (self.0, self.1);
-        let x_of = |mu: f64| {
-            Vector3::from_fn(|k, _| {
-                if d[k] == 0.0 {
-                    0.0
-                } else {
-                    a[k] * (d[k].abs() * a[k] / (mu * g[k])).powf(1.0 / (g[k] - 1.0))
-                        * d[k].signum()
-                }
-            })
-        };
-        let s = |mu: f64| {
-            let x = x_of(mu);
-            (0..3).map(|k| (x[k] / a[k]).abs().powf(g[k])).sum::<f64>()
-        };
-        // bisection in ln mu: s decreasing in mu
-        let (mut lo, mut hi) = (-200.0f64, 200.0f64);
-        for _ in 0..200 {
-            let mid = 0.5 * (lo + hi);
-            if s(mid.exp()) > 1.0 {
-                lo = mid
-            } else {
-                hi = mid
-            }
-        }
-        let x = x_of((0.5 * (lo + hi)).exp());
-        Point3::from(x)
+        sq_support_point(self.0, self.1, d, 200.0, 200)
     }
 }
 
 /// sum |x_k/a_k|^g_k - 1, written here (not porelab's).
 fn implicit(a: &[f64; 3], g: &[f64; 3], x: &Vector3<f64>) -> f64 {
     (0..3).map(|k| (x[k] / a[k]).abs().powf(g[k])).sum::<f64>() - 1.0
-}
-
-fn iso(p: &Pose) -> Isometry3<f64> {
-    Isometry3::from_parts(Translation3::from(p.position), p.orientation)
 }
 
 /// parry's signed distance, normal (world, from a to b) and points (world).
@@ -316,11 +290,7 @@ fn compare_curved(name: &str, n: usize, seed: u64, sq: bool) -> (Stat, Stat) {
             )
         } else {
             // shallow overlaps for the EPA comparison (prescribed by construction)
-            let size = aa
-                .iter()
-                .chain(ab.iter())
-                .cloned()
-                .fold(f64::INFINITY, f64::min);
+            let size = min_semi_axis(&aa, &ab);
             let delta = -10f64.powf(rng.gen_range(-6.0..-2.0)) * size;
             let p = porelab::contact::pairgen::make_pair(&mut rng, aa, ga, ab, gb, delta, 0.0);
             (p.pose_a, p.pose_b)
@@ -351,11 +321,7 @@ fn compare_curved(name: &str, n: usize, seed: u64, sq: bool) -> (Stat, Stat) {
         } else {
             parry_contact(&OracleEllipsoid(aa), &pa, &OracleEllipsoid(ab), &pb)
         };
-        let size = aa
-            .iter()
-            .chain(ab.iter())
-            .cloned()
-            .fold(f64::INFINITY, f64::min);
+        let size = min_semi_axis(&aa, &ab);
         if c.gap > 0.0 {
             // duality bounds from the oracle's support maps: lb = separating-axis value along
             // porelab's normal <= true distance <= |point_b - point_a| = ub (points must lie on

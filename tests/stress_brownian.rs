@@ -25,16 +25,7 @@ fn thesis_params() -> Params {
 
 /// n particles on a cubic lattice of spacing `spacing` x 2a.
 fn lattice(n: usize, spacing: f64) -> Vec<Vector3<f64>> {
-    let side = (n as f64).cbrt().ceil() as usize;
-    (0..n)
-        .map(|k| {
-            Vector3::new(
-                (k % side) as f64,
-                ((k / side) % side) as f64,
-                (k / (side * side)) as f64,
-            ) * (2.0 * A * spacing)
-        })
-        .collect()
+    porelab::brownian::cubic_lattice(n, 2.0 * A * spacing)
 }
 
 #[test]

@@ -14,7 +14,7 @@
 //!
 //! `cargo test --release --test stress_contact -- --nocapture` prints the table.
 
-use porelab::contact::pairgen::{make_pair, GenPair};
+use porelab::contact::pairgen::{make_pair, min_semi_axis, random_signed_gap, GenPair};
 use porelab::contact::{
     contact_superquadric_superquadric, overlap_superquadric_superquadric, NrOptions, SqBody,
     SqShape,
@@ -48,13 +48,7 @@ fn gen(seed: u64, i: u64, max_aspect: f64, max_exp: f64) -> GenPair {
     rng.set_stream(i);
     let (aa, ga) = random_shape(&mut rng, max_aspect, max_exp);
     let (ab, gb) = random_shape(&mut rng, max_aspect, max_exp);
-    let size = aa
-        .iter()
-        .chain(ab.iter())
-        .cloned()
-        .fold(f64::INFINITY, f64::min);
-    let mag = 10f64.powf(rng.gen_range(-12.0..-3.0)) * size;
-    let delta = if rng.gen_bool(0.5) { mag } else { -mag };
+    let (_, _, delta) = random_signed_gap(&mut rng, &aa, &ab, -12.0..-3.0);
     make_pair(&mut rng, aa, ga, ab, gb, delta, 10.0)
 }
 
@@ -172,11 +166,7 @@ fn prefilter_verdicts_are_sound() {
             rng.set_stream(i);
             let (aa, ga) = random_shape(&mut rng, 10.0, 10.0);
             let (ab, gb) = random_shape(&mut rng, 10.0, 10.0);
-            let size = aa
-                .iter()
-                .chain(ab.iter())
-                .cloned()
-                .fold(f64::INFINITY, f64::min);
+            let size = min_semi_axis(&aa, &ab);
             let mag = 10f64.powf(rng.gen_range(-12.0..1.3)) * size;
             let delta = if rng.gen_bool(0.5) {
                 mag

@@ -104,6 +104,21 @@ impl Particles {
     }
 }
 
+/// `n` positions on a simple cubic lattice of the given spacing (m), filled x fastest, then y,
+/// then z, from the origin; ceil(cbrt n) sites per side.
+pub fn cubic_lattice(n: usize, spacing: f64) -> Vec<Vector3<f64>> {
+    let side = (n as f64).cbrt().ceil() as usize;
+    (0..n)
+        .map(|k| {
+            Vector3::new(
+                (k % side) as f64,
+                ((k / side) % side) as f64,
+                (k / (side * side)) as f64,
+            ) * spacing
+        })
+        .collect()
+}
+
 /// The random stream of independent run `run` of a simulation seeded with `seed`: ChaCha8 keyed
 /// by `seed`, stream number `run`. Streams never overlap, so a run's numbers depend only on
 /// (seed, run), not on the thread that executes it.

@@ -77,6 +77,30 @@ fn random_uv<R: Rng>(rng: &mut R) -> (f64, f64) {
     (rng.gen_range(-PI..PI), rng.gen_range(-0.5 * PI..0.5 * PI))
 }
 
+/// The smallest semi-axis of two bodies with semi-axes `aa` and `ab` (the size near-contact
+/// gaps are measured in).
+pub fn min_semi_axis(aa: &[f64; 3], ab: &[f64; 3]) -> f64 {
+    aa.iter()
+        .chain(ab.iter())
+        .cloned()
+        .fold(f64::INFINITY, f64::min)
+}
+
+/// A near-contact gap for bodies with semi-axes `aa` and `ab`: magnitude
+/// 10^U(`log10_mag`) times [`min_semi_axis`], sign + or - with probability 1/2. Returns
+/// (size, magnitude, signed gap).
+pub fn random_signed_gap<R: Rng>(
+    rng: &mut R,
+    aa: &[f64; 3],
+    ab: &[f64; 3],
+    log10_mag: std::ops::Range<f64>,
+) -> (f64, f64, f64) {
+    let size = min_semi_axis(aa, ab);
+    let mag = 10f64.powf(rng.gen_range(log10_mag)) * size;
+    let delta = if rng.gen_bool(0.5) { mag } else { -mag };
+    (size, mag, delta)
+}
+
 /// Builds a pair with prescribed signed gap `delta` (see the module doc).
 pub fn make_pair<R: Rng>(
     rng: &mut R,

@@ -374,6 +374,20 @@ struct Local {
     breaks: Vec<f64>,
 }
 
+/// The frame of `lc` as duals: rho-derivative (d[0]) seeded on rho and drho, z-derivative
+/// (d[1]) on z, xp and xm.
+fn dual_frame(lc: &Local) -> Frame<Dual> {
+    let dr = |v: f64| Dual { v, d: [1.0, 0.0] };
+    let dz = |v: f64| Dual { v, d: [0.0, 1.0] };
+    Frame {
+        rho: dr(lc.rho),
+        drho: dr(lc.drho),
+        z: dz(lc.z),
+        xp: dz(lc.xp),
+        xm: dz(lc.xm),
+    }
+}
+
 fn local(rr: f64, ll: f64, p: &Vector3<f64>) -> Local {
     let rd = hypot_dd(p.x, p.y);
     let rho = rd.hi + rd.lo;
@@ -504,15 +518,7 @@ pub fn oracle_h_gradient_quadrature(
     } else {
         [0.0; 3]
     };
-    let dr = |v: f64| Dual { v, d: [1.0, 0.0] };
-    let dz = |v: f64| Dual { v, d: [0.0, 1.0] };
-    let fr = Frame {
-        rho: dr(lc.rho),
-        drho: dr(lc.drho),
-        z: dz(lc.z),
-        xp: dz(lc.xp),
-        xm: dz(lc.xm),
-    };
+    let fr = dual_frame(&lc);
     let pref = rr / (2.0 * PI);
     let assemble = |v: &[f64; 6]| -> [f64; 6] {
         [
@@ -573,15 +579,7 @@ pub fn gradient_symmetry_defect(rr: f64, ll: f64, m: &Vector3<f64>, p: &Vector3<
     let lc = local(rr, ll, p);
     let (c, s) = (lc.cphi, lc.sphi);
     let mp = [m.x * c + m.y * s, -m.x * s + m.y * c, m.z];
-    let dr = |v: f64| Dual { v, d: [1.0, 0.0] };
-    let dz = |v: f64| Dual { v, d: [0.0, 1.0] };
-    let fr = Frame {
-        rho: dr(lc.rho),
-        drho: dr(lc.drho),
-        z: dz(lc.z),
-        xp: dz(lc.xp),
-        xm: dz(lc.xm),
-    };
+    let fr = dual_frame(&lc);
     let res = integrate::<2, _, _>(
         |d| {
             let f = integrand::<Dual>(&fr, rr, ll, &mp, lc.split, lc.sub, d);
@@ -1282,6 +1280,22 @@ pub const SEED_THREE: u64 = 20_260_505;
 /// Rows whose estimated relative error exceeds this are flagged (see README).
 pub const FLAG_REL: f64 = 1e-14;
 
+/// The leading CSV fields of a sample row: region, radius, half-length, magnetization, point.
+fn sample_csv_fields(s: &Sample) -> String {
+    format!(
+        "{},{},{},{},{},{},{},{},{}",
+        s.region,
+        e17(s.r),
+        e17(s.l),
+        e17(s.m.x),
+        e17(s.m.y),
+        e17(s.m.z),
+        e17(s.p.x),
+        e17(s.p.y),
+        e17(s.p.z)
+    )
+}
+
 /// `porelab reference regen cylinder-field`: writes cylinder_field.csv, cylinder_gradient.csv
 /// and three_cylinders.csv into `reference_dir`.
 pub fn regen_cylinder_field(reference_dir: &Path) -> Result<()> {
@@ -1303,16 +1317,8 @@ pub fn regen_cylinder_field(reference_dir: &Path) -> Result<()> {
         }
         let _ = writeln!(
             csv,
-            "{},{},{},{},{},{},{},{},{},{},{},{},{:.2e}",
-            s.region,
-            e17(s.r),
-            e17(s.l),
-            e17(s.m.x),
-            e17(s.m.y),
-            e17(s.m.z),
-            e17(s.p.x),
-            e17(s.p.y),
-            e17(s.p.z),
+            "{},{},{},{},{:.2e}",
+            sample_csv_fields(s),
             e17(h.x),
             e17(h.y),
             e17(h.z),
@@ -1342,18 +1348,7 @@ dHz_dx_A_per_m2,dHz_dy_A_per_m2,dHz_dz_A_per_m2,est_rel_err\n",
         if rel > FLAG_REL {
             flagged += 1;
         }
-        let mut line = format!(
-            "{},{},{},{},{},{},{},{},{}",
-            s.region,
-            e17(s.r),
-            e17(s.l),
-            e17(s.m.x),
-            e17(s.m.y),
-            e17(s.m.z),
-            e17(s.p.x),
-            e17(s.p.y),
-            e17(s.p.z)
-        );
+        let mut line = sample_csv_fields(s);
         for i in 0..3 {
             for j in 0..3 {
                 let _ = write!(line, ",{}", e17(g[(i, j)]));
@@ -1738,34 +1733,35 @@ mod self_checks {
     #[ignore]
     fn error_estimates_by_region() {
         let t = std::time::Instant::now();
-        let mut worst: std::collections::BTreeMap<&str, (f64, usize)> = Default::default();
-        for s in all_samples() {
+        let worst = worst_estimate_by_region(all_samples(), "H", 1e-14, |s| {
             let (h, e) = oracle_h(s.r, s.l, &s.m, &s.p);
-            let w = worst.entry(s.region).or_insert((0.0, 0));
-            if e / h.norm() > 1e-14 {
-                println!(
-                    "flag H {:.2e} {} r={} l={} m={:?} p={:?}",
-                    e / h.norm(),
-                    s.region,
-                    s.r,
-                    s.l,
-                    s.m.as_slice(),
-                    s.p.as_slice()
-                );
-            }
-            w.0 = w.0.max(e / h.norm());
-            w.1 += 1;
-        }
+            (e, h.norm())
+        });
         println!("field: {:?} ({:.2} s)", worst, t.elapsed().as_secs_f64());
         let t = std::time::Instant::now();
-        let mut worst: std::collections::BTreeMap<&str, (f64, usize)> = Default::default();
-        for s in samples(SEED_GRADIENT, 40, -9.0) {
+        let worst = worst_estimate_by_region(samples(SEED_GRADIENT, 40, -9.0), "G", 1e-13, |s| {
             let (g, e) = oracle_h_gradient(s.r, s.l, &s.m, &s.p);
+            (e, g.norm())
+        });
+        println!("gradient: {:?} ({:.2} s)", worst, t.elapsed().as_secs_f64());
+    }
+
+    /// Worst estimated relative error e / |value| and sample count by region, where `est`
+    /// returns (e, |value|); samples above `flag` are printed with the tag.
+    fn worst_estimate_by_region(
+        samples: Vec<Sample>,
+        tag: &str,
+        flag: f64,
+        est: impl Fn(&Sample) -> (f64, f64),
+    ) -> std::collections::BTreeMap<&'static str, (f64, usize)> {
+        let mut worst: std::collections::BTreeMap<&str, (f64, usize)> = Default::default();
+        for s in samples {
+            let (e, norm) = est(&s);
             let w = worst.entry(s.region).or_insert((0.0, 0));
-            if e / g.norm() > 1e-13 {
+            if e / norm > flag {
                 println!(
-                    "flag G {:.2e} {} r={} l={} m={:?} p={:?}",
-                    e / g.norm(),
+                    "flag {tag} {:.2e} {} r={} l={} m={:?} p={:?}",
+                    e / norm,
                     s.region,
                     s.r,
                     s.l,
@@ -1773,9 +1769,9 @@ mod self_checks {
                     s.p.as_slice()
                 );
             }
-            w.0 = w.0.max(e / g.norm());
+            w.0 = w.0.max(e / norm);
             w.1 += 1;
         }
-        println!("gradient: {:?} ({:.2} s)", worst, t.elapsed().as_secs_f64());
+        worst
     }
 }

@@ -10,6 +10,7 @@
 //! * 407 TEA-HI closed forms (diagonal and equal-off-diagonal mobilities reproduced exactly);
 //! * 408 drift at T = 0 (exact, free-draining and hydrodynamic pairs).
 
+use super::common::no_rows;
 use crate::brownian::forces::{FieldFn, WithUniform};
 use crate::brownian::integrator::Magnetic;
 use crate::brownian::{
@@ -49,16 +50,7 @@ fn chi2_z(s: f64, dof: f64) -> Result<f64> {
 
 /// N particles on a cubic lattice of spacing 4a (no overlaps; free diffusion ignores them).
 fn lattice(n: usize, a: f64) -> Vec<Vector3<f64>> {
-    let side = (n as f64).cbrt().ceil() as usize;
-    (0..n)
-        .map(|k| {
-            Vector3::new(
-                (k % side) as f64,
-                ((k / side) % side) as f64,
-                (k / (side * side)) as f64,
-            ) * (4.0 * a)
-        })
-        .collect()
+    crate::brownian::cubic_lattice(n, 4.0 * a)
 }
 
 fn hydro(t: &Table, i: usize) -> Result<Hydrodynamics> {
@@ -118,10 +110,7 @@ fn run_specs(t: &Table, with_force: bool) -> Result<Vec<RunSpec>> {
         });
     }
     if v.is_empty() {
-        return Err(Error::Validation(format!(
-            "{}: no rows",
-            t.path().display()
-        )));
+        return Err(no_rows(t));
     }
     Ok(v)
 }

@@ -9,7 +9,8 @@
 //! The independent oracle comparison with parry3d-f64 (GJK/EPA, segment closest points) is in
 //! tests/contact_oracle.rs, because parry is a dev-dependency.
 
-use crate::contact::pairgen::{make_pair, random_rotation};
+use super::common::required_seed;
+use crate::contact::pairgen::{make_pair, random_rotation, random_signed_gap};
 use crate::contact::{contact, pw_overlap, ContactShape, NrOptions, Pose, SqBody, SqShape};
 use crate::validation::{CaseContext, Row};
 use crate::{Error, Result};
@@ -148,9 +149,7 @@ pub fn case_302(ctx: &CaseContext) -> Result<Vec<Row>> {
 /// Shared by 303/304: returns the rows of the table's checks.
 fn pw_vs_nr(ctx: &CaseContext) -> Result<Vec<Row>> {
     let t = ctx.expected_table()?;
-    let seed = ctx
-        .seed
-        .ok_or_else(|| Error::Validation("case.toml needs a seed".into()))?;
+    let seed = required_seed(ctx, "case.toml needs a seed")?;
     let n = t.f64(0, "n_pairs")? as u64;
     let aspect = t.f64(0, "max_aspect")?;
     // per pair: (pw_wrong_outside_band, nr_wrong, nr_failed, pw_vs_nr_outside_band, gap_err)
@@ -161,13 +160,7 @@ fn pw_vs_nr(ctx: &CaseContext) -> Result<Vec<Row>> {
             rng.set_stream(i);
             let mut axes = || [0, 1, 2].map(|_| 10f64.powf(rng.gen_range(0.0..aspect.log10())));
             let (aa, ab) = (axes(), axes());
-            let size = aa
-                .iter()
-                .chain(ab.iter())
-                .cloned()
-                .fold(f64::INFINITY, f64::min);
-            let mag = 10f64.powf(rng.gen_range(-12.0..-3.0)) * size;
-            let delta = if rng.gen_bool(0.5) { mag } else { -mag };
+            let (size, mag, delta) = random_signed_gap(&mut rng, &aa, &ab, -12.0..-3.0);
             let p = make_pair(&mut rng, aa, [2.0; 3], ab, [2.0; 3], delta, 10.0);
             let in_band = mag < 1e-9 * size;
             let (pw_ov, _) = pw_overlap(&p.pose_a, &aa, &p.pose_b, &ab);
@@ -253,9 +246,7 @@ fn size_of(s: &ContactShape) -> f64 {
 /// Case 305.
 pub fn case_305(ctx: &CaseContext) -> Result<Vec<Row>> {
     let t = ctx.expected_table()?;
-    let seed = ctx
-        .seed
-        .ok_or_else(|| Error::Validation("case.toml needs a seed".into()))?;
+    let seed = required_seed(ctx, "case.toml needs a seed")?;
     let mut rows = Vec::new();
     for i in 0..t.len() {
         let pair = t.str(i, "pair")?;

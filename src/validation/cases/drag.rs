@@ -3,6 +3,7 @@
 //! quadrature of the integral definitions eq. A6-A7 for triaxial ellipsoids (table written by
 //! `reference/scripts/happel_brenner_mpmath.py`; no Carlson integrals there).
 
+use super::common::{loglog_slope, non_empty};
 use crate::hydro::{principal_resistances, resistance_tensor};
 use crate::validation::{CaseContext, Row};
 use crate::{Error, Result};
@@ -11,20 +12,6 @@ use std::f64::consts::PI;
 
 /// Sphere rows must reproduce 6 pi mu a to this relative error (about 9 ulp).
 const SPHERE_RTOL: f64 = 2e-15;
-
-/// Least-squares slope of ln y against ln x.
-fn loglog_slope(pts: &[(f64, f64)]) -> f64 {
-    let n = pts.len() as f64;
-    let (mut sx, mut sy, mut sxx, mut sxy) = (0.0, 0.0, 0.0, 0.0);
-    for &(x, y) in pts {
-        let (x, y) = (x.ln(), y.ln());
-        sx += x;
-        sy += y;
-        sxx += x * x;
-        sxy += x * y;
-    }
-    (n * sxy - sx * sy) / (n * sxx - sx * sx)
-}
 
 /// Case 201. One row per table row (C_a, C_b, C_c, f = 3/sum(1/C), or a tensor entry T_ij for
 /// a rotated body), scale from the table. Checked here as well (an error fails the case):
@@ -35,12 +22,7 @@ fn loglog_slope(pts: &[(f64, f64)]) -> f64 {
 /// expansions of Perrin's oblate forms.
 pub fn case_201(ctx: &CaseContext) -> Result<Vec<Row>> {
     let t = ctx.expected_table()?;
-    if t.is_empty() {
-        return Err(Error::Validation(format!(
-            "{}: no rows",
-            t.path().display()
-        )));
-    }
+    non_empty(&t)?;
     let mut rows = Vec::with_capacity(t.len());
     let mut problems = Vec::new();
     for i in 0..t.len() {

@@ -12,21 +12,14 @@
 //! closed forms; no porelab code). 105 and 106 check laws (div B = 0, curl H = 0, jump
 //! conditions, covariance, linearity) whose expected values are closed forms of the inputs.
 
+use super::common::{loglog_slope, required_seed, v3};
 use crate::consts::MU0;
 use crate::magnetics::{Cylinder, Magnet};
-use crate::validation::{CaseContext, Row, Table};
+use crate::validation::{CaseContext, Row};
 use crate::{Error, Result};
 use nalgebra::{Matrix3, UnitQuaternion, Vector3};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
-
-fn v3(t: &Table, i: usize, names: [&str; 3]) -> Result<Vector3<f64>> {
-    Ok(Vector3::new(
-        t.f64(i, names[0])?,
-        t.f64(i, names[1])?,
-        t.f64(i, names[2])?,
-    ))
-}
 
 const XYZ: [&str; 3] = ["x", "y", "z"];
 
@@ -88,20 +81,6 @@ pub fn case_101(ctx: &CaseContext) -> Result<Vec<Row>> {
 /// Case 102: field on the axis and at rho = 1e-12 R (eq. 5.26-5.27, solenoid formula).
 pub fn case_102(ctx: &CaseContext) -> Result<Vec<Row>> {
     field_table_rows(ctx, &["magnetization", "kind", "region"])
-}
-
-/// Least-squares slope of log(e) against log(d).
-fn loglog_slope(pts: &[(f64, f64)]) -> f64 {
-    let n = pts.len() as f64;
-    let (mut sx, mut sy, mut sxx, mut sxy) = (0.0, 0.0, 0.0, 0.0);
-    for &(d, e) in pts {
-        let (x, y) = (d.ln(), e.ln());
-        sx += x;
-        sy += y;
-        sxx += x * x;
-        sxy += x * y;
-    }
-    (n * sxy - sx * sy) / (n * sxx - sx * sx)
 }
 
 /// Case 103: far field against the exact exterior multipole series (rows, rtol of case.toml),
@@ -287,9 +266,7 @@ fn frob(g: &Matrix3<f64>) -> f64 {
 ///   p - delta n (rows with got/expected 1 or 0, scale 1).
 pub fn case_105(ctx: &CaseContext) -> Result<Vec<Row>> {
     let t = ctx.expected_table()?;
-    let seed = ctx
-        .seed
-        .ok_or_else(|| Error::Validation("case 105 needs a seed in case.toml".into()))?;
+    let seed = required_seed(ctx, "case 105 needs a seed in case.toml")?;
     let mut rows = Vec::new();
     for i in 0..t.len() {
         let r = t.f64(i, "R_m")?;
@@ -439,9 +416,7 @@ fn local_point(rng: &mut ChaCha8Rng, r: f64, l: f64) -> Vector3<f64> {
 /// code, not the field kernel (cases 101-105 and 104 do that).
 pub fn case_106(ctx: &CaseContext) -> Result<Vec<Row>> {
     let t = ctx.expected_table()?;
-    let seed = ctx
-        .seed
-        .ok_or_else(|| Error::Validation("case 106 needs a seed in case.toml".into()))?;
+    let seed = required_seed(ctx, "case 106 needs a seed in case.toml")?;
     let mut rows = Vec::new();
     for i in 0..t.len() {
         let r = t.f64(i, "R_m")?;

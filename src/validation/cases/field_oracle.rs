@@ -11,20 +11,13 @@
 //! is not far below the case tolerance cannot decide the case, so the runner refuses the table
 //! (an error, never a silent skip): regenerate it with `porelab reference regen cylinder-field`.
 
+use super::common::{self, non_empty, v3};
 use crate::magnetics::{Assembly, Cylinder, Magnet};
 use crate::validation::{CaseContext, Row, Table};
-use crate::{Error, Result};
+use crate::Result;
 use nalgebra::{Matrix3, Vector3};
 
 use crate::reference::cylinder_field::{THREE_L, THREE_POSES, THREE_R};
-
-fn v3(t: &Table, i: usize, names: [&str; 3]) -> Result<Vector3<f64>> {
-    Ok(Vector3::new(
-        t.f64(i, names[0])?,
-        t.f64(i, names[1])?,
-        t.f64(i, names[2])?,
-    ))
-}
 
 const H_COLS: [&str; 3] = ["Hx_A_per_m", "Hy_A_per_m", "Hz_A_per_m"];
 const M_COLS: [&str; 3] = ["mx_A_per_m", "my_A_per_m", "mz_A_per_m"];
@@ -35,26 +28,21 @@ const XYZ: [&str; 3] = ["x", "y", "z"];
 const ORACLE_MARGIN: f64 = 0.1;
 
 fn check_estimate(t: &Table, i: usize, limit: f64) -> Result<()> {
-    let est = t.f64(i, "est_rel_err")?;
-    if est.is_nan() || est > limit {
-        return Err(Error::Validation(format!(
-            "{} line {}: oracle error estimate {est:e} exceeds {limit:e}; the row cannot decide \
-             the case (regenerate with `porelab reference regen cylinder-field`)",
-            t.path().display(),
-            t.line(i)
-        )));
-    }
-    Ok(())
+    common::check_estimate(t, i, limit, "cylinder-field")
 }
 
-fn non_empty(t: &Table) -> Result<()> {
-    if t.is_empty() {
-        return Err(Error::Validation(format!(
-            "{}: no rows",
-            t.path().display()
-        )));
+/// One row per component of `h` against the oracle's `h_ref` ("{label} Hx" ...), scale
+/// |h_ref|.
+fn push_h_rows(rows: &mut Vec<Row>, label: &str, h: &Vector3<f64>, h_ref: &Vector3<f64>) {
+    let scale = h_ref.norm();
+    for c in 0..3 {
+        rows.push(Row::new(
+            format!("{label} H{}", XYZ[c]),
+            h[c],
+            h_ref[c],
+            scale,
+        ));
     }
-    Ok(())
 }
 
 /// 104: H of one cylinder against `reference/cylinder_field.csv`; one row per component,
@@ -71,15 +59,7 @@ pub fn case_104(ctx: &CaseContext) -> Result<Vec<Row>> {
         let p = v3(&t, i, P_COLS)?;
         let h_ref = v3(&t, i, H_COLS)?;
         let h = cyl.h_field(&m, &p);
-        let scale = h_ref.norm();
-        for c in 0..3 {
-            rows.push(Row::new(
-                format!("{region}#{i} H{}", XYZ[c]),
-                h[c],
-                h_ref[c],
-                scale,
-            ));
-        }
+        push_h_rows(&mut rows, &format!("{region}#{i}"), &h, &h_ref);
     }
     Ok(rows)
 }
@@ -111,15 +91,7 @@ pub fn case_107(ctx: &CaseContext) -> Result<Vec<Row>> {
         let p = v3(&t, i, P_COLS)?;
         let h_ref = v3(&t, i, H_COLS)?;
         let h = asm.h_field(&p);
-        let scale = h_ref.norm();
-        for c in 0..3 {
-            rows.push(Row::new(
-                format!("{plane}#{i} H{}", XYZ[c]),
-                h[c],
-                h_ref[c],
-                scale,
-            ));
-        }
+        push_h_rows(&mut rows, &format!("{plane}#{i}"), &h, &h_ref);
     }
     Ok(rows)
 }

@@ -3,6 +3,7 @@
 use super::case::Runner;
 
 mod brownian;
+mod common;
 mod contact;
 mod drag;
 mod elliptic_cases;

@@ -8,6 +8,7 @@
 //!   decomposition (expected.csv, `reference/scripts/spherocylinder_mpmath.py`) and the z-slice
 //!   quadrature `reference/spherocylinder_volume_inertia.csv`.
 
+use super::common::{self, loglog_slope, non_empty};
 use crate::shape::{ConvexShape, Spherocylinder, Superquadric};
 use crate::validation::{CaseContext, Row, Table};
 use crate::{Error, Result};
@@ -18,26 +19,7 @@ use std::f64::consts::PI;
 const ORACLE_LIMIT: f64 = 0.1 * 1e-13;
 
 fn check_estimate(t: &Table, i: usize) -> Result<()> {
-    let est = t.f64(i, "est_rel_err")?;
-    if est.is_nan() || est > ORACLE_LIMIT {
-        return Err(Error::Validation(format!(
-            "{} line {}: oracle error estimate {est:e} exceeds {ORACLE_LIMIT:e}; the row cannot \
-             decide the case (regenerate with `porelab reference regen shape-quadrature`)",
-            t.path().display(),
-            t.line(i)
-        )));
-    }
-    Ok(())
-}
-
-fn non_empty(t: &Table) -> Result<()> {
-    if t.is_empty() {
-        return Err(Error::Validation(format!(
-            "{}: no rows",
-            t.path().display()
-        )));
-    }
-    Ok(())
+    common::check_estimate(t, i, ORACLE_LIMIT, "shape-quadrature")
 }
 
 const Q: [&str; 4] = ["volume_m3", "Ixx_m5", "Iyy_m5", "Izz_m5"];
@@ -45,20 +27,6 @@ const Q: [&str; 4] = ["volume_m3", "Ixx_m5", "Iyy_m5", "Izz_m5"];
 fn quantities(s: &dyn ConvexShape) -> [f64; 4] {
     let i = s.principal_inertia_unit_density();
     [s.volume(), i.x, i.y, i.z]
-}
-
-/// Least-squares slope of ln y against ln x.
-fn loglog_slope(pts: &[(f64, f64)]) -> f64 {
-    let n = pts.len() as f64;
-    let (mut sx, mut sy, mut sxx, mut sxy) = (0.0, 0.0, 0.0, 0.0);
-    for &(x, y) in pts {
-        let (x, y) = (x.ln(), y.ln());
-        sx += x;
-        sy += y;
-        sxx += x * x;
-        sxy += x * y;
-    }
-    (n * sxy - sx * sy) / (n * sxx - sx * sx)
 }
 
 /// Case 002. Rows: V, Ixx, Iyy, Izz of every table row against the quadrature oracle (scale
