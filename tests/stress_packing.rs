@@ -15,7 +15,7 @@ fn env_f(name: &str, d: f64) -> f64 {
 /// A run with parameters from the environment (MCM_N, MCM_L, MCM_DV, MCM_H, MCM_TRIES,
 /// MCM_TOL, MCM_DT, MCM_SEED, MCM_ORIG), printing packing fraction, contacts and time.
 #[test]
-#[ignore]
+#[ignore = "exploration run driven by the MCM_* environment variables"]
 fn explore() {
     let mut p = McmParams::new(
         env_f("MCM_N", 200.0) as usize,

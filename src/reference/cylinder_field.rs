@@ -1457,7 +1457,7 @@ mod self_checks {
     }
 
     #[test]
-    #[ignore]
+    #[ignore = "oracle self-check, slow: cargo test --release --lib cylinder_field::self_checks -- --ignored"]
     fn brute_force_agreement() {
         let pts = [
             (1.0, 2.0, Vector3::new(0.4, 0.3, 0.7)),
@@ -1486,7 +1486,7 @@ mod self_checks {
     }
 
     #[test]
-    #[ignore]
+    #[ignore = "oracle self-check, slow: cargo test --release --lib cylinder_field::self_checks -- --ignored"]
     fn trace_and_symmetry() {
         let mut worst_tr: f64 = 0.0;
         let mut worst_sym: f64 = 0.0;
@@ -1514,7 +1514,7 @@ mod self_checks {
     }
 
     #[test]
-    #[ignore]
+    #[ignore = "oracle self-check, slow: cargo test --release --lib cylinder_field::self_checks -- --ignored"]
     fn infinite_and_axis_limits() {
         // L/R = 1e4, midplane.
         let (r, l) = (1.0, 1e4);
@@ -1576,7 +1576,7 @@ mod self_checks {
     }
 
     #[test]
-    #[ignore]
+    #[ignore = "oracle self-check, slow: cargo test --release --lib cylinder_field::self_checks -- --ignored"]
     fn jet_rounding() {
         let mut rng = ChaCha8Rng::seed_from_u64(3);
         let (mut w2, mut w3): (f64, f64) = (0.0, 0.0);
@@ -1620,7 +1620,7 @@ mod self_checks {
     }
 
     #[test]
-    #[ignore]
+    #[ignore = "oracle self-check, slow: cargo test --release --lib cylinder_field::self_checks -- --ignored"]
     fn jumps() {
         let mut worst: f64 = 0.0;
         let d = 1e-12;
@@ -1648,7 +1648,7 @@ mod self_checks {
     }
 
     #[test]
-    #[ignore]
+    #[ignore = "oracle self-check, slow: cargo test --release --lib cylinder_field::self_checks -- --ignored"]
     fn overlap_quadrature_multipole() {
         let mut rng = ChaCha8Rng::seed_from_u64(7);
         let mut worst_h = Vec::new();
@@ -1686,7 +1686,7 @@ mod self_checks {
     }
 
     #[test]
-    #[ignore]
+    #[ignore = "oracle self-check, slow: cargo test --release --lib cylinder_field::self_checks -- --ignored"]
     fn gradient_vs_finite_differences() {
         let mut worst: f64 = 0.0;
         let mut worst_sym: f64 = 0.0;
@@ -1730,7 +1730,7 @@ mod self_checks {
     }
 
     #[test]
-    #[ignore]
+    #[ignore = "oracle self-check, slow: cargo test --release --lib cylinder_field::self_checks -- --ignored"]
     fn error_estimates_by_region() {
         let t = std::time::Instant::now();
         let worst = worst_estimate_by_region(all_samples(), "H", 1e-14, |s| {
