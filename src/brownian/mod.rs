@@ -16,8 +16,10 @@
 //! Randomness: one `ChaCha8Rng` stream per independent run, derived from (seed, run index) by
 //! [`run_rng`], so results do not depend on how runs are spread over threads.
 
+pub mod capture;
 pub mod forces;
 pub mod integrator;
+pub mod magnetization;
 pub mod mobility;
 pub mod noise;
 

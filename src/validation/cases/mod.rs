@@ -3,6 +3,7 @@
 use super::case::Runner;
 
 mod brownian;
+mod brownian_capture;
 mod common;
 mod contact;
 mod drag;
@@ -32,6 +33,10 @@ pub fn runner_for(id: &str) -> Option<Runner> {
         "303" => Some(contact::case_303),
         "304" => Some(contact::case_304),
         "305" => Some(contact::case_305),
+        "501" => Some(packing::case_501),
+        "502" => Some(packing::case_502),
+        "503" => Some(packing::case_503),
+        "504" => Some(packing::case_504),
         "401" => Some(brownian::case_401),
         "402" => Some(brownian::case_402),
         "403" => Some(brownian::case_403),
@@ -41,10 +46,9 @@ pub fn runner_for(id: &str) -> Option<Runner> {
         "407" => Some(brownian::case_407),
         "408" => Some(brownian::case_408),
         "409" => Some(brownian::case_409),
-        "501" => Some(packing::case_501),
-        "502" => Some(packing::case_502),
-        "503" => Some(packing::case_503),
-        "504" => Some(packing::case_504),
+        "410" => Some(brownian_capture::case_410),
+        "411" => Some(brownian_capture::case_411),
+        "412" => Some(brownian_capture::case_412),
         _ => None,
     }
 }
