@@ -23,3 +23,16 @@ pub type Result<T> = std::result::Result<T, Error>;
 pub fn invalid<T>(msg: impl Into<String>) -> Result<T> {
     Err(Error::InvalidInput(msg.into()))
 }
+
+/// `Ok(value)` when it is positive and finite, else the error "{what}: must be positive and
+/// finite", where `what` names the quantity with its value and unit (e.g. "cylinder radius -1 m").
+pub fn require_positive(value: f64, what: impl FnOnce() -> String) -> Result<f64> {
+    if value.is_finite() && value > 0.0 {
+        Ok(value)
+    } else {
+        Err(Error::InvalidInput(format!(
+            "{}: must be positive and finite",
+            what()
+        )))
+    }
+}

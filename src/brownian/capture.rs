@@ -20,7 +20,7 @@
 //! can notice them: a captured particle feels the strong field gradient at the surface, and the
 //! guard may refuse or sub-step because of it.
 
-use crate::error::{invalid, Result};
+use crate::error::{invalid, require_positive, Result};
 use crate::magnetics::Magnet;
 use nalgebra::Vector3;
 
@@ -51,16 +51,10 @@ impl CylinderBody {
                 "cylinder axis {axis:?}: must be finite and non-zero"
             ));
         }
-        if !(radius.is_finite() && radius > 0.0) {
-            return invalid(format!(
-                "cylinder radius {radius} m: must be positive and finite"
-            ));
-        }
-        if !(half_length.is_finite() && half_length > 0.0) {
-            return invalid(format!(
-                "cylinder half-length {half_length} m: must be positive and finite"
-            ));
-        }
+        require_positive(radius, || format!("cylinder radius {radius} m"))?;
+        require_positive(half_length, || {
+            format!("cylinder half-length {half_length} m")
+        })?;
         Ok(CylinderBody {
             centre,
             axis: axis / n,

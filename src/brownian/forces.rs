@@ -1,7 +1,7 @@
 //! Forces of the Brownian-dynamics engine (thesis 003, eq. 6.12, 6.18–6.23, 7.5–7.7), SI units.
 
 use crate::consts::MU0;
-use crate::error::{invalid, Result};
+use crate::error::{invalid, require_positive, Result};
 use nalgebra::{Matrix3, Vector3};
 use std::f64::consts::PI;
 
@@ -29,16 +29,10 @@ impl Mie {
                 "Mie exponents (n, m) = ({n}, {m}): need integers n > m >= 1"
             ));
         }
-        if !(epsilon.is_finite() && epsilon > 0.0) {
-            return invalid(format!(
-                "Mie epsilon = {epsilon} J: must be positive and finite"
-            ));
-        }
-        if !(sigma.is_finite() && sigma > 0.0) {
-            return invalid(format!(
-                "Mie sigma (particle diameter) = {sigma} m: must be positive and finite"
-            ));
-        }
+        require_positive(epsilon, || format!("Mie epsilon = {epsilon} J"))?;
+        require_positive(sigma, || {
+            format!("Mie sigma (particle diameter) = {sigma} m")
+        })?;
         let (nf, mf) = (n as f64, m as f64);
         let prefactor = nf / (nf - mf) * (nf / mf).powf(mf / (nf - mf));
         let r_min = sigma * (nf / mf).powf(1.0 / (nf - mf));
@@ -162,9 +156,7 @@ pub enum LangevinMoment {
 impl LangevinMoment {
     pub fn langevin(saturation: f64, domain: f64) -> Result<LangevinMoment> {
         for (name, v) in [("saturation moment", saturation), ("domain moment", domain)] {
-            if !(v.is_finite() && v > 0.0) {
-                return invalid(format!("{name} = {v} A m^2: must be positive and finite"));
-            }
+            require_positive(v, || format!("{name} = {v} A m^2"))?;
         }
         Ok(LangevinMoment::Langevin { saturation, domain })
     }

@@ -35,7 +35,7 @@
 //! metastable minimum is found however narrow its basin (up to the conditioning of a near-double
 //! root, about sqrt(eps) in theta).
 
-use crate::error::{invalid, Result};
+use crate::error::{invalid, require_positive, Result};
 use crate::magnetics::{Cylinder, Magnet};
 use crate::special::elliptic::{carlson_rd, ellip_e};
 use nalgebra::{Complex, Vector3};
@@ -47,27 +47,19 @@ pub const THESIS_SATURATION: f64 = 985e3;
 /// Magnetometric demagnetizing factors (N_par, N_perp) of a solid cylinder of radius R and
 /// half-length L (m), from the exact formula in the module documentation.
 pub fn cylinder_demag_factors(radius: f64, half_length: f64) -> Result<(f64, f64)> {
-    if !(radius.is_finite() && radius > 0.0) {
-        return invalid(format!(
-            "cylinder radius {radius} m: must be positive and finite"
-        ));
-    }
-    if !(half_length.is_finite() && half_length > 0.0) {
-        return invalid(format!(
-            "cylinder half-length {half_length} m: must be positive and finite"
-        ));
-    }
+    require_positive(radius, || format!("cylinder radius {radius} m"))?;
+    require_positive(half_length, || {
+        format!("cylinder half-length {half_length} m")
+    })?;
     let n_par = axial_demag_factor(half_length / radius)?;
     Ok((n_par, 0.5 * (1.0 - n_par)))
 }
 
 /// Magnetometric axial factor N_par of a cylinder with length/diameter `gamma` (> 0).
 pub fn axial_demag_factor(gamma: f64) -> Result<f64> {
-    if !(gamma.is_finite() && gamma > 0.0) {
-        return invalid(format!(
-            "cylinder aspect ratio length/diameter = {gamma}: must be positive and finite"
-        ));
-    }
+    require_positive(gamma, || {
+        format!("cylinder aspect ratio length/diameter = {gamma}")
+    })?;
     let g2 = gamma * gamma;
     let m = 1.0 / (1.0 + g2);
     // gamma^2 K + (1 - gamma^2) E = E + gamma^2 (K - E), and K - E = (m/3) R_D(0, 1 - m, 1)
@@ -99,11 +91,9 @@ impl StonerWohlfarth {
 
     /// Ms > 0 finite; factors finite in [0, 1].
     pub fn new(saturation: f64, n_par: f64, n_perp: f64) -> Result<StonerWohlfarth> {
-        if !(saturation.is_finite() && saturation > 0.0) {
-            return invalid(format!(
-                "saturation magnetization {saturation} A/m: must be positive and finite"
-            ));
-        }
+        require_positive(saturation, || {
+            format!("saturation magnetization {saturation} A/m")
+        })?;
         for (name, v) in [("N_par", n_par), ("N_perp", n_perp)] {
             if !(v.is_finite() && (0.0..=1.0).contains(&v)) {
                 return invalid(format!(
@@ -283,11 +273,9 @@ pub fn saturated_at_angle(
             "magnetization angle alpha = {alpha} rad: must be in [0, pi]"
         ));
     }
-    if !(saturation.is_finite() && saturation > 0.0) {
-        return invalid(format!(
-            "saturation magnetization {saturation} A/m: must be positive and finite"
-        ));
-    }
+    require_positive(saturation, || {
+        format!("saturation magnetization {saturation} A/m")
+    })?;
     if !toward.iter().all(|v| v.is_finite()) {
         return invalid(format!("field direction {toward:?}: must be finite"));
     }
