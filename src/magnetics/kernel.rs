@@ -585,19 +585,25 @@ pub fn cyl_hessian<T: Real>(g: &KernelGeometry, rho: T, dif: T, z: T) -> (CylHes
     )
 }
 
+/// sign(h), with h = 0 counted as `side` (the outside of the cap in question: +1 above the top
+/// cap, -1 below the bottom one), as everywhere on the surface.
+fn side_sign(h: f64, side: f64) -> f64 {
+    if h > 0.0 {
+        1.0
+    } else if h < 0.0 {
+        -1.0
+    } else {
+        side
+    }
+}
+
 /// dp = tp(h) - s tp_inf with s = sign(h) (`side` at h = 0), and s. Where the subtraction would
 /// cancel (far from the end, |h| > 4R) dp is computed as the tail integral
 /// dp(h) = -s int_{|h|}^inf tp'(s u) du, with u = |h|/t and 10-point Gauss-Legendre in t on
 /// [0, 1] (the integrand ~ t/h^2 is analytic there; its singularities sit at |t| >= 4).
 fn offset_tp<T: Real>(r: f64, rho: T, dif: T, h: T, tp: T, tp_inf: T, side: f64) -> (T, f64) {
     let hv = h.val();
-    let s = if hv > 0.0 {
-        1.0
-    } else if hv < 0.0 {
-        -1.0
-    } else {
-        side
-    };
+    let s = side_sign(hv, side);
     let direct = tp - tp_inf.scale(s);
     // Derivatives of the difference cancel sooner than its value: switch earlier for duals.
     let limit = if T::DERIVATIVES {
@@ -688,13 +694,7 @@ fn cap_cz<T: Real>(r: f64, rho: T, dif: T, h: T, tz: T, side: f64) -> T {
         return cap_series_cz(r, rho, h);
     }
     if dif.val() > 0.0 {
-        let s = if hv > 0.0 {
-            1.0
-        } else if hv < 0.0 {
-            -1.0
-        } else {
-            side
-        };
+        let s = side_sign(hv, side);
         tz - T::cst(0.5 * s)
     } else {
         tz
@@ -889,18 +889,11 @@ fn inv_s3_taylor<const N: usize>(r: f64, h0: f64) -> [f64; N] {
 /// psi0^(k) = (g^(k-1)(z+L) - g^(k-1)(z-L))/2, g' = -sign(h) R^2/(s (s + |h|)),
 /// g^(j) = R^2 (j-2)! [t^(j-2)] (R^2 + (h+t)^2)^(-3/2) for j >= 2.
 fn on_axis_derivatives(r: f64, l: f64, z: f64) -> [f64; 9] {
-    // sign(h): h = 0 is a point on a cap face, taken from outside (above the top cap, below
-    // the bottom one), as everywhere on the surface.
+    // sign(h): h = 0 is a point on a cap face, taken from outside (see `side_sign`).
     let g = |h: f64, sign_at_zero: f64| -> [f64; 8] {
         let s = r.hypot(h);
         let mut out = [0.0; 8];
-        let sg = if h > 0.0 {
-            1.0
-        } else if h < 0.0 {
-            -1.0
-        } else {
-            sign_at_zero
-        };
+        let sg = side_sign(h, sign_at_zero);
         out[1] = -sg * r * r / (s * (s + h.abs()));
         let c = inv_s3_taylor::<6>(r, h);
         let mut fact = 1.0;
