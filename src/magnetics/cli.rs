@@ -39,22 +39,7 @@ pub struct FieldArgs {
 
 /// Parses "a,b,c" into a finite vector; `what` names the option in the error.
 pub fn parse_triple(text: &str, what: &str) -> Result<Vector3<f64>> {
-    let parts: Vec<&str> = text.split(',').map(str::trim).collect();
-    if parts.len() != 3 {
-        return invalid(format!(
-            "--{what} '{text}': expected three comma-separated numbers"
-        ));
-    }
-    let mut v = [0.0; 3];
-    for (k, p) in parts.iter().enumerate() {
-        v[k] = p.parse::<f64>().map_err(|_| {
-            Error::InvalidInput(format!("--{what} '{text}': '{p}' is not a number"))
-        })?;
-        if !v[k].is_finite() {
-            return invalid(format!("--{what} '{text}': '{p}' is not finite"));
-        }
-    }
-    Ok(Vector3::new(v[0], v[1], v[2]))
+    Ok(Vector3::from(crate::io::parse_three(text, what)?))
 }
 
 /// Reads the points of a CSV file with header x,y,z; errors name the file and line.

@@ -4,7 +4,7 @@
 //! Bad arguments: one line naming the problem, exit status 2 (see `main.rs`).
 
 use super::{ConvexShape, Ellipsoid, Sphere, Spherocylinder, Superquadric};
-use crate::error::{invalid, Error, Result};
+use crate::error::{invalid, Result};
 use std::process::ExitCode;
 
 #[derive(Debug, clap::Args)]
@@ -48,25 +48,7 @@ pub enum ShapeKind {
     },
 }
 
-/// Parses "x,y,z" into three finite numbers; `option` names the option in the error.
-pub fn parse_three(text: &str, option: &str) -> Result<[f64; 3]> {
-    let parts: Vec<&str> = text.split(',').map(str::trim).collect();
-    if parts.len() != 3 {
-        return invalid(format!(
-            "--{option} '{text}': expected three comma-separated numbers"
-        ));
-    }
-    let mut v = [0.0; 3];
-    for (k, p) in parts.iter().enumerate() {
-        v[k] = p.parse::<f64>().map_err(|_| {
-            Error::InvalidInput(format!("--{option} '{text}': '{p}' is not a number"))
-        })?;
-        if !v[k].is_finite() {
-            return invalid(format!("--{option} '{text}': '{p}' is not finite"));
-        }
-    }
-    Ok(v)
-}
+pub use crate::io::parse_three;
 
 /// A finite f64 as a JSON number (shortest representation that round-trips).
 pub fn json_number(x: f64) -> String {
