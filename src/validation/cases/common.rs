@@ -61,3 +61,22 @@ pub(super) fn loglog_slope(pts: &[(f64, f64)]) -> f64 {
     }
     (n * sxy - sx * sy) / (n * sxx - sx * sx)
 }
+
+/// One row per Cartesian component: label "{prefix}x {suffix}" etc., common scale.
+pub(super) fn push_components(
+    rows: &mut Vec<crate::validation::Row>,
+    prefix: &str,
+    suffix: &str,
+    got: &Vector3<f64>,
+    expected: &Vector3<f64>,
+    scale: f64,
+) {
+    for (k, c) in ["x", "y", "z"].iter().enumerate() {
+        rows.push(crate::validation::Row::new(
+            format!("{prefix}{c} {suffix}"),
+            got[k],
+            expected[k],
+            scale,
+        ));
+    }
+}

@@ -12,7 +12,7 @@
 //! closed forms; no porelab code). 105 and 106 check laws (div B = 0, curl H = 0, jump
 //! conditions, covariance, linearity) whose expected values are closed forms of the inputs.
 
-use super::common::{loglog_slope, required_seed, v3};
+use super::common::{loglog_slope, push_components, required_seed, v3};
 use crate::consts::MU0;
 use crate::magnetics::{Cylinder, Magnet};
 use crate::validation::{CaseContext, Row};
@@ -53,22 +53,8 @@ fn field_table_rows(ctx: &CaseContext, extra_label: &[&str]) -> Result<Vec<Row>>
             p.y,
             p.z
         );
-        for k in 0..3 {
-            rows.push(Row::new(
-                format!("H{} {where_}", XYZ[k]),
-                h[k],
-                h_exp[k],
-                scale,
-            ));
-        }
-        for k in 0..3 {
-            rows.push(Row::new(
-                format!("B{} {where_}", XYZ[k]),
-                b[k],
-                b_exp[k],
-                MU0 * scale,
-            ));
-        }
+        push_components(&mut rows, "H", &where_, &h, &h_exp, scale);
+        push_components(&mut rows, "B", &where_, &b, &b_exp, MU0 * scale);
     }
     Ok(rows)
 }
@@ -120,14 +106,7 @@ pub fn case_103(ctx: &CaseContext) -> Result<Vec<Row>> {
             "L/R={aspect} {mname} d/a={dfac:e} p=({:.4e},{:.4e},{:.4e})",
             p.x, p.y, p.z
         );
-        for k in 0..3 {
-            rows.push(Row::new(
-                format!("H{} {where_}", XYZ[k]),
-                h[k],
-                h_exp[k],
-                scale,
-            ));
-        }
+        push_components(&mut rows, "H", &where_, &h, &h_exp, scale);
         let u = p / p.norm();
         let key = format!(
             "L/R={aspect} {mname} dir=({:.3},{:.3},{:.3})",
@@ -310,14 +289,7 @@ pub fn case_105(ctx: &CaseContext) -> Result<Vec<Row>> {
             let jump_exp = m.dot(&n) * n;
             let name = ["lateral", "top", "bottom"][kind];
             let w = format!("{cfg} {name} p=({:.6e},{:.6e},{:.6e})", p.x, p.y, p.z);
-            for k in 0..3 {
-                rows.push(Row::new(
-                    format!("jump H{} {w}", XYZ[k]),
-                    jump[k],
-                    jump_exp[k],
-                    mn,
-                ));
-            }
+            push_components(&mut rows, "jump H", &w, &jump, &jump_exp, mn);
             rows.push(Row::new(
                 format!("B.n continuous {w}"),
                 bo0.dot(&n) - bi0.dot(&n),
