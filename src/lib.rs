@@ -15,6 +15,7 @@ pub mod io;
 pub mod magnetics;
 pub mod packing;
 pub mod reference;
+pub mod scene;
 pub mod shape;
 pub mod special;
 pub mod validation;

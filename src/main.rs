@@ -1,4 +1,4 @@
-//! porelab command line: validate | reference regen | field | bench.
+//! porelab command line: validate | reference regen | run | field | bench.
 
 use clap::{Parser, Subcommand};
 use std::process::ExitCode;
@@ -37,6 +37,26 @@ enum Command {
     Shape(porelab::shape::cli::ShapeArgs),
     /// Happel-Brenner translational resistances of an ellipsoid in Stokes flow.
     Drag(porelab::hydro::cli::DragArgs),
+    /// Run a scene file (TOML; schema in README) or a built-in scene.
+    Run {
+        /// The scene file.
+        scene: Option<std::path::PathBuf>,
+        /// Run the built-in scene of this name instead (see --list).
+        #[arg(long)]
+        builtin: Option<String>,
+        /// List the built-in scenes.
+        #[arg(long)]
+        list: bool,
+        /// Output folder (default target/porelab/run/<scene name>/).
+        #[arg(long)]
+        out: Option<std::path::PathBuf>,
+        /// Worker threads for independent runs (default: all cores); results do not depend on it.
+        #[arg(long)]
+        threads: Option<usize>,
+        /// No progress bar.
+        #[arg(long)]
+        quiet: bool,
+    },
     /// Work-precision benchmarks.
     Bench {
         #[command(subcommand)]
@@ -72,6 +92,24 @@ fn main() -> ExitCode {
         Command::Contact(args) => porelab::contact::cli::run_contact(&args),
         Command::Shape(args) => porelab::shape::cli::run_shape(&args),
         Command::Drag(args) => porelab::hydro::cli::run_drag(&args),
+        Command::Run {
+            scene,
+            builtin,
+            list,
+            out,
+            threads,
+            quiet,
+        } => porelab::scene::cli_run(
+            scene.as_deref(),
+            builtin.as_deref(),
+            list,
+            &porelab::scene::RunOptions {
+                out,
+                threads,
+                quiet,
+            },
+        )
+        .map(|_| ExitCode::SUCCESS),
         Command::Bench { what } => match what {
             BenchWhat::Field(args) => {
                 porelab::magnetics::bench::run(&args).map(|_| ExitCode::SUCCESS)
