@@ -2,23 +2,11 @@
 //! a cylinder (centre within one particle radius of the solid cylinder) is captured and stays
 //! fixed for the rest of the run. Several cylinders may be present.
 //!
-//! The integrator has no per-step hook, so capture is applied by the caller after each step:
-//!
-//! ```ignore
-//! let mut capture = CaptureSet::new(bodies, sim.particles.len());
-//! capture.check_initial(&sim.particles)?;          // no particle may start in contact
-//! for _ in 0..steps {
-//!     sim.step(&mut rng)?;
-//!     capture.apply(&mut sim.particles.positions, sim.particles.radius, sim.time);
-//! }
-//! ```
-//!
-//! `apply` marks particles now in contact as captured at their current position, and puts every
-//! captured particle back at its capture position, so it does not move again. The integrator
-//! still computes forces on captured particles (and their hydrodynamic coupling); the thesis
-//! instead sets their forces to zero. Their displacement is discarded, so only the step guard
-//! can notice them: a captured particle feels the strong field gradient at the surface, and the
-//! guard may refuse or sub-step because of it.
+//! A [`Simulation`](super::Simulation) given a capture set (`Simulation::with_capture`)
+//! applies it after every (sub)step and treats captured particles as fixed: no field
+//! evaluation, zero force (as the thesis does), no displacement. [`CaptureSet::apply`] can also
+//! be called by hand after each step: it marks particles now in contact as captured at their
+//! current position and puts every captured particle back at its capture position.
 
 use crate::error::{invalid, require_positive, Result};
 use crate::magnetics::Magnet;
@@ -188,6 +176,42 @@ impl CaptureSet {
             }
         }
         new
+    }
+
+    /// The first cylinder (index) and point on the straight path p -> p + step at which a
+    /// sphere of radius `a` touches a cylinder, if its end point touches one (the path is
+    /// bisected to 1e-12 of its length from the last free point). None if the end is free.
+    pub fn first_contact_on_path(
+        &self,
+        p: &Vector3<f64>,
+        step: &Vector3<f64>,
+        a: f64,
+    ) -> Option<(usize, Vector3<f64>)> {
+        let end = p + step;
+        let c = self.bodies.iter().position(|b| b.touches(&end, a))?;
+        let body = &self.bodies[c];
+        let (mut free, mut hit) = (0.0f64, 1.0f64);
+        while hit - free > 1e-12 {
+            let mid = 0.5 * (free + hit);
+            if body.touches(&(p + step * mid), a) {
+                hit = mid;
+            } else {
+                free = mid;
+            }
+        }
+        Some((c, p + step * hit))
+    }
+
+    /// Marks particle `i` as captured by cylinder `cylinder` at `time` (s), fixed at
+    /// `position` (m); a particle already captured keeps its first capture.
+    pub fn mark(&mut self, i: usize, cylinder: usize, time: f64, position: Vector3<f64>) {
+        if self.captured[i].is_none() {
+            self.captured[i] = Some(Capture {
+                cylinder,
+                time,
+                position,
+            });
+        }
     }
 
     pub fn capture(&self, i: usize) -> Option<&Capture> {

@@ -202,13 +202,13 @@ pub trait FieldSource: Send + Sync {
 
 impl FieldSource for crate::magnetics::Magnet {
     fn h_and_gradient(&self, p: &Vector3<f64>) -> (Vector3<f64>, Matrix3<f64>) {
-        (self.h_field(p), self.h_gradient(p))
+        crate::magnetics::Magnet::h_and_gradient(self, p)
     }
 }
 
 impl FieldSource for crate::magnetics::Assembly {
     fn h_and_gradient(&self, p: &Vector3<f64>) -> (Vector3<f64>, Matrix3<f64>) {
-        (self.h_field(p), self.h_gradient(p))
+        crate::magnetics::Assembly::h_and_gradient(self, p)
     }
 }
 

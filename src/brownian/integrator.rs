@@ -11,7 +11,23 @@
 //! returns an `Err` naming the particle, its displacement and the largest safe dt;
 //! [`StepGuard::Substep`] halves the step (fresh forces, mobility and noise on each half) up to
 //! `max_halvings` times, then refuses the same way. The state is unchanged by a refused step.
+//! With `guard_field_force = false` the guard looks at the displacement of the pair and
+//! constant forces only (the repulsion it protects): the force of the external field varies on
+//! the scale of the distance to the magnets, not of R, so its step is an accuracy choice of dt
+//! (checked by the capture scenes' time-step convergence), not a stability limit.
+//!
+//! Capture (section 6.3): with `capture` set, a particle that touches a cylinder after a
+//! (sub)step is captured and fixed for the rest of the run "by setting the particle forces to
+//! zero": no field is evaluated for it, it gets no force and no displacement (deterministic or
+//! random), and the step guard ignores it. It still repels and (with dipole pairs) attracts the
+//! free particles, and with hydrodynamics it still enters the mobility matrix as a sphere.
+//! A free particle whose deterministic displacement M F dt would end in contact with a cylinder
+//! is captured at the first contact point on that straight path (bisection), without noise and
+//! without the step guard: near a magnetized cylinder the drift can exceed the guard's limit in
+//! the last steps before contact, and sub-stepping the whole system for it would cost much and
+//! change nothing but the capture time by less than one step.
 
+use super::capture::CaptureSet;
 use super::forces::{dipole_force, magnetic_dipole_force, FieldSource, LangevinMoment, Mie};
 use super::mobility::{mobility_matrix, stokes_mobility, Hydrodynamics};
 use super::noise::{NoiseGenerator, NoiseMethod};
@@ -19,6 +35,9 @@ use super::{standard_normal, Params, Particles};
 use crate::error::{invalid, Result};
 use nalgebra::{DVector, Vector3};
 use rand::Rng;
+
+/// One force (N) per particle.
+type Forces = Vec<Vector3<f64>>;
 
 /// What to do when the deterministic displacement of a step is too large for the repulsion.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -59,6 +78,10 @@ pub struct Simulation {
     /// A constant force (N) on every particle.
     pub constant_force: Vector3<f64>,
     pub guard: StepGuard,
+    /// Whether the guard counts the external-field force (default true; see module docs).
+    pub guard_field_force: bool,
+    /// Capture by cylinders (None: no capture). Built for the same number of particles.
+    pub capture: Option<CaptureSet>,
     /// Elapsed time (s).
     pub time: f64,
 }
@@ -77,8 +100,23 @@ impl Simulation {
             magnetic: None,
             constant_force: Vector3::zeros(),
             guard: StepGuard::default(),
+            guard_field_force: true,
+            capture: None,
             time: 0.0,
         })
+    }
+
+    /// Adds capture by the cylinders of `capture`: rejects (naming particle and cylinder) any
+    /// particle that starts in contact with or inside a cylinder.
+    pub fn with_capture(mut self, capture: CaptureSet) -> Result<Simulation> {
+        capture.check_initial(&self.particles)?;
+        self.capture = Some(capture);
+        Ok(self)
+    }
+
+    /// Whether particle `i` is captured (always false without capture).
+    pub fn is_fixed(&self, i: usize) -> bool {
+        self.capture.as_ref().is_some_and(|c| c.is_captured(i))
     }
 
     /// Human-readable list of the terms that are built and used.
@@ -98,6 +136,9 @@ impl Simulation {
         if let Some(m) = &self.repulsion {
             t.push(format!("Mie({}, {}) repulsion", m.n, m.m));
         }
+        if let Some(c) = &self.capture {
+            t.push(format!("capture by {} cylinder(s)", c.bodies.len()));
+        }
         if let Some(m) = &self.magnetic {
             t.push("external field force".into());
             if m.dipole_pairs {
@@ -107,11 +148,18 @@ impl Simulation {
         t
     }
 
-    /// Total force (N) on every particle at the current positions.
+    /// Total force (N) on every particle at the current positions; zero on captured ones.
     pub fn forces(&self) -> Result<Vec<Vector3<f64>>> {
+        Ok(self.forces_and_field_part()?.0)
+    }
+
+    /// (total force, the external-field part of it) (N) per particle.
+    fn forces_and_field_part(&self) -> Result<(Forces, Forces)> {
         let pos = &self.particles.positions;
         let n = pos.len();
+        let fixed: Vec<bool> = (0..n).map(|i| self.is_fixed(i)).collect();
         let mut f = vec![self.constant_force; n];
+        let mut f_field = vec![Vector3::zeros(); n];
         if let Some(mie) = &self.repulsion {
             for i in 0..n {
                 for j in (i + 1)..n {
@@ -123,12 +171,16 @@ impl Simulation {
         }
         if let Some(mag) = &self.magnetic {
             let kt = self.params.kt();
-            let mut moments = Vec::with_capacity(n);
+            let mut moments = vec![Vector3::zeros(); n];
             for i in 0..n {
+                // A captured particle needs its moment only for the dipole pairs.
+                if fixed[i] && !mag.dipole_pairs {
+                    continue;
+                }
                 let (h, g) = mag.source.h_and_gradient(&pos[i]);
-                let m = mag.moment.moment(&h, kt);
-                f[i] += magnetic_dipole_force(&m, &g);
-                moments.push(m);
+                moments[i] = mag.moment.moment(&h, kt);
+                f_field[i] = magnetic_dipole_force(&moments[i], &g);
+                f[i] += f_field[i];
             }
             if mag.dipole_pairs {
                 for i in 0..n {
@@ -143,6 +195,10 @@ impl Simulation {
                 }
             }
         }
+        for i in (0..n).filter(|&i| fixed[i]) {
+            f[i] = Vector3::zeros();
+            f_field[i] = Vector3::zeros();
+        }
         if let Some((i, v)) = f
             .iter()
             .enumerate()
@@ -153,13 +209,23 @@ impl Simulation {
                 pos[i]
             ));
         }
-        Ok(f)
+        Ok((f, f_field))
     }
 
     /// One step of length `params.dt` (possibly sub-stepped, see [`StepGuard`]).
+    /// A refused step (or sub-step) leaves positions, time and captures as they were before it.
     pub fn step<R: Rng + ?Sized>(&mut self, rng: &mut R) -> Result<()> {
         let dt = self.params.dt;
-        self.advance(rng, dt, 0)
+        let before = (
+            self.particles.positions.clone(),
+            self.time,
+            self.capture.clone(),
+        );
+        let result = self.advance(rng, dt, 0);
+        if result.is_err() {
+            (self.particles.positions, self.time, self.capture) = before;
+        }
+        result
     }
 
     /// `steps` steps.
@@ -173,12 +239,16 @@ impl Simulation {
     fn advance<R: Rng + ?Sized>(&mut self, rng: &mut R, dt: f64, depth: u32) -> Result<()> {
         let n = self.particles.len();
         let a = self.particles.radius;
-        let f = self.forces()?;
+        let (f, f_field) = self.forces_and_field_part()?;
         let mu0 = stokes_mobility(self.params.viscosity, a)?;
-        let mut fv = DVector::<f64>::zeros(3 * n);
-        for (i, fi) in f.iter().enumerate() {
-            fv.fixed_rows_mut::<3>(3 * i).copy_from(fi);
-        }
+        let stack = |forces: &[Vector3<f64>]| {
+            let mut v = DVector::<f64>::zeros(3 * n);
+            for (i, fi) in forces.iter().enumerate() {
+                v.fixed_rows_mut::<3>(3 * i).copy_from(fi);
+            }
+            v
+        };
+        let fv = stack(&f);
         let mobility = match self.hydrodynamics {
             Hydrodynamics::FreeDraining => None,
             kind => Some(mobility_matrix(
@@ -192,6 +262,16 @@ impl Simulation {
             None => &fv * mu0,
             Some(m) => m * &fv,
         };
+        // The velocity the guard looks at: all of it, or without the external-field part.
+        let guarded = if self.guard_field_force || self.magnetic.is_none() {
+            velocity.clone()
+        } else {
+            let fg = fv - stack(&f_field);
+            match &mobility {
+                None => fg * mu0,
+                Some(m) => m * fg,
+            }
+        };
         // Guard on the deterministic displacement.
         let (max_fraction, max_halvings) = match self.guard {
             StepGuard::Refuse { max_fraction } => (max_fraction, 0),
@@ -200,8 +280,22 @@ impl Simulation {
                 max_halvings,
             } => (max_fraction, max_halvings),
         };
+        let fixed: Vec<bool> = (0..n).map(|i| self.is_fixed(i)).collect();
+        // Ballistic capture: a free particle whose deterministic step ends in contact with a
+        // cylinder is captured where its path first touches; its step needs no guard.
+        let arriving: Vec<Option<(usize, Vector3<f64>)>> = (0..n)
+            .map(|i| {
+                let c = self.capture.as_ref()?;
+                if fixed[i] {
+                    return None;
+                }
+                let v: Vector3<f64> = velocity.fixed_rows::<3>(3 * i).into();
+                c.first_contact_on_path(&self.particles.positions[i], &(v * dt), a)
+            })
+            .collect();
         let (worst, vmax) = (0..n)
-            .map(|i| (i, velocity.fixed_rows::<3>(3 * i).norm()))
+            .filter(|&i| !fixed[i] && arriving[i].is_none())
+            .map(|i| (i, guarded.fixed_rows::<3>(3 * i).norm()))
             .fold((0, 0.0f64), |acc, x| if x.1 > acc.1 { x } else { acc });
         if vmax * dt > max_fraction * a {
             if depth < max_halvings {
@@ -236,9 +330,20 @@ impl Simulation {
             }
         }
         for (i, p) in self.particles.positions.iter_mut().enumerate() {
-            *p += dx.fixed_rows::<3>(3 * i);
+            if !fixed[i] {
+                *p += dx.fixed_rows::<3>(3 * i);
+            }
         }
         self.time += dt;
+        if let Some(c) = &mut self.capture {
+            for (i, hit) in arriving.iter().enumerate() {
+                if let Some((body, at)) = hit {
+                    self.particles.positions[i] = *at;
+                    c.mark(i, *body, self.time, *at);
+                }
+            }
+            c.apply(&mut self.particles.positions, a, self.time);
+        }
         Ok(())
     }
 }

@@ -17,6 +17,7 @@
 //! [`run_rng`], so results do not depend on how runs are spread over threads.
 
 pub mod capture;
+pub mod experiment;
 pub mod forces;
 pub mod integrator;
 pub mod magnetization;

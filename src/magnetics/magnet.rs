@@ -75,10 +75,14 @@ impl Magnet {
     }
     /// dH_i/dx_j (A/m^2) at world point p.
     pub fn h_gradient(&self, p: &Vector3<f64>) -> Matrix3<f64> {
+        self.h_and_gradient(p).1
+    }
+    /// (H in A/m, dH_i/dx_j in A/m^2) at world point p from one kernel evaluation.
+    pub fn h_and_gradient(&self, p: &Vector3<f64>) -> (Vector3<f64>, Matrix3<f64>) {
         let m_local = self.rotation.inverse() * self.magnetization;
-        let g = self.cylinder.h_gradient(&m_local, &self.to_local(p));
+        let (h, g) = self.cylinder.h_and_gradient(&m_local, &self.to_local(p));
         let r = self.rotation.matrix();
-        r * g * r.transpose()
+        (r * h, r * g * r.transpose())
     }
 }
 
@@ -97,5 +101,13 @@ impl Assembly {
     }
     pub fn h_gradient(&self, p: &Vector3<f64>) -> Matrix3<f64> {
         self.magnets.iter().map(|m| m.h_gradient(p)).sum()
+    }
+    pub fn h_and_gradient(&self, p: &Vector3<f64>) -> (Vector3<f64>, Matrix3<f64>) {
+        self.magnets
+            .iter()
+            .map(|m| m.h_and_gradient(p))
+            .fold((Vector3::zeros(), Matrix3::zeros()), |(h, g), (hm, gm)| {
+                (h + hm, g + gm)
+            })
     }
 }

@@ -9,6 +9,8 @@
 //! `porelab run --builtin NAME` works on a fresh clone and `porelab run --list` shows them; the
 //! same files are the examples of the schema.
 
+pub mod brownian;
+
 use crate::error::{invalid, Error, Result};
 use std::path::{Path, PathBuf};
 
@@ -21,7 +23,7 @@ pub struct Builtin {
 
 /// All built-in scenes, in the order `porelab run --list` prints them.
 pub fn builtins() -> Vec<Builtin> {
-    let mut v: Vec<Builtin> = Vec::new();
+    let mut v = brownian::builtins();
     v.sort_by_key(|b| b.name);
     v
 }
@@ -67,10 +69,10 @@ pub fn run_text(text: &str, origin: &str, out_stem: &str, opts: &RunOptions) -> 
         .clone()
         .unwrap_or_else(|| default_out_dir(out_stem));
     match scene_kind(text, origin)?.as_str() {
-        other => {
-            let _ = (&out, opts);
-            invalid(format!("{origin}: kind = \"{other}\": unknown engine"))
-        }
+        "brownian" => brownian::run_scene(text, origin, &out, opts),
+        other => invalid(format!(
+            "{origin}: kind = \"{other}\": unknown engine (known: \"brownian\")"
+        )),
     }
 }
 

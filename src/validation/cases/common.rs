@@ -80,3 +80,43 @@ pub(super) fn push_components(
         ));
     }
 }
+
+/// Rows from measured quantities against the bands of an expected.csv with columns
+/// `quantity,lower,upper,source`: `got` is the measured value, `expected` the band centre and
+/// `scale` the half-width, so with `rtol = 1`, `atol = 0` a row passes iff the value lies in
+/// [lower, upper]. A quantity the table names but the case does not measure is an error.
+pub(super) fn band_rows(
+    ctx: &CaseContext,
+    got: &std::collections::BTreeMap<&str, f64>,
+) -> Result<Vec<crate::validation::Row>> {
+    let t = ctx.expected_table()?;
+    non_empty(&t)?;
+    let mut rows = Vec::new();
+    for i in 0..t.len() {
+        let q = t.str(i, "quantity")?;
+        let (lo, hi) = (t.f64(i, "lower")?, t.f64(i, "upper")?);
+        if lo.is_nan() || hi.is_nan() || lo > hi {
+            return Err(Error::Validation(format!(
+                "{} line {}: lower = {lo} above upper = {hi}",
+                t.path().display(),
+                t.line(i)
+            )));
+        }
+        let v = got.get(q).copied().ok_or_else(|| {
+            Error::Validation(format!(
+                "{} line {}: quantity `{q}` is not measured by case {} (known: {:?})",
+                t.path().display(),
+                t.line(i),
+                ctx.id,
+                got.keys().collect::<Vec<_>>()
+            ))
+        })?;
+        rows.push(crate::validation::Row::new(
+            format!("{q} in [{lo}, {hi}]"),
+            v,
+            0.5 * (lo + hi),
+            0.5 * (hi - lo),
+        ));
+    }
+    Ok(rows)
+}

@@ -4,6 +4,7 @@ use super::case::Runner;
 
 mod brownian;
 mod brownian_capture;
+mod brownian_scenes;
 mod common;
 mod contact;
 mod drag;
@@ -49,6 +50,10 @@ pub fn runner_for(id: &str) -> Option<Runner> {
         "410" => Some(brownian_capture::case_410),
         "411" => Some(brownian_capture::case_411),
         "412" => Some(brownian_capture::case_412),
+        "415" => Some(brownian_scenes::case_415),
+        "416" => Some(brownian_scenes::case_416),
+        "417" => Some(brownian_scenes::case_417),
+        "418" => Some(brownian_scenes::case_418),
         _ => None,
     }
 }
