@@ -4,6 +4,7 @@ use super::case::Runner;
 
 mod brownian;
 mod brownian_capture;
+mod brownian_equilibrium;
 mod common;
 mod contact;
 mod drag;
@@ -49,6 +50,7 @@ pub fn runner_for(id: &str) -> Option<Runner> {
         "410" => Some(brownian_capture::case_410),
         "411" => Some(brownian_capture::case_411),
         "412" => Some(brownian_capture::case_412),
+        "413" => Some(brownian_equilibrium::case_413),
         _ => None,
     }
 }
