@@ -1,6 +1,8 @@
-//! Brownian-dynamics equilibrium case 413: the positions sampled by the Ermak–McCammon update
-//! (thesis 003, eq. 6.3, 6.11) in a harmonic trap follow the Boltzmann law of the discrete-time
-//! process (Kolmogorov–Smirnov test).
+//! Brownian-dynamics equilibrium cases 413 and 414: the positions sampled by the Ermak–McCammon
+//! update (thesis 003, eq. 6.3, 6.11) in a harmonic trap follow the Boltzmann law
+//! (Kolmogorov–Smirnov test): 413 free-draining against the exact law of the discrete-time
+//! process, 414 with RPY hydrodynamic interactions (eq. 6.10; Cholesky or TEA-HI noise) against
+//! the continuous law at a time step whose bias is bounded below the KS resolution.
 //!
 //! Independent particles (free-draining, no repulsion, no dipole pairs) in the isotropic trap
 //! U = k |r|^2 / 2, i.e. F = -k r, built by [`crate::brownian::bench::harmonic_trap`] through
@@ -16,7 +18,10 @@
 
 use super::common::{non_empty, required_seed};
 use crate::brownian::bench::harmonic_trap;
-use crate::brownian::{cubic_lattice, run_rng, Params, Particles, Simulation, StepGuard};
+use crate::brownian::{
+    cubic_lattice, mobility_matrix, run_rng, stokes_mobility, Hydrodynamics, NoiseMethod, Params,
+    Particles, Simulation, StepGuard,
+};
 use crate::consts::KB;
 use crate::validation::{CaseContext, Row, Table};
 use crate::{Error, Result};
@@ -33,6 +38,9 @@ const MAX_MEMORY: f64 = 1e-6;
 #[derive(Debug, Clone)]
 struct TrapSpec {
     label: String,
+    /// Mobility and noise: free-draining, or RPY with Cholesky or TEA-HI noise.
+    hydrodynamics: Hydrodynamics,
+    noise: NoiseMethod,
     n: usize,
     runs: u64,
     radius: f64,
@@ -81,8 +89,22 @@ fn specs(t: &Table) -> Result<Vec<TrapSpec>> {
     non_empty(t)?;
     (0..t.len())
         .map(|i| {
+            let (hydrodynamics, noise) = match t.str(i, "hydrodynamics")? {
+                "free" => (Hydrodynamics::FreeDraining, NoiseMethod::Cholesky),
+                "rpy-cholesky" => (Hydrodynamics::Rpy, NoiseMethod::Cholesky),
+                "rpy-tea-hi" => (Hydrodynamics::Rpy, NoiseMethod::TeaHi),
+                o => {
+                    return Err(Error::Validation(format!(
+                        "{} line {}: hydrodynamics '{o}' is not free, rpy-cholesky or rpy-tea-hi",
+                        t.path().display(),
+                        t.line(i)
+                    )))
+                }
+            };
             let s = TrapSpec {
                 label: t.str(i, "label")?.to_string(),
+                hydrodynamics,
+                noise,
                 n: integer(t, i, "n_particles", 1)? as usize,
                 runs: integer(t, i, "runs", 1)?,
                 radius: t.f64(i, "radius_m")?,
@@ -137,40 +159,58 @@ fn check_memory(s: &TrapSpec) -> Result<()> {
     Ok(())
 }
 
-/// The sampled coordinates (m) of run `run` of row `s`: `snapshots` snapshots of all 3n
-/// coordinates, taken every `every` steps after `burn_in` steps, with the engine at
-/// temperature `temperature` (K).
-fn run_samples(s: &TrapSpec, temperature: f64, seed: u64, run: u64) -> Result<Vec<f64>> {
+/// What one run produced: the sampled coordinates (m), snapshot after snapshot, and the range
+/// of the eigenvalues of M / mu0 over the snapshot configurations ((1, 1) without HI).
+struct RunOut {
+    x: Vec<f64>,
+    lambda: (f64, f64),
+}
+
+/// Run `run` of row `s`: `snapshots` snapshots of all 3n coordinates, taken every `every` steps
+/// after `burn_in` steps, with the engine at temperature `temperature` (K).
+fn run_samples(s: &TrapSpec, temperature: f64, seed: u64, run: u64) -> Result<RunOut> {
     let mut sim = Simulation::new(
         Particles::new(start_positions(s), s.radius)?,
         Params::new(temperature, s.viscosity, s.dt)?,
     )?;
+    sim.hydrodynamics = s.hydrodynamics;
+    sim.noise = s.noise;
     sim.magnetic = Some(harmonic_trap(s.stiffness)?);
     sim.guard = StepGuard::Refuse {
         max_fraction: s.guard,
     };
+    let mu0 = stokes_mobility(s.viscosity, s.radius)?;
     let mut rng = run_rng(seed, s.first_stream + run);
     sim.run(&mut rng, s.burn_in)?;
-    let mut out = Vec::with_capacity(3 * s.n * s.snapshots);
+    let mut x = Vec::with_capacity(3 * s.n * s.snapshots);
+    let mut lambda = (1.0f64, 1.0f64);
     for _ in 0..s.snapshots {
         sim.run(&mut rng, s.every)?;
-        out.extend(
-            sim.particles
-                .positions
-                .iter()
-                .flat_map(|p| p.iter().copied()),
-        );
+        let pos = &sim.particles.positions;
+        x.extend(pos.iter().flat_map(|p| p.iter().copied()));
+        if s.hydrodynamics != Hydrodynamics::FreeDraining {
+            let ev = mobility_matrix(s.hydrodynamics, pos, s.radius, s.viscosity)?
+                .symmetric_eigenvalues();
+            lambda = (lambda.0.min(ev.min() / mu0), lambda.1.max(ev.max() / mu0));
+        }
     }
-    Ok(out)
+    Ok(RunOut { x, lambda })
 }
 
-/// All samples of row `s` (runs in parallel, each on its own stream), engine at `temperature`.
-fn row_samples(s: &TrapSpec, temperature: f64, seed: u64) -> Result<Vec<f64>> {
-    let per_run: Vec<Vec<f64>> = (0..s.runs)
+/// All runs of row `s` (in parallel, each on its own stream), engine at `temperature`.
+fn row_runs(s: &TrapSpec, temperature: f64, seed: u64) -> Result<Vec<RunOut>> {
+    (0..s.runs)
         .into_par_iter()
         .map(|r| run_samples(s, temperature, seed, r))
-        .collect::<Result<_>>()?;
-    Ok(per_run.concat())
+        .collect()
+}
+
+/// All samples of row `s`, engine at `temperature`.
+fn row_samples(s: &TrapSpec, temperature: f64, seed: u64) -> Result<Vec<f64>> {
+    Ok(row_runs(s, temperature, seed)?
+        .into_iter()
+        .flat_map(|r| r.x)
+        .collect())
 }
 
 /// Kolmogorov–Smirnov distance D = sup |F_n(u) - u| of a sample from U(0, 1) (NaN sorts last
@@ -248,13 +288,22 @@ fn ks_normal(x: &[f64], sd: f64) -> Result<(f64, usize, f64)> {
 pub fn case_413(ctx: &CaseContext) -> Result<Vec<Row>> {
     let t = ctx.expected_table()?;
     let specs = specs(&t)?;
+    if let Some(s) = specs
+        .iter()
+        .find(|s| s.hydrodynamics != Hydrodynamics::FreeDraining)
+    {
+        return Err(Error::Validation(format!(
+            "{}: case 413 needs free-draining rows (the exact discrete law is per coordinate)",
+            s.label
+        )));
+    }
     let seed = required_seed(ctx, "case 413: case.toml needs a seed")?;
     let samples: Vec<Vec<f64>> = specs
         .par_iter()
         .map(|s| row_samples(s, s.temperature, seed))
         .collect::<Result<_>>()?;
     let last = specs.len() - 1;
-    let again = run_samples(&specs[last], specs[last].temperature, seed, 0)?;
+    let again = run_samples(&specs[last], specs[last].temperature, seed, 0)?.x;
     if again[..] != samples[last][..again.len()] {
         return Err(Error::Validation(format!(
             "{}: the serial rerun differs from the parallel run (results depend on threads)",
@@ -273,6 +322,96 @@ pub fn case_413(ctx: &CaseContext) -> Result<Vec<Row>> {
             ),
             z_of_p(p)?,
             t.f64(i, "expected_z")?,
+            1.0,
+        ));
+    }
+    Ok(rows)
+}
+
+/// Refuses an HI row whose O(dt) bias could be visible. For a constant mobility M the
+/// recursion x' = (I - k dt M) x + noise has the stationary covariance
+/// (kB T / k) (I - a M / (2 mu0))^-1 (a = mu0 k dt), so the variance bias is at most
+/// eps = (a lambda_max / 2) / (1 - a lambda_max / 2), lambda_max the largest eigenvalue of
+/// M / mu0 (measured over the snapshots). A variance error eps moves the normal CDF by at most
+/// phi(1) eps / 2 = 0.121 eps; that must stay below a tenth of the KS critical distance
+/// K_alpha / sqrt(n), K_alpha = sqrt(ln(2 / alpha) / 2), alpha = 1e-6.
+/// Independence: the spacing satisfies (1 - a)^every <= 1e-6 for the free-draining rate
+/// (checked with the row); pairs that come close relax more slowly (smallest measured
+/// eigenvalue reported in the row label), which the lag-one correlation row tests. Residual
+/// correlation only widens the null distribution of D, so it cannot make a wrong law pass.
+fn check_hi_row(s: &TrapSpec, lambda_max: f64, n: usize) -> Result<f64> {
+    let x = 0.5 * s.a() * lambda_max;
+    let eps = x / (1.0 - x);
+    let shift = 0.5 * eps * (-0.5f64).exp() / (2.0 * PI).sqrt();
+    let critical = (2e6f64.ln() / 2.0).sqrt() / (n as f64).sqrt();
+    if !(x < 1.0 && shift <= 0.1 * critical) {
+        return Err(Error::Validation(format!(
+            "{}: largest measured eigenvalue of M/mu0 {lambda_max:.3} with a = {:.4}: the O(dt) \
+             bias moves the CDF by {shift:e}, more than a tenth of the KS critical distance \
+             ({:e}); use a smaller dt",
+            s.label,
+            s.a(),
+            0.1 * critical
+        )));
+    }
+    Ok(eps)
+}
+
+/// z of the lag-one sample correlation of each coordinate between successive snapshots,
+/// r = sum x_s x_(s+1) / sqrt(sum x_s^2 sum x_(s+1)^2) over all runs and coordinates (mean 0
+/// known): r sqrt(m) is standard normal for m independent pairs.
+fn lag_correlation_z(runs: &[RunOut], width: usize) -> f64 {
+    let (mut sxy, mut sxx, mut syy, mut m) = (0.0, 0.0, 0.0, 0usize);
+    for r in runs {
+        for (a, b) in r.x.iter().zip(r.x.iter().skip(width)) {
+            sxy += a * b;
+            sxx += a * a;
+            syy += b * b;
+            m += 1;
+        }
+    }
+    sxy / (sxx * syy).sqrt() * (m as f64).sqrt()
+}
+
+/// Case 414: particles in the trap with RPY hydrodynamic interactions (Cholesky or TEA-HI
+/// noise). RPY has zero divergence, so the update (eq. 6.11) has the Boltzmann law
+/// N(0, kB T / k) per coordinate as its dt -> 0 stationary law whatever the mobility; dt is
+/// chosen so that the O(dt) bias is below a tenth of the KS resolution ([`check_hi_row`], from
+/// the measured mobility spectrum). Rows per spec: the KS z against N(0, kB T / k), and the z
+/// of the lag-one correlation between successive snapshots (independence of the samples).
+pub fn case_414(ctx: &CaseContext) -> Result<Vec<Row>> {
+    let t = ctx.expected_table()?;
+    let specs = specs(&t)?;
+    let seed = required_seed(ctx, "case 414: case.toml needs a seed")?;
+    let runs: Vec<Vec<RunOut>> = specs
+        .par_iter()
+        .map(|s| row_runs(s, s.temperature, seed))
+        .collect::<Result<_>>()?;
+    let mut rows = Vec::new();
+    for (i, (s, out)) in specs.iter().zip(&runs).enumerate() {
+        let lambda = out.iter().fold((f64::INFINITY, 0.0f64), |l, r| {
+            (l.0.min(r.lambda.0), l.1.max(r.lambda.1))
+        });
+        let x: Vec<f64> = out.iter().flat_map(|r| r.x.iter().copied()).collect();
+        let eps = check_hi_row(s, lambda.1, x.len())?;
+        let (d, n, p) = ks_normal(&x, (KB * s.temperature / s.stiffness).sqrt())?;
+        let expected = t.f64(i, "expected_z")?;
+        rows.push(Row::new(
+            format!(
+                "{} KS (a = {:.4}, lambda in [{:.3}, {:.3}], bias <= {eps:.1e}, n = {n}, D = {d:.5}, p = {p:.3e})",
+                s.label,
+                s.a(),
+                lambda.0,
+                lambda.1
+            ),
+            z_of_p(p)?,
+            expected,
+            1.0,
+        ));
+        rows.push(Row::new(
+            format!("{} lag-one correlation", s.label),
+            lag_correlation_z(out, 3 * s.n),
+            expected,
             1.0,
         ));
     }
@@ -359,6 +498,21 @@ mod tests {
         let x = row_samples(&s, s.temperature, 4131).unwrap();
         let (d, n, p) = ks_normal(&x, (KB * s.temperature / s.stiffness).sqrt()).unwrap();
         eprintln!("a = {}, continuous law: D = {d}, n = {n}, p = {p:e}", s.a());
+        assert!(p < ALPHA, "D = {d}, n = {n}, p = {p}");
+    }
+
+    /// Case 414's test rejects the RPY (Cholesky) engine run at 2 T against the law of T
+    /// (sd ratio 1.41: expected D ~ 0.08 against the 1e-6 critical value ~ 0.05 at n = 3000).
+    #[test]
+    fn rpy_wrong_temperature_rejected() {
+        let path = crate::validation::repo_root()
+            .join("validation/414-boltzmann-equilibrium-rpy/expected.csv");
+        let mut s = specs(&Table::read(path).unwrap()).unwrap().remove(0);
+        assert_eq!(s.hydrodynamics, Hydrodynamics::Rpy);
+        (s.runs, s.snapshots) = (1, 100);
+        let x = row_samples(&s, 2.0 * s.temperature, 4140).unwrap();
+        let (d, n, p) = ks_normal(&x, (KB * s.temperature / s.stiffness).sqrt()).unwrap();
+        eprintln!("RPY engine at 2 T, law of T: D = {d}, n = {n}, p = {p:e}");
         assert!(p < ALPHA, "D = {d}, n = {n}, p = {p}");
     }
 

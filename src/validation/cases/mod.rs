@@ -51,6 +51,7 @@ pub fn runner_for(id: &str) -> Option<Runner> {
         "411" => Some(brownian_capture::case_411),
         "412" => Some(brownian_capture::case_412),
         "413" => Some(brownian_equilibrium::case_413),
+        "414" => Some(brownian_equilibrium::case_414),
         _ => None,
     }
 }
