@@ -7,8 +7,10 @@
 //! 1. throughput: particle-steps per second against N (10 ... 1000, `--max-n`) for
 //!    free-draining, RPY with Cholesky noise (eq. 6.16) and RPY with TEA-HI noise, thesis
 //!    parameters (section 6.3: R = 75 nm, T = 298 K, eta = 1 mPa s, Mie(30, 15) with
-//!    eps = 100 kB T; dt = 1e-6 s instead of 5e-5 s, see [`DT`]) on random dilute configurations (volume fraction 0.01, no pair
-//!    closer than 2.2 R); the crossover N from which TEA-HI is faster than Cholesky;
+//!    eps = 100 kB T), except dt = 1e-6 s instead of 5e-5 s (at 5e-5 s the noise moves a
+//!    particle 0.23 R rms per coordinate and step, pairs land deep in the Mie core and the step
+//!    guard refuses even after 20 halvings), on random dilute configurations (volume fraction
+//!    0.01, no pair closer than 2.2 R); the crossover N from which TEA-HI beats Cholesky;
 //! 2. field share: the same particles next to a transversely magnetized cylinder (D = 600 um,
 //!    L = 3 mm, Ms = 985 kA/m, Stoner–Wohlfarth in 1 T along x, Table 6.1 moment
 //!    0.870e-16 A m^2, dipole pairs within 30 R): the time of the field source alone on the
@@ -25,7 +27,7 @@
 //!
 //! Harmonic trap: an isotropic external force F = -k r about the origin, put into the engine
 //! through its position-dependent external-force hook, the field source of
-//! [`Magnetic`](super::integrator::Magnetic): a closure returning a uniform H0 (so that a
+//! [`Magnetic`]: a closure returning a uniform H0 (so that a
 //! [`LangevinMoment::Fixed`] moment m0 points along x) together with the "gradient"
 //! G(r) = -(k / (mu0 m0)) r e_x^T, so that the force of eq. 6.20 as implemented,
 //! mu0 G m = -k r. This is not a Maxwell field (a moment along H cannot be trapped by a real
