@@ -76,6 +76,9 @@ enum ReferenceAction {
 enum BenchWhat {
     /// Cylinder field: points per second and error against the oracle.
     Field(porelab::magnetics::bench::BenchArgs),
+    /// Brownian dynamics: particle-steps per second against N and method, field-evaluation
+    /// share, and work-precision against the time step.
+    Brownian(porelab::brownian::bench::BenchArgs),
 }
 
 fn main() -> ExitCode {
@@ -113,6 +116,9 @@ fn main() -> ExitCode {
         Command::Bench { what } => match what {
             BenchWhat::Field(args) => {
                 porelab::magnetics::bench::run(&args).map(|_| ExitCode::SUCCESS)
+            }
+            BenchWhat::Brownian(args) => {
+                porelab::brownian::bench::run(&args).map(|_| ExitCode::SUCCESS)
             }
         },
     };

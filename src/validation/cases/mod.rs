@@ -4,6 +4,7 @@ use super::case::Runner;
 
 mod brownian;
 mod brownian_capture;
+mod brownian_equilibrium;
 mod brownian_scenes;
 mod common;
 mod contact;
@@ -50,6 +51,8 @@ pub fn runner_for(id: &str) -> Option<Runner> {
         "410" => Some(brownian_capture::case_410),
         "411" => Some(brownian_capture::case_411),
         "412" => Some(brownian_capture::case_412),
+        "413" => Some(brownian_equilibrium::case_413),
+        "414" => Some(brownian_equilibrium::case_414),
         "415" => Some(brownian_scenes::case_415),
         "416" => Some(brownian_scenes::case_416),
         "417" => Some(brownian_scenes::case_417),
