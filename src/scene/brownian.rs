@@ -955,4 +955,29 @@ mod tests {
         let e = s.experiment(s.combos()[0]).unwrap_err().to_string();
         assert!(e.contains("Table 6.1"), "{e}");
     }
+
+    /// The outputs depend only on the seed: one worker thread and two give identical files.
+    #[test]
+    fn outputs_do_not_depend_on_thread_count() {
+        let scene = "kind = \"brownian\"\n[run]\nseed = 9\nruns = 3\nt_max_s = 0.05\n\
+                     dt_s = 5e-4\nsample_every_s = 0.01\n[particles]\nradius_m = 212e-9\n\
+                     n_top = 3\nn_side = 3\nregion_thickness_m = 20e-6\n\
+                     [hydrodynamics]\nmobility = \"free-draining\"\n";
+        let base = std::env::temp_dir().join(format!("porelab-threads-{}", std::process::id()));
+        let mut outputs = Vec::new();
+        for threads in [1, 2] {
+            let out = base.join(threads.to_string());
+            let opts = RunOptions {
+                out: None,
+                threads: Some(threads),
+                quiet: true,
+            };
+            run_scene(scene, "test", &out, &opts).unwrap();
+            let read = |f: &str| std::fs::read_to_string(out.join(f)).unwrap();
+            outputs.push((read("capture.csv"), read("positions.csv")));
+        }
+        std::fs::remove_dir_all(&base).ok();
+        assert_eq!(outputs[0], outputs[1]);
+        assert!(outputs[0].1.lines().count() == 1 + 3 * 6);
+    }
 }
