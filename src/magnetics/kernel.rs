@@ -36,7 +36,7 @@
 //!   come from 1 - 1.
 
 use crate::special::autodiff::{Dual, Real};
-use crate::special::bulirsch::{cel_multi2, cel_multi2_x2};
+use crate::special::bulirsch::{agm_cel_lanes, AgmCel};
 use std::f64::consts::PI;
 use std::sync::OnceLock;
 
@@ -193,17 +193,6 @@ fn trapezoid_j_j_i<T: Real>(n: T, m: T, g: T) -> (T, T, T) {
     (j1.scale(h), j2.scale(h), i.scale(h))
 }
 
-/// J(m, m) alone (see [`trapezoid_j_j_i`]).
-fn trapezoid_j1<T: Real>(m: T) -> T {
-    let one = T::cst(1.0);
-    let mut j1 = T::cst(0.0);
-    for &s in &TRAPEZOID_S[1..8] {
-        let qm = one - m.scale(s);
-        j1 = j1 + (one / (qm * qm.sqrt())).scale(s * (1.0 - s));
-    }
-    j1.scale(PI / 16.0)
-}
-
 /// What one end needs before the elliptic integrals: 1/A^2, 1/A, m, kc^2 and beta.
 #[derive(Clone, Copy)]
 struct EndPrep<T> {
@@ -220,6 +209,8 @@ struct PointPrep<T> {
     sum: T,
     inv_sum: T,
     g: T,
+    /// |g| = sqrt(g^2), the square root of the characteristic that cel needs.
+    g_abs: T,
     g2: T,
     n: T,
     /// 1/n = (R + rho)^2 / (4 R rho) (infinite on the axis, where n is not used as a divisor).
@@ -241,6 +232,7 @@ fn point_prep<T: Real>(r: f64, rho: T, dif: T) -> PointPrep<T> {
         sum,
         inv_sum,
         g,
+        g_abs: if g.val() < 0.0 { -g } else { g },
         g2: g * g,
         n,
         inv_n,
@@ -293,34 +285,41 @@ fn end_terms<T: Real>(r: f64, rho: T, dif: T, h: T) -> (T, T, T) {
     if pt.n.val() < 0.25 {
         return end_terms_trapezoid(r, &pt, &e);
     }
-    let one = T::cst(1.0);
     let cels = if pt.g2.val() == 0.0 {
         // rho = R exactly: cel(kc, g^2, 1, g) -> K(kc) + sign(g) pi/(2 kc) as g -> 0. Off the
         // lateral surface (|z| > L) the two ends' jumps cancel and the mean K is right; on it
         // `end_terms_at` adds the outside limit's jump. c01 is then not needed.
-        let ([p1, c101], [k]) = cel_multi2(
-            e.kc2.sqrt(),
-            one,
-            [(one, -one), (T::cst(0.0), one)],
-            one,
-            [(one, one)],
-        );
-        ([p1, c101], [k, T::cst(0.0)])
+        let [o] = agm_cel_lanes::<T, 1, 0>([e.kc2], [e.m], T::cst(1.0), []);
+        AgmCel {
+            k: o.k,
+            s_over_m2: o.s_over_m2,
+            cel: [o.k, T::cst(0.0)],
+        }
     } else {
-        cel_multi2(
-            e.kc2.sqrt(),
-            one,
-            [(one, -one), (T::cst(0.0), one)],
-            pt.g2,
-            [(one, pt.g), (T::cst(0.0), one)],
-        )
+        let [o] = agm_cel_lanes::<T, 1, 2>([e.kc2], [e.m], pt.g_abs, end_pairs(&pt));
+        o
     };
-    end_terms_from_cel(r, &pt, &e, cels)
+    end_terms_from_cel(r, &pt, &e, &cels)
 }
 
-/// Both ends at once (interleaved elliptic integrals when both take the cel branch).
+/// The (a, b) pairs of cel(kc, g^2, a, b) that the closed forms need: (1, g) for tz
+/// (thesis eq. 5.40) and, with M = 2, (0, 1) for the transverse J(kc, g^2) (eq. 5.20-5.21).
 #[inline]
-fn end_terms_pair<T: Real>(r: f64, rho: T, dif: T, hp: T, hm: T) -> [(T, T, T); 2] {
+fn end_pairs<T: Real, const M: usize>(pt: &PointPrep<T>) -> [(T, T); M] {
+    std::array::from_fn(|i| {
+        if i == 0 {
+            (T::cst(1.0), pt.g)
+        } else {
+            (T::cst(0.0), T::cst(1.0))
+        }
+    })
+}
+
+/// Both ends at once (interleaved elliptic integrals when both take the cel branch). With
+/// M = 1 (longitudinal magnetization only) the transverse tp of the cel branch is skipped
+/// (returned as 0).
+#[inline]
+fn end_terms_pair<T: Real, const M: usize>(r: f64, rho: T, dif: T, hp: T, hm: T) -> [(T, T, T); 2] {
     let pt = point_prep(r, rho, dif);
     if pt.n.val() < 0.25 || pt.g2.val() == 0.0 {
         return [end_terms(r, rho, dif, hp), end_terms(r, rho, dif, hm)];
@@ -330,46 +329,41 @@ fn end_terms_pair<T: Real>(r: f64, rho: T, dif: T, hp: T, hm: T) -> [(T, T, T); 
     if ep.kc2.val() == 0.0 || em.kc2.val() == 0.0 {
         return [end_terms(r, rho, dif, hp), end_terms(r, rho, dif, hm)];
     }
-    let one = T::cst(1.0);
-    let [cp, cm] = cel_multi2_x2(
-        [ep.kc2.sqrt(), em.kc2.sqrt()],
-        one,
-        [(one, -one), (T::cst(0.0), one)],
-        pt.g2,
-        [(one, pt.g), (T::cst(0.0), one)],
-    );
+    let [cp, cm] =
+        agm_cel_lanes::<T, 2, M>([ep.kc2, em.kc2], [ep.m, em.m], pt.g_abs, end_pairs(&pt));
     [
-        end_terms_from_cel(r, &pt, &ep, cp),
-        end_terms_from_cel(r, &pt, &em, cm),
+        end_terms_from_cel(r, &pt, &ep, &cp),
+        end_terms_from_cel(r, &pt, &em, &cm),
     ]
 }
 
-/// Below this m, tq comes from the trapezoidal J(kc, kc^2) instead of P1 = cel(kc, 1, 1, -1)
-/// = -m J, whose absolute rounding would then be ~eps/(m J) relative (2e-14 at m = 0.05).
-const TQ_TRAPEZOID_BELOW_M: f64 = 0.05;
-
-/// The cel branch (n >= 1/4): p1 = cel(kc,1,1,-1), c101 = cel(kc,1,0,1), cz = cel(kc,g^2,1,g),
-/// c01 = cel(kc,g^2,0,1) (unused when g = 0).
+/// The cel branch (n >= 1/4), from K, S/m^2 (see [`AgmCel`]), cz = cel(kc, g^2, 1, g) and
+/// c01 = cel(kc, g^2, 0, 1) (unused when g = 0):
+/// tq uses J(kc, kc^2) = K S/m^2 (eq. 5.39 without its cancellation: P1 = -m J), tp uses
+/// J(kc, g^2) = (cel(kc, 1, 0, 1) - g^2 c01)/n with cel(kc, 1, 0, 1) = K (1 + m S/m^2)/2.
+/// With M = 1 (no c01) tp is not formed and returned as 0.
 #[inline]
-fn end_terms_from_cel<T: Real>(
+fn end_terms_from_cel<T: Real, const M: usize>(
     r: f64,
     pt: &PointPrep<T>,
     e: &EndPrep<T>,
-    ([p1, c101], [cz, c01]): ([T; 2], [T; 2]),
+    c: &AgmCel<T, M>,
 ) -> (T, T, T) {
-    let pref_p = (pt.inv_sum * pt.inv_sum).scale(-4.0 * r * r / PI);
-    let tq = if e.m.val() < TQ_TRAPEZOID_BELOW_M {
-        (trapezoid_j1(e.m) * e.inv_a2 * e.inv_a).scale(-4.0 * r * r / PI)
-    } else {
-        // p1 / (A rho) = 4 R p1 / (m A^3)
-        (p1 * e.inv_a2 * e.inv_a / e.m).scale(4.0 * r * r / PI)
-    };
+    let cz = c.cel[0];
+    let j1 = c.k * c.s_over_m2;
+    let tq = (j1 * e.inv_a2 * e.inv_a).scale(-4.0 * r * r / PI);
     let tz = (e.beta * cz * pt.inv_sum).scale(r / PI);
+    if M < 2 {
+        return (tq, tz, T::cst(0.0));
+    }
+    let c01 = c.cel[M - 1];
+    let c101 = (c.k + j1 * e.m).scale(0.5);
     let j2 = if pt.g2.val() == 0.0 {
         c101
     } else {
         (c101 - pt.g2 * c01) * pt.inv_n
     };
+    let pref_p = (pt.inv_sum * pt.inv_sum).scale(-4.0 * r * r / PI);
     let tp = pref_p * e.beta * j2;
     (tq, tz, tp)
 }
@@ -508,6 +502,18 @@ pub fn radial_gap(r: f64, x: f64, y: f64) -> f64 {
 
 /// Hess psi in cylindrical form at (rho, z); `dif` = R - rho (value from [`radial_gap`]).
 pub fn cyl_hessian<T: Real>(g: &KernelGeometry, rho: T, dif: T, z: T) -> (CylHessian<T>, Regime) {
+    cyl_hessian_parts::<T, 2>(g, rho, dif, z)
+}
+
+/// [`cyl_hessian`] with M = 2; with M = 1 only what a longitudinal magnetization needs, Q and Z
+/// (thesis eq. 5.3-5.6): the closed forms then skip the transverse per-end terms (eq. 5.19-5.22)
+/// and their cancellation test, and p, prr and d are NaN.
+fn cyl_hessian_parts<T: Real, const M: usize>(
+    g: &KernelGeometry,
+    rho: T,
+    dif: T,
+    z: T,
+) -> (CylHessian<T>, Regime) {
     let (r, l) = (g.r, g.l);
     let (rv, zv, dv) = (rho.val(), z.val(), dif.val());
     let inside = dv > 0.0 && zv.abs() < l;
@@ -516,8 +522,7 @@ pub fn cyl_hessian<T: Real>(g: &KernelGeometry, rho: T, dif: T, z: T) -> (CylHes
         return (multipole(g, rho, z), Regime::Multipole);
     }
     // rho_B <= 2|w| with w = (z + i|R - rho|)/L, so only |w| > SLAB_BERNSTEIN_MIN/2 can qualify.
-    let w2 = (zv * zv + dv * dv) / (l * l);
-    if w2 > 0.25 * SLAB_BERNSTEIN_MIN * SLAB_BERNSTEIN_MIN && dv != 0.0 {
+    if zv * zv + dv * dv > (0.25 * SLAB_BERNSTEIN_MIN * SLAB_BERNSTEIN_MIN) * (l * l) && dv != 0.0 {
         let rb = bernstein(l, dv, zv);
         if rb > SLAB_BERNSTEIN_MIN {
             return (
@@ -535,10 +540,47 @@ pub fn cyl_hessian<T: Real>(g: &KernelGeometry, rho: T, dif: T, z: T) -> (CylHes
             end_terms_at(r, rho, dif, xm, zv, l),
         ]
     } else {
-        end_terms_pair(r, rho, dif, xp, xm)
+        end_terms_pair::<T, M>(r, rho, dif, xp, xm)
     };
     let cz_p = cap_cz(r, rho, dif, xp, tz_p, -1.0);
     let cz_m = cap_cz(r, rho, dif, xm, tz_m, 1.0);
+    let q = tq_p - tq_m;
+    let zz = cz_p - cz_m;
+    let zero = T::cst(0.0);
+    // If the two ends still cancel (e.g. far from a thin slab), and Gauss-Legendre along the
+    // axis converges to rounding with at most 24 nodes, integrate instead of subtracting.
+    let cancels = |a: T, b: T, c: T| {
+        a.val().abs() + b.val().abs() + c.val().abs()
+            > CANCELLATION_MAX * (a.val() - b.val() + c.val()).abs().max(1e-300)
+    };
+    let slab_fallback = |cancelling: bool| {
+        if cancelling && dv != 0.0 {
+            let rb = bernstein(l, dv, zv);
+            if rb > SLAB_BERNSTEIN_FALLBACK {
+                return Some((
+                    slab_quadrature(g, rho, dif, z, chi, rb),
+                    Regime::SlabQuadrature,
+                ));
+            }
+        }
+        None
+    };
+    if M < 2 {
+        if let Some(out) = slab_fallback(cancels(tq_p, tq_m, zero) || cancels(cz_p, cz_m, zero)) {
+            return out;
+        }
+        let nan = T::cst(f64::NAN);
+        return (
+            CylHessian {
+                p: nan,
+                q,
+                z: zz,
+                prr: nan,
+                d: nan,
+            },
+            Regime::ClosedForm,
+        );
+    }
     // Transverse per-end terms tend to sign(h) tp_inf far from their end; subtract it.
     let tp_inf = if dv >= 0.0 {
         T::cst(-0.25)
@@ -550,26 +592,10 @@ pub fn cyl_hessian<T: Real>(g: &KernelGeometry, rho: T, dif: T, z: T) -> (CylHes
     let (dp_m, s_m) = offset_tp(r, rho, dif, xm, tp_m, tp_inf, 1.0);
     let p_inf = tp_inf.scale(s_p - s_m);
     let p = dp_p - dp_m + p_inf;
-    let q = tq_p - tq_m;
-    let zz = cz_p - cz_m;
-    // If the two ends still cancel (e.g. far from a thin slab), and Gauss-Legendre along the
-    // axis converges to rounding with at most 24 nodes, integrate instead of subtracting.
-    let kappa = |a: T, b: T, c: T| {
-        (a.val().abs() + b.val().abs() + c.val().abs())
-            / (a.val() - b.val() + c.val()).abs().max(1e-300)
-    };
-    let zero = T::cst(0.0);
-    let worst = kappa(dp_p, dp_m, p_inf)
-        .max(kappa(tq_p, tq_m, zero))
-        .max(kappa(cz_p, cz_m, zero));
-    if worst > CANCELLATION_MAX && dv != 0.0 {
-        let rb = bernstein(l, dv, zv);
-        if rb > SLAB_BERNSTEIN_FALLBACK {
-            return (
-                slab_quadrature(g, rho, dif, z, chi, rb),
-                Regime::SlabQuadrature,
-            );
-        }
+    if let Some(out) = slab_fallback(
+        cancels(dp_p, dp_m, p_inf) || cancels(tq_p, tq_m, zero) || cancels(cz_p, cz_m, zero),
+    ) {
+        return out;
     }
     // Prr - P = -chi - Z - 2 P = (-chi - 2 P_inf) - Z - 2 (dp_p - dp_m): the bracket is exact.
     let d = (-T::cst(chi) - p_inf.scale(2.0)) - zz - (dp_p - dp_m).scale(2.0);
@@ -709,6 +735,23 @@ pub fn field_tensor<T: Real>(g: &KernelGeometry, x: T, y: T, z: T) -> ([[T; 3]; 
     let dif = (T::cst(g.r) - rho).with_value(radial_gap(g.r, x.val(), y.val()));
     let (hc, regime) = cyl_hessian(g, rho, dif, z);
     (assemble(x, y, &hc), regime)
+}
+
+/// H = T M at (x, y, z) (cylinder frame) for magnetization `m`. For a longitudinal M
+/// (m_x = m_y = 0) only Q and Z are formed, H = m_z (x Q, y Q, Z) (thesis eq. 5.3-5.6);
+/// otherwise the full tensor.
+pub fn field_h(g: &KernelGeometry, x: f64, y: f64, z: f64, m: [f64; 3]) -> [f64; 3] {
+    if m[0] == 0.0 && m[1] == 0.0 {
+        let rho2 = x * x + y * y;
+        let rho = rho2.sqrt();
+        let dif = radial_gap(g.r, x, y);
+        let (hc, _) = cyl_hessian_parts::<f64, 1>(g, rho, dif, z);
+        let qm = hc.q * m[2];
+        return [x * qm, y * qm, hc.z * m[2]];
+    }
+    let (t, _) = field_tensor(g, x, y, z);
+    let row = |i: usize| t[i][0] * m[0] + t[i][1] * m[1] + t[i][2] * m[2];
+    [row(0), row(1), row(2)]
 }
 
 /// The Cartesian tensor from its cylindrical parts at (x, y):
