@@ -193,13 +193,13 @@ fn trapezoid_j_j_i<T: Real>(n: T, m: T, g: T) -> (T, T, T) {
     (j1.scale(h), j2.scale(h), i.scale(h))
 }
 
-/// What one end needs before the elliptic integrals: 1/A^2, 1/A, m, kc^2 and beta.
+/// What one end needs before the elliptic integrals: 1/A^2, 1/A, m, kc and beta.
 #[derive(Clone, Copy)]
 struct EndPrep<T> {
     inv_a2: T,
     inv_a: T,
     m: T,
-    kc2: T,
+    kc: T,
     beta: T,
 }
 
@@ -247,16 +247,21 @@ fn end_prep<T: Real>(r: f64, rho: T, dif: T, pt: &PointPrep<T>, h: T) -> EndPrep
     let a = a2.sqrt();
     let inv_a = a * inv_a2;
     let m = (rho * inv_a2).scale(4.0 * r);
-    // kc^2 = 1 - m, taken as 1 - m where that is exact enough (so that its derivative, used by
-    // the slab quadrature and the gradient, is -dm and does not cancel), directly near the rim.
-    let kc2 = if m.val() < 0.5 {
-        T::cst(1.0) - m
+    // kc = sqrt(h^2 + (R - rho)^2)/A. For values directly (accurate to rounding, and no branch
+    // on the way into the elliptic integrals, whose latency bounds the kernel). For dual numbers
+    // kc^2 = 1 - m where that is exact enough (so that its derivative, used by the slab
+    // quadrature and the gradient, is -dm and does not cancel), directly near the rim.
+    let kc = if !T::DERIVATIVES {
+        (h * h + dif * dif).sqrt() * inv_a
+    } else if m.val() < 0.5 {
+        (T::cst(1.0) - m).sqrt()
     } else {
-        (h * h + dif * dif) * inv_a2
+        ((h * h + dif * dif) * inv_a2).sqrt()
     };
-    // beta = h / A; far from the end (|h| > R + rho) as sign(h) (1 - s^2/(A (A + |h|))), whose
-    // derivatives do not cancel (the plain quotient's d/dh is (A^2 - h^2)/A^3).
-    let beta = if h.val().abs() > sum.val() {
+    // beta = h / A; for dual numbers far from the end (|h| > R + rho) as
+    // sign(h) (1 - s^2/(A (A + |h|))), whose derivatives do not cancel (the plain quotient's
+    // d/dh is (A^2 - h^2)/A^3).
+    let beta = if T::DERIVATIVES && h.val().abs() > sum.val() {
         let sg = h.val().signum();
         let habs = if sg < 0.0 { -h } else { h };
         (T::cst(1.0) - sum * sum / (a * (a + habs))).scale(sg)
@@ -267,7 +272,7 @@ fn end_prep<T: Real>(r: f64, rho: T, dif: T, pt: &PointPrep<T>, h: T) -> EndPrep
         inv_a2,
         inv_a,
         m,
-        kc2,
+        kc,
         beta,
     }
 }
@@ -277,7 +282,7 @@ fn end_prep<T: Real>(r: f64, rho: T, dif: T, pt: &PointPrep<T>, h: T) -> EndPrep
 fn end_terms<T: Real>(r: f64, rho: T, dif: T, h: T) -> (T, T, T) {
     let pt = point_prep(r, rho, dif);
     let e = end_prep(r, rho, dif, &pt, h);
-    if e.kc2.val() == 0.0 {
+    if e.kc.val() == 0.0 {
         // On the rim circle: the field is logarithmically infinite.
         let inf = T::cst(f64::INFINITY);
         return (inf, inf, inf);
@@ -289,14 +294,14 @@ fn end_terms<T: Real>(r: f64, rho: T, dif: T, h: T) -> (T, T, T) {
         // rho = R exactly: cel(kc, g^2, 1, g) -> K(kc) + sign(g) pi/(2 kc) as g -> 0. Off the
         // lateral surface (|z| > L) the two ends' jumps cancel and the mean K is right; on it
         // `end_terms_at` adds the outside limit's jump. c01 is then not needed.
-        let [o] = agm_cel_lanes::<T, 1, 0>([e.kc2], [e.m], T::cst(1.0), []);
+        let [o] = agm_cel_lanes::<T, 1, 0>([e.kc], [e.m], T::cst(1.0), []);
         AgmCel {
             k: o.k,
             s_over_m2: o.s_over_m2,
             cel: [o.k, T::cst(0.0)],
         }
     } else {
-        let [o] = agm_cel_lanes::<T, 1, 2>([e.kc2], [e.m], pt.g_abs, end_pairs(&pt));
+        let [o] = agm_cel_lanes::<T, 1, 2>([e.kc], [e.m], pt.g_abs, end_pairs(&pt));
         o
     };
     end_terms_from_cel(r, &pt, &e, &cels)
@@ -326,11 +331,10 @@ fn end_terms_pair<T: Real, const M: usize>(r: f64, rho: T, dif: T, hp: T, hm: T)
     }
     let ep = end_prep(r, rho, dif, &pt, hp);
     let em = end_prep(r, rho, dif, &pt, hm);
-    if ep.kc2.val() == 0.0 || em.kc2.val() == 0.0 {
+    if ep.kc.val() == 0.0 || em.kc.val() == 0.0 {
         return [end_terms(r, rho, dif, hp), end_terms(r, rho, dif, hm)];
     }
-    let [cp, cm] =
-        agm_cel_lanes::<T, 2, M>([ep.kc2, em.kc2], [ep.m, em.m], pt.g_abs, end_pairs(&pt));
+    let [cp, cm] = agm_cel_lanes::<T, 2, M>([ep.kc, em.kc], [ep.m, em.m], pt.g_abs, end_pairs(&pt));
     [
         end_terms_from_cel(r, &pt, &ep, &cp),
         end_terms_from_cel(r, &pt, &em, &cm),
@@ -382,6 +386,7 @@ fn end_terms_trapezoid<T: Real>(r: f64, pt: &PointPrep<T>, e: &EndPrep<T>) -> (T
 /// Charge-form cap term C_z = -Omega/(4 pi) of the disk at signed height h (Omega = solid
 /// angle), for r_c = sqrt(rho^2 + h^2) > 10R: Legendre series of the disk potential,
 /// Phi_d = 2 pi sum_{l>=1} binom(1/2, l) R^(2l) P_{2l-2}(cos) / r^(2l-1), differentiated in z.
+#[inline(never)]
 fn cap_series_cz<T: Real>(r: f64, rho: T, h: T) -> T {
     let rc = (rho * rho + h * h).sqrt();
     let c = h / rc;
@@ -627,6 +632,7 @@ fn side_sign(h: f64, side: f64) -> f64 {
 /// cancel (far from the end, |h| > 4R) dp is computed as the tail integral
 /// dp(h) = -s int_{|h|}^inf tp'(s u) du, with u = |h|/t and 10-point Gauss-Legendre in t on
 /// [0, 1] (the integrand ~ t/h^2 is analytic there; its singularities sit at |t| >= 4).
+#[inline]
 fn offset_tp<T: Real>(r: f64, rho: T, dif: T, h: T, tp: T, tp_inf: T, side: f64) -> (T, f64) {
     let hv = h.val();
     let s = side_sign(hv, side);
@@ -640,7 +646,13 @@ fn offset_tp<T: Real>(r: f64, rho: T, dif: T, h: T, tp: T, tp_inf: T, side: f64)
     if hv.abs() <= 4.0 * r || tp_inf.val().abs() <= limit * direct.val().abs() {
         return (direct, s);
     }
-    let habs = if hv < 0.0 { -h } else { h };
+    (offset_tp_tail(r, rho, dif, h, s), s)
+}
+
+/// The tail-integral form of [`offset_tp`] (rarely needed: kept out of the inlined path).
+#[inline(never)]
+fn offset_tp_tail<T: Real>(r: f64, rho: T, dif: T, h: T, s: f64) -> T {
+    let habs = if h.val() < 0.0 { -h } else { h };
     let rho_d = Dual::<T, 1>::constant(rho);
     let dif_d = Dual::<T, 1>::constant(dif);
     let mut acc = T::cst(0.0);
@@ -651,7 +663,7 @@ fn offset_tp<T: Real>(r: f64, rho: T, dif: T, h: T, tp: T, tp_inf: T, side: f64)
         let (_, _, tpd) = end_terms(r, rho_d, dif_d, hh);
         acc = acc + (tpd.d[0] * habs).scale(0.5 * w / (t * t));
     }
-    (-acc.scale(s), s)
+    -acc.scale(s)
 }
 
 const TAIL_NODES: usize = 10;
@@ -712,6 +724,7 @@ fn end_terms_at<T: Real>(r: f64, rho: T, dif: T, h: T, zv: f64, l: f64) -> (T, T
 
 /// Charge-form cap term: C_z = tz - sign(h)/2 for rho < R (sign at h = 0 chosen by `side`:
 /// +1 for the top cap, whose outside is h > 0, -1 for the bottom cap), series when far.
+#[inline]
 fn cap_cz<T: Real>(r: f64, rho: T, dif: T, h: T, tz: T, side: f64) -> T {
     let (rv, hv) = (rho.val(), h.val());
     // (For rho > R the closed form tends to 0 from O(1) pieces, for rho < R to 1/2: both cancel

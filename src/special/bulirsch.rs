@@ -93,6 +93,24 @@ pub fn cel_lanes<T: Real, const L: usize, const N: usize, const M: usize>(
     out
 }
 
+/// The number of passes after which Bulirsch's test |m_n - kc_n| <= AGM_TOLERANCE m_n (for
+/// values, 1e-9) first holds for AGM(1, kc): it holds after 3 passes exactly from
+/// kc = 0.97360, 4 from 0.62834, 5 from 0.12490, 6 from 0.0039307 (bisection in 50-digit
+/// arithmetic); the bounds here are rounded up. 0 below: left to the test.
+fn agm_passes(kc: f64) -> usize {
+    if kc >= 0.9737 {
+        3
+    } else if kc >= 0.6284 {
+        4
+    } else if kc >= 0.1250 {
+        5
+    } else if kc >= 0.003931 {
+        6
+    } else {
+        0
+    }
+}
+
 /// What [`agm_cel_lanes`] gives for one complementary modulus kc (m = 1 - kc^2).
 #[derive(Debug, Clone, Copy)]
 pub struct AgmCel<T, const M: usize> {
@@ -109,14 +127,14 @@ pub struct AgmCel<T, const M: usize> {
 }
 
 /// The Landen/AGM loop of Bulirsch's cel for one characteristic p (M pairs (a_j, b_j)), run
-/// for L complementary moduli kc_k = sqrt(kc2_k) at once, which also yields the plain AGM
+/// for L complementary moduli kc_k > 0 at once, which also yields the plain AGM
 /// quantities of [`AgmCel`]: the p = 1 integrals of eq. 5.39 then need no chain of their own
 /// (for p = 1 Bulirsch's p-sequence equals the arithmetic means, so it would only repeat them).
-/// `m` is 1 - kc2 (passed separately, accurate where kc2 is near 1); `sqrt_p` = sqrt(p) > 0.
-/// Requires kc2 > 0 and m > 0 (by value). With M = 0, p and sqrt_p are not used.
+/// `m` is 1 - kc^2 (passed separately, accurate where kc is near 1); `sqrt_p` = sqrt(p) > 0.
+/// Requires kc > 0 and m > 0 (by value). With M = 0, p and sqrt_p are not used.
 #[inline]
 pub fn agm_cel_lanes<T: Real, const L: usize, const M: usize>(
-    kc2: [T; L],
+    kc: [T; L],
     m: [T; L],
     sqrt_p: T,
     ab: [(T, T); M],
@@ -124,7 +142,9 @@ pub fn agm_cel_lanes<T: Real, const L: usize, const M: usize>(
     let zero = T::cst(0.0);
     let one = T::cst(1.0);
     let mut kcs = [zero; L];
-    let mut e = [zero; L];
+    // 4 e of Bulirsch's e = kc_n m_n (carried as 4 e, so that kc_(n+1) = 2 sqrt(e) = sqrt(4 e)
+    // and 4 e = kc (4 m): one multiplication less on the loop's critical path).
+    let mut e4 = [zero; L];
     let mut mm = [one; L];
     let mut pp = [sqrt_p; L];
     let mut a = [[zero; M]; L];
@@ -141,10 +161,10 @@ pub fn agm_cel_lanes<T: Real, const L: usize, const M: usize>(
     // shared forms where p -> 0 or m -> 0 (see below), so dual numbers divide separately.
     let inv_sp = one / sqrt_p;
     for k in 0..L {
-        debug_assert!(kc2[k].val() > 0.0 && m[k].val() > 0.0 && sqrt_p.val() > 0.0);
-        kc0[k] = kc2[k].sqrt();
+        debug_assert!(kc[k].val() > 0.0 && m[k].val() > 0.0 && sqrt_p.val() > 0.0);
+        kc0[k] = kc[k];
         kcs[k] = kc0[k];
-        e[k] = kcs[k];
+        e4[k] = kcs[k].scale(4.0);
         for i in 0..M {
             a[k][i] = ab[i].0;
             // (for duals a quotient: with b = sqrt p -> 0 the derivative of b * (1/sqrt p)
@@ -156,6 +176,14 @@ pub fn agm_cel_lanes<T: Real, const L: usize, const M: usize>(
             };
         }
     }
+    // For values the number of passes follows from the smallest kc in advance (as the test
+    // would find it, see `agm_passes`): the loop's exit then no longer waits for the square
+    // roots of the pass, so a mispredicted exit costs little. 0: decide by the test.
+    let npass = if T::DERIVATIVES {
+        0
+    } else {
+        agm_passes(kc.iter().map(|v| v.val()).fold(f64::INFINITY, f64::min))
+    };
     // 2^n and 1/2^(n+1) for the current pass n.
     let mut pow2 = 1.0;
     let mut weight = 0.5;
@@ -163,7 +191,7 @@ pub fn agm_cel_lanes<T: Real, const L: usize, const M: usize>(
         let mut done = true;
         for k in 0..L {
             let inv = one / pp[k];
-            let g = e[k] * inv;
+            let g = e4[k] * inv.scale(0.25);
             for i in 0..M {
                 let f = a[k][i];
                 a[k][i] = a[k][i] + b[k][i] * inv;
@@ -179,12 +207,12 @@ pub fn agm_cel_lanes<T: Real, const L: usize, const M: usize>(
             }
             mm[k] = kcs[k] + mm[k];
         }
-        if done {
+        if (npass == 0 && done) || pass + 1 == npass {
             break;
         }
         for k in 0..L {
-            kcs[k] = e[k].sqrt().scale(2.0);
-            e[k] = kcs[k] * mm[k];
+            kcs[k] = e4[k].sqrt();
+            e4[k] = kcs[k] * mm[k].scale(4.0);
             if pass == 0 {
                 rkc[k] = kcs[k].scale(0.5);
             }
@@ -273,9 +301,9 @@ mod tests {
                 let kc = (1.0f64 - m).sqrt();
                 let sp = p.sqrt();
                 let pairs = [(1.0, sp), (0.0, 1.0)];
-                let [o] = agm_cel_lanes::<f64, 1, 2>([1.0 - m], [m], sp, pairs);
+                let [o] = agm_cel_lanes::<f64, 1, 2>([kc], [m], sp, pairs);
                 let [od] = agm_cel_lanes::<Dual<f64, 1>, 1, 2>(
-                    [Dual::cst(1.0 - m)],
+                    [Dual::cst(kc)],
                     [Dual::cst(m)],
                     Dual::cst(sp),
                     pairs.map(|(a, b)| (Dual::cst(a), Dual::cst(b))),
