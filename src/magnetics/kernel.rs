@@ -750,25 +750,28 @@ pub fn field_tensor<T: Real>(g: &KernelGeometry, x: T, y: T, z: T) -> ([[T; 3]; 
     (assemble(x, y, &hc), regime)
 }
 
-/// H = T M at (x, y, z) (cylinder frame) for magnetization `m`. For a longitudinal M
-/// (m_x = m_y = 0) only Q and Z are formed, H = m_z (x Q, y Q, Z) (thesis eq. 5.3-5.6);
-/// otherwise the full tensor.
+/// H = T M at (x, y, z) (cylinder frame) for magnetization `m` (the tensor assembled here,
+/// inline, rather than returned by [`field_tensor`]). For a longitudinal M (m_x = m_y = 0)
+/// only Q and Z are formed, H = m_z (x Q, y Q, Z) (thesis eq. 5.3-5.6); otherwise also the
+/// transverse parts (eq. 5.19-5.22).
 pub fn field_h(g: &KernelGeometry, x: f64, y: f64, z: f64, m: [f64; 3]) -> [f64; 3] {
+    let rho2 = x * x + y * y;
+    let rho = rho2.sqrt();
+    let dif = radial_gap(g.r, x, y);
     if m[0] == 0.0 && m[1] == 0.0 {
-        let rho2 = x * x + y * y;
-        let rho = rho2.sqrt();
-        let dif = radial_gap(g.r, x, y);
         let (hc, _) = cyl_hessian_parts::<f64, 1>(g, rho, dif, z);
         let qm = hc.q * m[2];
         return [x * qm, y * qm, hc.z * m[2]];
     }
-    let (t, _) = field_tensor(g, x, y, z);
+    let (hc, _) = cyl_hessian(g, rho, dif, z);
+    let t = assemble(x, y, &hc);
     let row = |i: usize| t[i][0] * m[0] + t[i][1] * m[1] + t[i][2] * m[2];
     [row(0), row(1), row(2)]
 }
 
 /// The Cartesian tensor from its cylindrical parts at (x, y):
 /// T = P I_xy + (Prr - P) e_rho e_rho^T + Q (x, y) e_z^T + sym. + Z e_z e_z^T.
+#[inline]
 pub fn assemble<T: Real>(x: T, y: T, hc: &CylHessian<T>) -> [[T; 3]; 3] {
     let rho2 = x * x + y * y;
     let (c2, s2, cs) = if rho2.val() == 0.0 {
