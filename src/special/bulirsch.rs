@@ -7,8 +7,8 @@
 //!
 //! Algorithm: R. Bulirsch, Numer. Math. 13 (1969) 305-315, "cel", for p > 0. The loop stops when
 //! successive arithmetic means agree to `Real::AGM_TOLERANCE` (1e-9 for values: the convergence
-//! is quadratic, so the result is then good to rounding; 1e-15 for derivatives). The `ellip` crate's `cel` (f64 only, one pair) is the
-//! reference it is tested against.
+//! is quadratic, so the result is then good to rounding; 1e-15 for derivatives). The `ellip`
+//! crate's `cel` (f64 only, one pair) is the reference it is tested against.
 
 use super::autodiff::Real;
 
@@ -191,7 +191,8 @@ pub fn agm_cel_lanes<T: Real, const L: usize, const M: usize>(
         let mut done = true;
         for k in 0..L {
             let inv = one / pp[k];
-            let g = e4[k] * inv.scale(0.25);
+            // (e4/4 first: it comes from the square-root chain, off the 1/p chain)
+            let g = e4[k].scale(0.25) * inv;
             for i in 0..M {
                 let f = a[k][i];
                 a[k][i] = a[k][i] + b[k][i] * inv;
