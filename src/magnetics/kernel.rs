@@ -36,7 +36,7 @@
 //!   come from 1 - 1.
 
 use crate::special::autodiff::{Dual, Real};
-use crate::special::bulirsch::{agm_cel_lanes, AgmCel};
+use crate::special::bulirsch::{agm_cel_lanes, cel_multi2, AgmCel};
 use std::f64::consts::PI;
 use std::sync::OnceLock;
 
@@ -193,6 +193,17 @@ fn trapezoid_j_j_i<T: Real>(n: T, m: T, g: T) -> (T, T, T) {
     (j1.scale(h), j2.scale(h), i.scale(h))
 }
 
+/// J(m, m) alone (see [`trapezoid_j_j_i`]).
+fn trapezoid_j1<T: Real>(m: T) -> T {
+    let one = T::cst(1.0);
+    let mut j1 = T::cst(0.0);
+    for &s in &TRAPEZOID_S[1..8] {
+        let qm = one - m.scale(s);
+        j1 = j1 + (one / (qm * qm.sqrt())).scale(s * (1.0 - s));
+    }
+    j1.scale(PI / 16.0)
+}
+
 /// What one end needs before the elliptic integrals: 1/A^2, 1/A, m, kc and beta.
 #[derive(Clone, Copy)]
 struct EndPrep<T> {
@@ -258,10 +269,9 @@ fn end_prep<T: Real>(r: f64, rho: T, dif: T, pt: &PointPrep<T>, h: T) -> EndPrep
     } else {
         ((h * h + dif * dif) * inv_a2).sqrt()
     };
-    // beta = h / A; for dual numbers far from the end (|h| > R + rho) as
-    // sign(h) (1 - s^2/(A (A + |h|))), whose derivatives do not cancel (the plain quotient's
-    // d/dh is (A^2 - h^2)/A^3).
-    let beta = if T::DERIVATIVES && h.val().abs() > sum.val() {
+    // beta = h / A; far from the end (|h| > R + rho) as sign(h) (1 - s^2/(A (A + |h|))), whose
+    // derivatives do not cancel (the plain quotient's d/dh is (A^2 - h^2)/A^3).
+    let beta = if h.val().abs() > sum.val() {
         let sg = h.val().signum();
         let habs = if sg < 0.0 { -h } else { h };
         (T::cst(1.0) - sum * sum / (a * (a + habs))).scale(sg)
@@ -289,6 +299,9 @@ fn end_terms<T: Real>(r: f64, rho: T, dif: T, h: T) -> (T, T, T) {
     }
     if pt.n.val() < 0.25 {
         return end_terms_trapezoid(r, &pt, &e);
+    }
+    if T::DERIVATIVES {
+        return end_terms_two_chains(r, &pt, &e);
     }
     let cels = if pt.g2.val() == 0.0 {
         // rho = R exactly: cel(kc, g^2, 1, g) -> K(kc) + sign(g) pi/(2 kc) as g -> 0. Off the
@@ -331,7 +344,7 @@ fn end_terms_pair<T: Real, const M: usize>(r: f64, rho: T, dif: T, hp: T, hm: T)
     }
     let ep = end_prep(r, rho, dif, &pt, hp);
     let em = end_prep(r, rho, dif, &pt, hm);
-    if ep.kc.val() == 0.0 || em.kc.val() == 0.0 {
+    if T::DERIVATIVES || ep.kc.val() == 0.0 || em.kc.val() == 0.0 {
         return [end_terms(r, rho, dif, hp), end_terms(r, rho, dif, hm)];
     }
     let [cp, cm] = agm_cel_lanes::<T, 2, M>([ep.kc, em.kc], [ep.m, em.m], pt.g_abs, end_pairs(&pt));
@@ -370,6 +383,41 @@ fn end_terms_from_cel<T: Real, const M: usize>(
     let pref_p = (pt.inv_sum * pt.inv_sum).scale(-4.0 * r * r / PI);
     let tp = pref_p * e.beta * j2;
     (tq, tz, tp)
+}
+
+/// Below this m, the two-chain form takes tq from the trapezoidal J(kc, kc^2) instead of
+/// P1 = cel(kc, 1, 1, -1) = -m J, whose absolute rounding would then be ~eps/(m J) relative.
+const TQ_TRAPEZOID_BELOW_M: f64 = 0.05;
+
+/// The cel branch for dual numbers: Bulirsch's cel with its own chain for p = 1, P1 =
+/// cel(kc, 1, 1, -1) (eq. 5.39) and cel(kc, 1, 0, 1) from it, as the exact gradient was
+/// validated with. (The AGM-sum form of [`end_terms_from_cel`] is as accurate for values, but
+/// its derivatives near the lateral surface and for small m round differently, up to 1.7 times
+/// the two-chain form's worst gradient error in cases 105 and 108.)
+fn end_terms_two_chains<T: Real>(r: f64, pt: &PointPrep<T>, e: &EndPrep<T>) -> (T, T, T) {
+    let one = T::cst(1.0);
+    let (zero, p1_pairs) = (T::cst(0.0), [(one, -one), (T::cst(0.0), one)]);
+    let ([p1, c101], [cz, c01]) = if pt.g2.val() == 0.0 {
+        // rho = R exactly: see `end_terms`; c01 is then not needed.
+        let (p1c101, [k]) = cel_multi2(e.kc, one, p1_pairs, one, [(one, one)]);
+        (p1c101, [k, zero])
+    } else {
+        cel_multi2(e.kc, one, p1_pairs, pt.g2, [(one, pt.g), (zero, one)])
+    };
+    let tq = if e.m.val() < TQ_TRAPEZOID_BELOW_M {
+        (trapezoid_j1(e.m) * e.inv_a2 * e.inv_a).scale(-4.0 * r * r / PI)
+    } else {
+        // p1 / (A rho) = 4 R p1 / (m A^3)
+        (p1 * e.inv_a2 * e.inv_a / e.m).scale(4.0 * r * r / PI)
+    };
+    let tz = (e.beta * cz * pt.inv_sum).scale(r / PI);
+    let j2 = if pt.g2.val() == 0.0 {
+        c101
+    } else {
+        (c101 - pt.g2 * c01) * pt.inv_n
+    };
+    let pref_p = (pt.inv_sum * pt.inv_sum).scale(-4.0 * r * r / PI);
+    (tq, tz, pref_p * e.beta * j2)
 }
 
 /// The trapezoid branch (n < 1/4: near the axis or far out, where m <= n < 1/4).
