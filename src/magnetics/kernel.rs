@@ -269,9 +269,10 @@ fn end_prep<T: Real>(r: f64, rho: T, dif: T, pt: &PointPrep<T>, h: T) -> EndPrep
     } else {
         ((h * h + dif * dif) * inv_a2).sqrt()
     };
-    // beta = h / A; far from the end (|h| > R + rho) as sign(h) (1 - s^2/(A (A + |h|))), whose
-    // derivatives do not cancel (the plain quotient's d/dh is (A^2 - h^2)/A^3).
-    let beta = if h.val().abs() > sum.val() {
+    // beta = h / A; for dual numbers far from the end (|h| > R + rho) as
+    // sign(h) (1 - s^2/(A (A + |h|))), whose derivatives do not cancel (the plain quotient's
+    // d/dh is (A^2 - h^2)/A^3). (Values: the quotient, no division or branch.)
+    let beta = if T::DERIVATIVES && h.val().abs() > sum.val() {
         let sg = h.val().signum();
         let habs = if sg < 0.0 { -h } else { h };
         (T::cst(1.0) - sum * sum / (a * (a + habs))).scale(sg)
