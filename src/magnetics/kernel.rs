@@ -24,6 +24,13 @@
 //! (then also m < 1/4: near the axis or far away) the integrand is analytic in a strip of half
 //! width acosh(2) and the 16-point periodic trapezoidal rule is exact to ~1e-18.
 //!
+//! For values, the p = 1 integrals come from the AGM of the one cel loop per end
+//! (`bulirsch::agm_cel_lanes`): J(kc, kc^2) = K S/m^2 and cel(kc, 1, 0, 1) = K (1 + S/m)/2 with
+//! S = sum_{n>=1} 2^n c_n^2 (eq. 5.39 without its cancellation), so each end costs one division
+//! per AGM pass; the loop's pass count is fixed in advance from kc. A longitudinal M needs only
+//! Q and Z ([`field_h`]). Dual numbers (the exact gradient, the slab quadrature) keep Bulirsch's
+//! two-chain cel, P1 = cel(kc, 1, 1, -1) and the trapezoidal J below m = 0.05.
+//!
 //! Three regimes keep the two-ended differences from cancelling:
 //! * far (r > 4 a, a = sqrt(R^2 + L^2)): the exterior multipole series of psi with exact
 //!   moments; truncated where (a/r)^n < 1e-17;
