@@ -43,7 +43,7 @@
 //!   come from 1 - 1.
 
 use crate::special::autodiff::{Dual, Real};
-use crate::special::bulirsch::{agm_cel_lanes, cel_multi2, AgmCel};
+use crate::special::bulirsch::{agm_cel_lanes, cel_lanes, cel_multi2, AgmCel};
 use std::f64::consts::PI;
 use std::sync::OnceLock;
 
@@ -352,8 +352,23 @@ fn end_terms_pair<T: Real, const M: usize>(r: f64, rho: T, dif: T, hp: T, hm: T)
     }
     let ep = end_prep(r, rho, dif, &pt, hp);
     let em = end_prep(r, rho, dif, &pt, hm);
-    if T::DERIVATIVES || ep.kc.val() == 0.0 || em.kc.val() == 0.0 {
+    if ep.kc.val() == 0.0 || em.kc.val() == 0.0 {
         return [end_terms(r, rho, dif, hp), end_terms(r, rho, dif, hm)];
+    }
+    if T::DERIVATIVES {
+        // Both ends' two-chain cel interleaved (see `end_terms_two_chains`).
+        let one = T::cst(1.0);
+        let [cp, cm] = cel_lanes(
+            [ep.kc, em.kc],
+            one,
+            two_chain_p1_pairs(),
+            pt.g2,
+            [(one, pt.g), (T::cst(0.0), one)],
+        );
+        return [
+            two_chain_terms(r, &pt, &ep, cp),
+            two_chain_terms(r, &pt, &em, cm),
+        ];
     }
     let [cp, cm] = agm_cel_lanes::<T, 2, M>([ep.kc, em.kc], [ep.m, em.m], pt.g_abs, end_pairs(&pt));
     [
@@ -404,14 +419,37 @@ const TQ_TRAPEZOID_BELOW_M: f64 = 0.05;
 /// the two-chain form's worst gradient error in cases 105 and 108.)
 fn end_terms_two_chains<T: Real>(r: f64, pt: &PointPrep<T>, e: &EndPrep<T>) -> (T, T, T) {
     let one = T::cst(1.0);
-    let (zero, p1_pairs) = (T::cst(0.0), [(one, -one), (T::cst(0.0), one)]);
-    let ([p1, c101], [cz, c01]) = if pt.g2.val() == 0.0 {
+    let zero = T::cst(0.0);
+    let cels = if pt.g2.val() == 0.0 {
         // rho = R exactly: see `end_terms`; c01 is then not needed.
-        let (p1c101, [k]) = cel_multi2(e.kc, one, p1_pairs, one, [(one, one)]);
+        let (p1c101, [k]) = cel_multi2(e.kc, one, two_chain_p1_pairs(), one, [(one, one)]);
         (p1c101, [k, zero])
     } else {
-        cel_multi2(e.kc, one, p1_pairs, pt.g2, [(one, pt.g), (zero, one)])
+        cel_multi2(
+            e.kc,
+            one,
+            two_chain_p1_pairs(),
+            pt.g2,
+            [(one, pt.g), (zero, one)],
+        )
     };
+    two_chain_terms(r, pt, e, cels)
+}
+
+/// The (a, b) pairs of cel(kc, 1, a, b) of the two-chain form: P1 (eq. 5.39), cel(kc, 1, 0, 1).
+fn two_chain_p1_pairs<T: Real>() -> [(T, T); 2] {
+    let one = T::cst(1.0);
+    [(one, -one), (T::cst(0.0), one)]
+}
+
+/// Per-end terms from p1 = cel(kc,1,1,-1), c101 = cel(kc,1,0,1), cz = cel(kc,g^2,1,g) and
+/// c01 = cel(kc,g^2,0,1) (unused when g = 0).
+fn two_chain_terms<T: Real>(
+    r: f64,
+    pt: &PointPrep<T>,
+    e: &EndPrep<T>,
+    ([p1, c101], [cz, c01]): ([T; 2], [T; 2]),
+) -> (T, T, T) {
     let tq = if e.m.val() < TQ_TRAPEZOID_BELOW_M {
         (trapezoid_j1(e.m) * e.inv_a2 * e.inv_a).scale(-4.0 * r * r / PI)
     } else {
