@@ -21,9 +21,12 @@ cases = {
 for name, m in cases.items():
     cyl = magpy.magnet.Cylinder(dimension=(2 * R, 2 * L), magnetization=m)
     cyl.getH(pts[:1000])  # warm-up
-    best = 1e30
+    best, best_cpu = 1e30, 1e30
     for _ in range(3):
-        t0 = time.perf_counter()
+        t0, c0 = time.perf_counter(), time.process_time()
         H = cyl.getH(pts)
         best = min(best, time.perf_counter() - t0)
-    print(f"magpylib {magpy.__version__} {name:<13} {len(pts) / best:.4e} points/s (one call, best of 3)")
+        best_cpu = min(best_cpu, time.process_time() - c0)
+    # (CPU time as well: on a shared machine the wall clock also counts other processes' turns)
+    print(f"magpylib {magpy.__version__} {name:<13} {len(pts) / best:.4e} points/s (one call, best of 3)"
+          f"  [cpu time: {len(pts) / best_cpu:.4e} points/s]")

@@ -1,8 +1,8 @@
 //! Field of one uniformly magnetized cylinder in its own frame.
 
 use super::kernel::{
-    field_tensor, near_axis, near_axis_tensor, radial_gap, tensor_with_gradient, KernelGeometry,
-    Regime,
+    field_h, field_tensor, near_axis, near_axis_tensor, radial_gap, tensor_with_gradient,
+    KernelGeometry, Regime,
 };
 use crate::error::{invalid, Result};
 use nalgebra::{Matrix3, Vector3};
@@ -60,8 +60,9 @@ impl Cylinder {
         (Matrix3::from_fn(|i, j| t[i][j]), regime)
     }
     /// H in A/m at p (m, cylinder frame) for magnetization m (A/m, cylinder frame).
+    /// (A longitudinal m only needs the axial part of the tensor: see [`field_h`].)
     pub fn h_field(&self, m: &Vector3<f64>, p: &Vector3<f64>) -> Vector3<f64> {
-        self.field_tensor(p) * m
+        Vector3::from(field_h(&self.geometry, p.x, p.y, p.z, [m.x, m.y, m.z]))
     }
     /// B in T: mu0 (H + M) strictly inside, mu0 H elsewhere (surface = outside limit).
     pub fn b_field(&self, m: &Vector3<f64>, p: &Vector3<f64>) -> Vector3<f64> {

@@ -24,6 +24,13 @@
 //! (then also m < 1/4: near the axis or far away) the integrand is analytic in a strip of half
 //! width acosh(2) and the 16-point periodic trapezoidal rule is exact to ~1e-18.
 //!
+//! For values, the p = 1 integrals come from the AGM of the one cel loop per end
+//! (`bulirsch::agm_cel_lanes`): J(kc, kc^2) = K S/m^2 and cel(kc, 1, 0, 1) = K (1 + S/m)/2 with
+//! S = sum_{n>=1} 2^n c_n^2 (eq. 5.39 without its cancellation), so each end costs one division
+//! per AGM pass; the loop's pass count is fixed in advance from kc. A longitudinal M needs only
+//! Q and Z ([`field_h`]). Dual numbers (the exact gradient, the slab quadrature) keep Bulirsch's
+//! two-chain cel, P1 = cel(kc, 1, 1, -1) and the trapezoidal J below m = 0.05.
+//!
 //! Three regimes keep the two-ended differences from cancelling:
 //! * far (r > 4 a, a = sqrt(R^2 + L^2)): the exterior multipole series of psi with exact
 //!   moments; truncated where (a/r)^n < 1e-17;
@@ -36,7 +43,7 @@
 //!   come from 1 - 1.
 
 use crate::special::autodiff::{Dual, Real};
-use crate::special::bulirsch::{cel_multi2, cel_multi2_x2};
+use crate::special::bulirsch::{agm_cel_lanes, cel_lanes, cel_multi2, AgmCel};
 use std::f64::consts::PI;
 use std::sync::OnceLock;
 
@@ -204,13 +211,13 @@ fn trapezoid_j1<T: Real>(m: T) -> T {
     j1.scale(PI / 16.0)
 }
 
-/// What one end needs before the elliptic integrals: 1/A^2, 1/A, m, kc^2 and beta.
+/// What one end needs before the elliptic integrals: 1/A^2, 1/A, m, kc and beta.
 #[derive(Clone, Copy)]
 struct EndPrep<T> {
     inv_a2: T,
     inv_a: T,
     m: T,
-    kc2: T,
+    kc: T,
     beta: T,
 }
 
@@ -220,6 +227,8 @@ struct PointPrep<T> {
     sum: T,
     inv_sum: T,
     g: T,
+    /// |g| = sqrt(g^2), the square root of the characteristic that cel needs.
+    g_abs: T,
     g2: T,
     n: T,
     /// 1/n = (R + rho)^2 / (4 R rho) (infinite on the axis, where n is not used as a divisor).
@@ -241,6 +250,7 @@ fn point_prep<T: Real>(r: f64, rho: T, dif: T) -> PointPrep<T> {
         sum,
         inv_sum,
         g,
+        g_abs: if g.val() < 0.0 { -g } else { g },
         g2: g * g,
         n,
         inv_n,
@@ -255,16 +265,21 @@ fn end_prep<T: Real>(r: f64, rho: T, dif: T, pt: &PointPrep<T>, h: T) -> EndPrep
     let a = a2.sqrt();
     let inv_a = a * inv_a2;
     let m = (rho * inv_a2).scale(4.0 * r);
-    // kc^2 = 1 - m, taken as 1 - m where that is exact enough (so that its derivative, used by
-    // the slab quadrature and the gradient, is -dm and does not cancel), directly near the rim.
-    let kc2 = if m.val() < 0.5 {
-        T::cst(1.0) - m
+    // kc = sqrt(h^2 + (R - rho)^2)/A. For values directly (accurate to rounding, and no branch
+    // on the way into the elliptic integrals, whose latency bounds the kernel). For dual numbers
+    // kc^2 = 1 - m where that is exact enough (so that its derivative, used by the slab
+    // quadrature and the gradient, is -dm and does not cancel), directly near the rim.
+    let kc = if !T::DERIVATIVES {
+        (h * h + dif * dif).sqrt() * inv_a
+    } else if m.val() < 0.5 {
+        (T::cst(1.0) - m).sqrt()
     } else {
-        (h * h + dif * dif) * inv_a2
+        ((h * h + dif * dif) * inv_a2).sqrt()
     };
-    // beta = h / A; far from the end (|h| > R + rho) as sign(h) (1 - s^2/(A (A + |h|))), whose
-    // derivatives do not cancel (the plain quotient's d/dh is (A^2 - h^2)/A^3).
-    let beta = if h.val().abs() > sum.val() {
+    // beta = h / A; for dual numbers far from the end (|h| > R + rho) as
+    // sign(h) (1 - s^2/(A (A + |h|))), whose derivatives do not cancel (the plain quotient's
+    // d/dh is (A^2 - h^2)/A^3). (Values: the quotient, no division or branch.)
+    let beta = if T::DERIVATIVES && h.val().abs() > sum.val() {
         let sg = h.val().signum();
         let habs = if sg < 0.0 { -h } else { h };
         (T::cst(1.0) - sum * sum / (a * (a + habs))).scale(sg)
@@ -275,7 +290,7 @@ fn end_prep<T: Real>(r: f64, rho: T, dif: T, pt: &PointPrep<T>, h: T) -> EndPrep
         inv_a2,
         inv_a,
         m,
-        kc2,
+        kc,
         beta,
     }
 }
@@ -285,7 +300,7 @@ fn end_prep<T: Real>(r: f64, rho: T, dif: T, pt: &PointPrep<T>, h: T) -> EndPrep
 fn end_terms<T: Real>(r: f64, rho: T, dif: T, h: T) -> (T, T, T) {
     let pt = point_prep(r, rho, dif);
     let e = end_prep(r, rho, dif, &pt, h);
-    if e.kc2.val() == 0.0 {
+    if e.kc.val() == 0.0 {
         // On the rim circle: the field is logarithmically infinite.
         let inf = T::cst(f64::INFINITY);
         return (inf, inf, inf);
@@ -293,71 +308,148 @@ fn end_terms<T: Real>(r: f64, rho: T, dif: T, h: T) -> (T, T, T) {
     if pt.n.val() < 0.25 {
         return end_terms_trapezoid(r, &pt, &e);
     }
-    let one = T::cst(1.0);
+    if T::DERIVATIVES {
+        return end_terms_two_chains(r, &pt, &e);
+    }
     let cels = if pt.g2.val() == 0.0 {
         // rho = R exactly: cel(kc, g^2, 1, g) -> K(kc) + sign(g) pi/(2 kc) as g -> 0. Off the
         // lateral surface (|z| > L) the two ends' jumps cancel and the mean K is right; on it
         // `end_terms_at` adds the outside limit's jump. c01 is then not needed.
-        let ([p1, c101], [k]) = cel_multi2(
-            e.kc2.sqrt(),
-            one,
-            [(one, -one), (T::cst(0.0), one)],
-            one,
-            [(one, one)],
-        );
-        ([p1, c101], [k, T::cst(0.0)])
+        let [o] = agm_cel_lanes::<T, 1, 0>([e.kc], [e.m], T::cst(1.0), []);
+        AgmCel {
+            k: o.k,
+            s_over_m2: o.s_over_m2,
+            cel: [o.k, T::cst(0.0)],
+        }
     } else {
-        cel_multi2(
-            e.kc2.sqrt(),
-            one,
-            [(one, -one), (T::cst(0.0), one)],
-            pt.g2,
-            [(one, pt.g), (T::cst(0.0), one)],
-        )
+        let [o] = agm_cel_lanes::<T, 1, 2>([e.kc], [e.m], pt.g_abs, end_pairs(&pt));
+        o
     };
-    end_terms_from_cel(r, &pt, &e, cels)
+    end_terms_from_cel(r, &pt, &e, &cels)
 }
 
-/// Both ends at once (interleaved elliptic integrals when both take the cel branch).
+/// The (a, b) pairs of cel(kc, g^2, a, b) that the closed forms need: (1, g) for tz
+/// (thesis eq. 5.40) and, with M = 2, (0, 1) for the transverse J(kc, g^2) (eq. 5.20-5.21).
 #[inline]
-fn end_terms_pair<T: Real>(r: f64, rho: T, dif: T, hp: T, hm: T) -> [(T, T, T); 2] {
+fn end_pairs<T: Real, const M: usize>(pt: &PointPrep<T>) -> [(T, T); M] {
+    std::array::from_fn(|i| {
+        if i == 0 {
+            (T::cst(1.0), pt.g)
+        } else {
+            (T::cst(0.0), T::cst(1.0))
+        }
+    })
+}
+
+/// Both ends at once (interleaved elliptic integrals when both take the cel branch). With
+/// M = 1 (longitudinal magnetization only) the transverse tp of the cel branch is skipped
+/// (returned as 0).
+#[inline]
+fn end_terms_pair<T: Real, const M: usize>(r: f64, rho: T, dif: T, hp: T, hm: T) -> [(T, T, T); 2] {
     let pt = point_prep(r, rho, dif);
     if pt.n.val() < 0.25 || pt.g2.val() == 0.0 {
         return [end_terms(r, rho, dif, hp), end_terms(r, rho, dif, hm)];
     }
     let ep = end_prep(r, rho, dif, &pt, hp);
     let em = end_prep(r, rho, dif, &pt, hm);
-    if ep.kc2.val() == 0.0 || em.kc2.val() == 0.0 {
+    if ep.kc.val() == 0.0 || em.kc.val() == 0.0 {
         return [end_terms(r, rho, dif, hp), end_terms(r, rho, dif, hm)];
     }
-    let one = T::cst(1.0);
-    let [cp, cm] = cel_multi2_x2(
-        [ep.kc2.sqrt(), em.kc2.sqrt()],
-        one,
-        [(one, -one), (T::cst(0.0), one)],
-        pt.g2,
-        [(one, pt.g), (T::cst(0.0), one)],
-    );
+    if T::DERIVATIVES {
+        // Both ends' two-chain cel interleaved (see `end_terms_two_chains`).
+        let one = T::cst(1.0);
+        let [cp, cm] = cel_lanes(
+            [ep.kc, em.kc],
+            one,
+            two_chain_p1_pairs(),
+            pt.g2,
+            [(one, pt.g), (T::cst(0.0), one)],
+        );
+        return [
+            two_chain_terms(r, &pt, &ep, cp),
+            two_chain_terms(r, &pt, &em, cm),
+        ];
+    }
+    let [cp, cm] = agm_cel_lanes::<T, 2, M>([ep.kc, em.kc], [ep.m, em.m], pt.g_abs, end_pairs(&pt));
     [
-        end_terms_from_cel(r, &pt, &ep, cp),
-        end_terms_from_cel(r, &pt, &em, cm),
+        end_terms_from_cel(r, &pt, &ep, &cp),
+        end_terms_from_cel(r, &pt, &em, &cm),
     ]
 }
 
-/// Below this m, tq comes from the trapezoidal J(kc, kc^2) instead of P1 = cel(kc, 1, 1, -1)
-/// = -m J, whose absolute rounding would then be ~eps/(m J) relative (2e-14 at m = 0.05).
+/// The cel branch (n >= 1/4), from K, S/m^2 (see [`AgmCel`]), cz = cel(kc, g^2, 1, g) and
+/// c01 = cel(kc, g^2, 0, 1) (unused when g = 0):
+/// tq uses J(kc, kc^2) = K S/m^2 (eq. 5.39 without its cancellation: P1 = -m J), tp uses
+/// J(kc, g^2) = (cel(kc, 1, 0, 1) - g^2 c01)/n with cel(kc, 1, 0, 1) = K (1 + m S/m^2)/2.
+/// With M = 1 (no c01) tp is not formed and returned as 0.
+#[inline]
+fn end_terms_from_cel<T: Real, const M: usize>(
+    r: f64,
+    pt: &PointPrep<T>,
+    e: &EndPrep<T>,
+    c: &AgmCel<T, M>,
+) -> (T, T, T) {
+    let cz = c.cel[0];
+    let j1 = c.k * c.s_over_m2;
+    let tq = (j1 * e.inv_a2 * e.inv_a).scale(-4.0 * r * r / PI);
+    let tz = (e.beta * cz * pt.inv_sum).scale(r / PI);
+    if M < 2 {
+        return (tq, tz, T::cst(0.0));
+    }
+    let c01 = c.cel[M - 1];
+    let c101 = (c.k + j1 * e.m).scale(0.5);
+    let j2 = if pt.g2.val() == 0.0 {
+        c101
+    } else {
+        (c101 - pt.g2 * c01) * pt.inv_n
+    };
+    let pref_p = (pt.inv_sum * pt.inv_sum).scale(-4.0 * r * r / PI);
+    let tp = pref_p * e.beta * j2;
+    (tq, tz, tp)
+}
+
+/// Below this m, the two-chain form takes tq from the trapezoidal J(kc, kc^2) instead of
+/// P1 = cel(kc, 1, 1, -1) = -m J, whose absolute rounding would then be ~eps/(m J) relative.
 const TQ_TRAPEZOID_BELOW_M: f64 = 0.05;
 
-/// The cel branch (n >= 1/4): p1 = cel(kc,1,1,-1), c101 = cel(kc,1,0,1), cz = cel(kc,g^2,1,g),
+/// The cel branch for dual numbers: Bulirsch's cel with its own chain for p = 1, P1 =
+/// cel(kc, 1, 1, -1) (eq. 5.39) and cel(kc, 1, 0, 1) from it, as the exact gradient was
+/// validated with. (The AGM-sum form of [`end_terms_from_cel`] is as accurate for values, but
+/// its derivatives near the lateral surface and for small m round differently, up to 1.7 times
+/// the two-chain form's worst gradient error in cases 105 and 108.)
+fn end_terms_two_chains<T: Real>(r: f64, pt: &PointPrep<T>, e: &EndPrep<T>) -> (T, T, T) {
+    let one = T::cst(1.0);
+    let zero = T::cst(0.0);
+    let cels = if pt.g2.val() == 0.0 {
+        // rho = R exactly: see `end_terms`; c01 is then not needed.
+        let (p1c101, [k]) = cel_multi2(e.kc, one, two_chain_p1_pairs(), one, [(one, one)]);
+        (p1c101, [k, zero])
+    } else {
+        cel_multi2(
+            e.kc,
+            one,
+            two_chain_p1_pairs(),
+            pt.g2,
+            [(one, pt.g), (zero, one)],
+        )
+    };
+    two_chain_terms(r, pt, e, cels)
+}
+
+/// The (a, b) pairs of cel(kc, 1, a, b) of the two-chain form: P1 (eq. 5.39), cel(kc, 1, 0, 1).
+fn two_chain_p1_pairs<T: Real>() -> [(T, T); 2] {
+    let one = T::cst(1.0);
+    [(one, -one), (T::cst(0.0), one)]
+}
+
+/// Per-end terms from p1 = cel(kc,1,1,-1), c101 = cel(kc,1,0,1), cz = cel(kc,g^2,1,g) and
 /// c01 = cel(kc,g^2,0,1) (unused when g = 0).
-#[inline]
-fn end_terms_from_cel<T: Real>(
+fn two_chain_terms<T: Real>(
     r: f64,
     pt: &PointPrep<T>,
     e: &EndPrep<T>,
     ([p1, c101], [cz, c01]): ([T; 2], [T; 2]),
 ) -> (T, T, T) {
-    let pref_p = (pt.inv_sum * pt.inv_sum).scale(-4.0 * r * r / PI);
     let tq = if e.m.val() < TQ_TRAPEZOID_BELOW_M {
         (trapezoid_j1(e.m) * e.inv_a2 * e.inv_a).scale(-4.0 * r * r / PI)
     } else {
@@ -370,8 +462,8 @@ fn end_terms_from_cel<T: Real>(
     } else {
         (c101 - pt.g2 * c01) * pt.inv_n
     };
-    let tp = pref_p * e.beta * j2;
-    (tq, tz, tp)
+    let pref_p = (pt.inv_sum * pt.inv_sum).scale(-4.0 * r * r / PI);
+    (tq, tz, pref_p * e.beta * j2)
 }
 
 /// The trapezoid branch (n < 1/4: near the axis or far out, where m <= n < 1/4).
@@ -388,6 +480,7 @@ fn end_terms_trapezoid<T: Real>(r: f64, pt: &PointPrep<T>, e: &EndPrep<T>) -> (T
 /// Charge-form cap term C_z = -Omega/(4 pi) of the disk at signed height h (Omega = solid
 /// angle), for r_c = sqrt(rho^2 + h^2) > 10R: Legendre series of the disk potential,
 /// Phi_d = 2 pi sum_{l>=1} binom(1/2, l) R^(2l) P_{2l-2}(cos) / r^(2l-1), differentiated in z.
+#[inline(never)]
 fn cap_series_cz<T: Real>(r: f64, rho: T, h: T) -> T {
     let rc = (rho * rho + h * h).sqrt();
     let c = h / rc;
@@ -508,6 +601,18 @@ pub fn radial_gap(r: f64, x: f64, y: f64) -> f64 {
 
 /// Hess psi in cylindrical form at (rho, z); `dif` = R - rho (value from [`radial_gap`]).
 pub fn cyl_hessian<T: Real>(g: &KernelGeometry, rho: T, dif: T, z: T) -> (CylHessian<T>, Regime) {
+    cyl_hessian_parts::<T, 2>(g, rho, dif, z)
+}
+
+/// [`cyl_hessian`] with M = 2; with M = 1 only what a longitudinal magnetization needs, Q and Z
+/// (thesis eq. 5.3-5.6): the closed forms then skip the transverse per-end terms (eq. 5.19-5.22)
+/// and their cancellation test, and p, prr and d are NaN.
+fn cyl_hessian_parts<T: Real, const M: usize>(
+    g: &KernelGeometry,
+    rho: T,
+    dif: T,
+    z: T,
+) -> (CylHessian<T>, Regime) {
     let (r, l) = (g.r, g.l);
     let (rv, zv, dv) = (rho.val(), z.val(), dif.val());
     let inside = dv > 0.0 && zv.abs() < l;
@@ -516,8 +621,7 @@ pub fn cyl_hessian<T: Real>(g: &KernelGeometry, rho: T, dif: T, z: T) -> (CylHes
         return (multipole(g, rho, z), Regime::Multipole);
     }
     // rho_B <= 2|w| with w = (z + i|R - rho|)/L, so only |w| > SLAB_BERNSTEIN_MIN/2 can qualify.
-    let w2 = (zv * zv + dv * dv) / (l * l);
-    if w2 > 0.25 * SLAB_BERNSTEIN_MIN * SLAB_BERNSTEIN_MIN && dv != 0.0 {
+    if zv * zv + dv * dv > (0.25 * SLAB_BERNSTEIN_MIN * SLAB_BERNSTEIN_MIN) * (l * l) && dv != 0.0 {
         let rb = bernstein(l, dv, zv);
         if rb > SLAB_BERNSTEIN_MIN {
             return (
@@ -535,10 +639,47 @@ pub fn cyl_hessian<T: Real>(g: &KernelGeometry, rho: T, dif: T, z: T) -> (CylHes
             end_terms_at(r, rho, dif, xm, zv, l),
         ]
     } else {
-        end_terms_pair(r, rho, dif, xp, xm)
+        end_terms_pair::<T, M>(r, rho, dif, xp, xm)
     };
     let cz_p = cap_cz(r, rho, dif, xp, tz_p, -1.0);
     let cz_m = cap_cz(r, rho, dif, xm, tz_m, 1.0);
+    let q = tq_p - tq_m;
+    let zz = cz_p - cz_m;
+    let zero = T::cst(0.0);
+    // If the two ends still cancel (e.g. far from a thin slab), and Gauss-Legendre along the
+    // axis converges to rounding with at most 24 nodes, integrate instead of subtracting.
+    let cancels = |a: T, b: T, c: T| {
+        a.val().abs() + b.val().abs() + c.val().abs()
+            > CANCELLATION_MAX * (a.val() - b.val() + c.val()).abs().max(1e-300)
+    };
+    let slab_fallback = |cancelling: bool| {
+        if cancelling && dv != 0.0 {
+            let rb = bernstein(l, dv, zv);
+            if rb > SLAB_BERNSTEIN_FALLBACK {
+                return Some((
+                    slab_quadrature(g, rho, dif, z, chi, rb),
+                    Regime::SlabQuadrature,
+                ));
+            }
+        }
+        None
+    };
+    if M < 2 {
+        if let Some(out) = slab_fallback(cancels(tq_p, tq_m, zero) || cancels(cz_p, cz_m, zero)) {
+            return out;
+        }
+        let nan = T::cst(f64::NAN);
+        return (
+            CylHessian {
+                p: nan,
+                q,
+                z: zz,
+                prr: nan,
+                d: nan,
+            },
+            Regime::ClosedForm,
+        );
+    }
     // Transverse per-end terms tend to sign(h) tp_inf far from their end; subtract it.
     let tp_inf = if dv >= 0.0 {
         T::cst(-0.25)
@@ -550,26 +691,10 @@ pub fn cyl_hessian<T: Real>(g: &KernelGeometry, rho: T, dif: T, z: T) -> (CylHes
     let (dp_m, s_m) = offset_tp(r, rho, dif, xm, tp_m, tp_inf, 1.0);
     let p_inf = tp_inf.scale(s_p - s_m);
     let p = dp_p - dp_m + p_inf;
-    let q = tq_p - tq_m;
-    let zz = cz_p - cz_m;
-    // If the two ends still cancel (e.g. far from a thin slab), and Gauss-Legendre along the
-    // axis converges to rounding with at most 24 nodes, integrate instead of subtracting.
-    let kappa = |a: T, b: T, c: T| {
-        (a.val().abs() + b.val().abs() + c.val().abs())
-            / (a.val() - b.val() + c.val()).abs().max(1e-300)
-    };
-    let zero = T::cst(0.0);
-    let worst = kappa(dp_p, dp_m, p_inf)
-        .max(kappa(tq_p, tq_m, zero))
-        .max(kappa(cz_p, cz_m, zero));
-    if worst > CANCELLATION_MAX && dv != 0.0 {
-        let rb = bernstein(l, dv, zv);
-        if rb > SLAB_BERNSTEIN_FALLBACK {
-            return (
-                slab_quadrature(g, rho, dif, z, chi, rb),
-                Regime::SlabQuadrature,
-            );
-        }
+    if let Some(out) = slab_fallback(
+        cancels(dp_p, dp_m, p_inf) || cancels(tq_p, tq_m, zero) || cancels(cz_p, cz_m, zero),
+    ) {
+        return out;
     }
     // Prr - P = -chi - Z - 2 P = (-chi - 2 P_inf) - Z - 2 (dp_p - dp_m): the bracket is exact.
     let d = (-T::cst(chi) - p_inf.scale(2.0)) - zz - (dp_p - dp_m).scale(2.0);
@@ -601,6 +726,7 @@ fn side_sign(h: f64, side: f64) -> f64 {
 /// cancel (far from the end, |h| > 4R) dp is computed as the tail integral
 /// dp(h) = -s int_{|h|}^inf tp'(s u) du, with u = |h|/t and 10-point Gauss-Legendre in t on
 /// [0, 1] (the integrand ~ t/h^2 is analytic there; its singularities sit at |t| >= 4).
+#[inline]
 fn offset_tp<T: Real>(r: f64, rho: T, dif: T, h: T, tp: T, tp_inf: T, side: f64) -> (T, f64) {
     let hv = h.val();
     let s = side_sign(hv, side);
@@ -614,7 +740,13 @@ fn offset_tp<T: Real>(r: f64, rho: T, dif: T, h: T, tp: T, tp_inf: T, side: f64)
     if hv.abs() <= 4.0 * r || tp_inf.val().abs() <= limit * direct.val().abs() {
         return (direct, s);
     }
-    let habs = if hv < 0.0 { -h } else { h };
+    (offset_tp_tail(r, rho, dif, h, s), s)
+}
+
+/// The tail-integral form of [`offset_tp`] (rarely needed: kept out of the inlined path).
+#[inline(never)]
+fn offset_tp_tail<T: Real>(r: f64, rho: T, dif: T, h: T, s: f64) -> T {
+    let habs = if h.val() < 0.0 { -h } else { h };
     let rho_d = Dual::<T, 1>::constant(rho);
     let dif_d = Dual::<T, 1>::constant(dif);
     let mut acc = T::cst(0.0);
@@ -625,7 +757,7 @@ fn offset_tp<T: Real>(r: f64, rho: T, dif: T, h: T, tp: T, tp_inf: T, side: f64)
         let (_, _, tpd) = end_terms(r, rho_d, dif_d, hh);
         acc = acc + (tpd.d[0] * habs).scale(0.5 * w / (t * t));
     }
-    (-acc.scale(s), s)
+    -acc.scale(s)
 }
 
 const TAIL_NODES: usize = 10;
@@ -686,6 +818,7 @@ fn end_terms_at<T: Real>(r: f64, rho: T, dif: T, h: T, zv: f64, l: f64) -> (T, T
 
 /// Charge-form cap term: C_z = tz - sign(h)/2 for rho < R (sign at h = 0 chosen by `side`:
 /// +1 for the top cap, whose outside is h > 0, -1 for the bottom cap), series when far.
+#[inline]
 fn cap_cz<T: Real>(r: f64, rho: T, dif: T, h: T, tz: T, side: f64) -> T {
     let (rv, hv) = (rho.val(), h.val());
     // (For rho > R the closed form tends to 0 from O(1) pieces, for rho < R to 1/2: both cancel
@@ -711,8 +844,28 @@ pub fn field_tensor<T: Real>(g: &KernelGeometry, x: T, y: T, z: T) -> ([[T; 3]; 
     (assemble(x, y, &hc), regime)
 }
 
+/// H = T M at (x, y, z) (cylinder frame) for magnetization `m` (the tensor assembled here,
+/// inline, rather than returned by [`field_tensor`]). For a longitudinal M (m_x = m_y = 0)
+/// only Q and Z are formed, H = m_z (x Q, y Q, Z) (thesis eq. 5.3-5.6); otherwise also the
+/// transverse parts (eq. 5.19-5.22).
+pub fn field_h(g: &KernelGeometry, x: f64, y: f64, z: f64, m: [f64; 3]) -> [f64; 3] {
+    let rho2 = x * x + y * y;
+    let rho = rho2.sqrt();
+    let dif = radial_gap(g.r, x, y);
+    if m[0] == 0.0 && m[1] == 0.0 {
+        let (hc, _) = cyl_hessian_parts::<f64, 1>(g, rho, dif, z);
+        let qm = hc.q * m[2];
+        return [x * qm, y * qm, hc.z * m[2]];
+    }
+    let (hc, _) = cyl_hessian(g, rho, dif, z);
+    let t = assemble(x, y, &hc);
+    let row = |i: usize| t[i][0] * m[0] + t[i][1] * m[1] + t[i][2] * m[2];
+    [row(0), row(1), row(2)]
+}
+
 /// The Cartesian tensor from its cylindrical parts at (x, y):
 /// T = P I_xy + (Prr - P) e_rho e_rho^T + Q (x, y) e_z^T + sym. + Z e_z e_z^T.
+#[inline]
 pub fn assemble<T: Real>(x: T, y: T, hc: &CylHessian<T>) -> [[T; 3]; 3] {
     let rho2 = x * x + y * y;
     let (c2, s2, cs) = if rho2.val() == 0.0 {
