@@ -24,10 +24,11 @@ pub trait Real:
     /// The same number with its value replaced by `v` (derivative parts kept): for quantities
     /// whose value is computed more accurately elsewhere (e.g. in compensated arithmetic).
     fn with_value(self, v: f64) -> Self;
-    /// Relative agreement at which AGM-type loops may stop. The value converges quadratically,
-    /// so 1e-9 leaves ~1e-18 in it, but the derivative parts carry the first-order remainder:
-    /// dual numbers iterate to 1e-15.
-    const AGM_TOLERANCE: f64 = 1e-9;
+    /// Relative agreement at which AGM-type loops may stop. The value converges quadratically:
+    /// stopping at a relative difference d of the means leaves d^2/16 in K (6e-18 for 1e-8,
+    /// Bulirsch's own 10^(-D/2) for D = 16 digits), but the derivative parts carry the
+    /// first-order remainder: dual numbers iterate to 1e-15.
+    const AGM_TOLERANCE: f64 = 1e-8;
     /// True for dual numbers: derivatives of a difference cancel sooner than its value, so
     /// cancellation guards switch to their stable forms at lower ratios.
     const DERIVATIVES: bool = false;
