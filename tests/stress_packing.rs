@@ -27,11 +27,28 @@ fn explore() {
     p.tries_per_particle = env_f("MCM_TRIES", p.tries_per_particle);
     p.overlap_tol = env_f("MCM_TOL", p.overlap_tol);
     p.dt = env_f("MCM_DT", p.dt);
+    p.beta = env_f("MCM_BETA", p.beta);
     if env_f("MCM_ORIG", 0.0) > 0.0 {
         p.scheme = Scheme::Original;
     }
     let t = Instant::now();
-    let r = run(&p).unwrap();
+    let mut r = run(&p).unwrap();
+    if env_f("MCM_H2", 0.0) > 0.0 {
+        eprintln!(
+            "stage 1: phi={:.4} steps={} tries={} secs={:.2}",
+            r.packing.packing_fraction(),
+            r.history.len(),
+            r.total_tries,
+            t.elapsed().as_secs_f64()
+        );
+        let mut q = p.clone();
+        q.beta = env_f("MCM_BETA2", 0.5);
+        q.halvings = env_f("MCM_H2", 0.0) as u32;
+        q.delta_v_per_particle = env_f("MCM_DV2", p.delta_v_per_particle);
+        q.tries_per_particle = env_f("MCM_TRIES2", p.tries_per_particle);
+        let r2 = porelab::packing::run_from(r.packing.clone(), &q).unwrap();
+        r = r2;
+    }
     let secs = t.elapsed().as_secs_f64();
     let v = r.packing.view();
     let gaps = analysis::pair_gaps(&v, 1e-2).unwrap();

@@ -272,6 +272,132 @@ pub fn nematic_order(axes: &[Vector3<f64>]) -> Result<f64> {
     Ok(e.max())
 }
 
+/// Cubatic order parameter S4 (thesis eq. 4.17, after Batten et al.):
+/// max over unit n of (1/14N) sum_i sum_{j=1..3} (35 (u_ij.n)^4 - 30 (u_ij.n)^2 + 3), where
+/// u_ij are the three body axes of particle i. 1 for perfect cubatic order, 0 on average for
+/// isotropic orientations. The maximum is searched (as in the thesis) over trial directions
+/// (a deterministic Fibonacci lattice of `trials` points on the half sphere), the best of which
+/// are refined by projected gradient ascent.
+pub fn cubatic_order(orientations: &[UnitQuaternion<f64>], trials: usize) -> Result<f64> {
+    if orientations.is_empty() {
+        return invalid("no orientations: cubatic order needs at least one particle");
+    }
+    if trials < 10 {
+        return invalid(format!(
+            "trials = {trials}: need at least 10 trial directions"
+        ));
+    }
+    let axes: Vec<[Vector3<f64>; 3]> = orientations
+        .iter()
+        .map(|q| {
+            let r = q.to_rotation_matrix();
+            [
+                r.matrix().column(0).into(),
+                r.matrix().column(1).into(),
+                r.matrix().column(2).into(),
+            ]
+        })
+        .collect();
+    let n_f = orientations.len() as f64;
+    // sum_j c_j^2 = 1, so the summand is 35 sum_j c_j^4 - 21.
+    let value = |n: &Vector3<f64>| -> f64 {
+        let s: f64 = axes
+            .iter()
+            .map(|a| a.iter().map(|u| u.dot(n).powi(4)).sum::<f64>())
+            .sum();
+        (35.0 * s - 21.0 * n_f) / (14.0 * n_f)
+    };
+    let grad = |n: &Vector3<f64>| -> Vector3<f64> {
+        let mut g = Vector3::zeros();
+        for a in &axes {
+            for u in a {
+                g += 4.0 * u.dot(n).powi(3) * u;
+            }
+        }
+        g * (35.0 / (14.0 * n_f))
+    };
+    // Fibonacci lattice on the upper half sphere (n and -n give the same value).
+    let golden = std::f64::consts::PI * (3.0 - 5f64.sqrt());
+    let mut cand: Vec<(f64, Vector3<f64>)> = (0..trials)
+        .map(|k| {
+            let z = 1.0 - (k as f64 + 0.5) / trials as f64;
+            let r = (1.0 - z * z).sqrt();
+            let t = golden * k as f64;
+            let n = Vector3::new(r * t.cos(), r * t.sin(), z);
+            (value(&n), n)
+        })
+        .collect();
+    cand.sort_by(|a, b| b.0.partial_cmp(&a.0).unwrap());
+    let mut best = f64::NEG_INFINITY;
+    for (v0, n0) in cand.into_iter().take(5) {
+        let (mut v, mut n) = (v0, n0);
+        let mut step = 0.1;
+        for _ in 0..200 {
+            let g = grad(&n);
+            let gt = g - g.dot(&n) * n;
+            if gt.norm() < 1e-14 {
+                break;
+            }
+            let trial = (n + step * gt / gt.norm()).normalize();
+            let vt = value(&trial);
+            if vt > v {
+                v = vt;
+                n = trial;
+                step *= 1.2;
+            } else {
+                step *= 0.5;
+                if step < 1e-12 {
+                    break;
+                }
+            }
+        }
+        best = best.max(v);
+    }
+    Ok(best)
+}
+
+/// Radial distribution function of the particle centres in the periodic cubic box: bin
+/// centres r_k and g(r_k) = (pair count in the shell) / (N rho V_shell / 2), by brute force
+/// over all pairs with the minimum image, for r up to `r_max` < L/2.
+pub fn radial_distribution(c: &Rods, r_max: f64, bins: usize) -> Result<Vec<(f64, f64)>> {
+    c.check()?;
+    if bins == 0 {
+        return invalid("bins = 0: need at least one bin");
+    }
+    if !(r_max.is_finite() && r_max > 0.0 && r_max <= 0.5 * c.box_length) {
+        return invalid(format!(
+            "r_max = {r_max}: must be positive and at most half the box length {}",
+            0.5 * c.box_length
+        ));
+    }
+    let n = c.n();
+    if n < 2 {
+        return invalid(format!("{n} particles: g(r) needs at least 2"));
+    }
+    let dr = r_max / bins as f64;
+    let bl = c.box_length;
+    let mut hist = vec![0u64; bins];
+    for i in 0..n {
+        for j in i + 1..n {
+            let d = (c.positions[j] - c.positions[i]).map(|x| x - bl * (x / bl).round());
+            let r = d.norm();
+            if r < r_max {
+                hist[((r / dr) as usize).min(bins - 1)] += 1;
+            }
+        }
+    }
+    let rho = n as f64 / bl.powi(3);
+    Ok(hist
+        .iter()
+        .enumerate()
+        .map(|(k, &h)| {
+            let (r0, r1) = (k as f64 * dr, (k + 1) as f64 * dr);
+            let shell = 4.0 / 3.0 * std::f64::consts::PI * (r1.powi(3) - r0.powi(3));
+            (0.5 * (r0 + r1), h as f64 / (0.5 * n as f64 * rho * shell))
+        })
+        .collect())
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -280,19 +406,42 @@ mod tests {
         (pos.to_vec(), vec![UnitQuaternion::identity(); pos.len()])
     }
 
+    fn sphere_rods<'a>(
+        box_length: f64,
+        pos: &'a [Vector3<f64>],
+        ori: &'a [UnitQuaternion<f64>],
+    ) -> Rods<'a> {
+        Rods {
+            box_length,
+            radius: 0.5,
+            length: 0.0,
+            positions: pos,
+            orientations: ori,
+        }
+    }
+
+    /// Volume of the spherical shell [k dr, (k + 1) dr).
+    fn shell_volume(k: usize, dr: f64) -> f64 {
+        let (r0, r1) = (k as f64 * dr, (k + 1) as f64 * dr);
+        4.0 / 3.0 * std::f64::consts::PI * (r1.powi(3) - r0.powi(3))
+    }
+
+    /// The m^3 sites of a simple cubic lattice of spacing 1 from the origin.
+    fn lattice(m: usize) -> Vec<Vector3<f64>> {
+        (0..m * m * m)
+            .map(|k| Vector3::new((k % m) as f64, ((k / m) % m) as f64, (k / (m * m)) as f64))
+            .collect()
+    }
+
     #[test]
     fn simple_cubic_lattice_has_six_contacts_and_pi_over_six() {
         // Unit spheres (diameter 1) on a simple cubic lattice of spacing 1: phi = pi/6, every
         // sphere touches 6 neighbours, some through the periodic boundary.
         let m = 4;
-        let mut p = Vec::new();
-        for a in 0..m {
-            for b in 0..m {
-                for c in 0..m {
-                    p.push(Vector3::new(a as f64, b as f64, c as f64) + Vector3::repeat(0.5));
-                }
-            }
-        }
+        let p: Vec<_> = lattice(m)
+            .into_iter()
+            .map(|x| x + Vector3::repeat(0.5))
+            .collect();
         let (pos, ori) = spheres(&p);
         let r = Rods {
             box_length: m as f64,
@@ -370,6 +519,89 @@ mod tests {
         assert!(nematic_order(&iso).unwrap().abs() < 1e-14);
         assert!(nematic_order(&[]).is_err());
         assert!(nematic_order(&[Vector3::zeros()]).is_err());
+    }
+
+    /// Shoemake's uniform random rotation from three uniforms.
+    fn random_rotation(u1: f64, u2: f64, u3: f64) -> UnitQuaternion<f64> {
+        let tau = std::f64::consts::TAU;
+        UnitQuaternion::new_normalize(nalgebra::Quaternion::new(
+            (1.0 - u1).sqrt() * (tau * u2).cos(),
+            (1.0 - u1).sqrt() * (tau * u2).sin(),
+            u1.sqrt() * (tau * u3).sin(),
+            u1.sqrt() * (tau * u3).cos(),
+        ))
+    }
+
+    #[test]
+    fn cubatic_order_limits() {
+        use rand::{Rng, SeedableRng};
+        // One common orientation (any): perfect cubatic order, S4 = 1 exactly at the optimum.
+        let q = random_rotation(0.3, 0.7, 0.1);
+        let s4 = cubatic_order(&vec![q; 50], 500).unwrap();
+        assert!((s4 - 1.0).abs() < 1e-9, "{s4}");
+        // Two populations sharing the z axis (one turned 45 deg about it): n = z still gives 1.
+        let mut qs = vec![UnitQuaternion::identity(); 20];
+        qs.extend(vec![
+            UnitQuaternion::from_axis_angle(
+                &Vector3::z_axis(),
+                0.25 * std::f64::consts::PI
+            );
+            20
+        ]);
+        assert!((cubatic_order(&qs, 500).unwrap() - 1.0).abs() < 1e-9);
+        // Isotropic orientations: <35 c^4 - 30 c^2 + 3> = 7 - 10 + 3 = 0 for uniform c; the
+        // per-particle value has standard deviation below 1, so for N = 20000 the maximum over
+        // directions of the mean stays within a few times 1/sqrt(N) = 0.007 of 0.
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(4);
+        let iso: Vec<_> = (0..20000)
+            .map(|_| random_rotation(rng.gen(), rng.gen(), rng.gen()))
+            .collect();
+        let s4 = cubatic_order(&iso, 300).unwrap();
+        assert!(s4.abs() < 0.05, "{s4}");
+        assert!(cubatic_order(&[], 100).is_err());
+        assert!(cubatic_order(&iso[..3], 5).is_err());
+    }
+
+    #[test]
+    fn radial_distribution_of_lattice_and_ideal_gas() {
+        use rand::{Rng, SeedableRng};
+        // Simple cubic lattice, spacing 1: the first shell (r = 1) holds 6 neighbours, so
+        // 4 pi r^2 rho g dr integrated over its bin is 6; no pair closer than 1.
+        let m = 6;
+        let p = lattice(m);
+        let (pos, ori) = spheres(&p);
+        let r = sphere_rods(m as f64, &pos, &ori);
+        // Bins of 0.3 up to 1.2: the shell r = 1 lies inside [0.9, 1.2), the next (sqrt 2)
+        // beyond.
+        let g = radial_distribution(&r, 1.2, 4).unwrap();
+        let dr = 0.3;
+        let shell = |k: usize, v: f64| v * shell_volume(k, dr);
+        let first: f64 = g
+            .iter()
+            .enumerate()
+            .filter(|(_, (rc, _))| (rc - 1.05).abs() < 1e-9)
+            .map(|(k, (_, v))| shell(k, *v))
+            .sum();
+        assert!((first - 6.0).abs() < 1e-9, "{first}");
+        assert!(g.iter().take(3).all(|(_, v)| *v == 0.0));
+        // Uniform random points: g = 1 within the Poisson error of each bin.
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(9);
+        let pts: Vec<Vector3<f64>> = (0..3000)
+            .map(|_| Vector3::new(rng.gen(), rng.gen(), rng.gen()) * 10.0)
+            .collect();
+        let (pos, ori) = spheres(&pts);
+        let r = sphere_rods(10.0, &pos, &ori);
+        let g = radial_distribution(&r, 5.0, 10).unwrap();
+        let rho = 3.0;
+        for (k, (_, v)) in g.iter().enumerate() {
+            let expected_pairs = 0.5 * 3000.0 * rho * shell_volume(k, 0.5);
+            // 5 standard deviations of a Poisson count.
+            assert!(
+                (v - 1.0).abs() < 5.0 / expected_pairs.sqrt(),
+                "bin {k}: {v}"
+            );
+        }
+        assert!(radial_distribution(&r, 6.0, 10).is_err());
     }
 
     #[test]

@@ -68,6 +68,22 @@ pub struct McmParams {
     pub seed: u64,
     /// Safety limit on accepted compression steps.
     pub max_steps: usize,
+    /// Optional second stage, run from the configuration where the first one stopped, with
+    /// its own Delta V, halvings, tries and step parameters (e.g. a compacting first stage with
+    /// beta > 1, then a settling stage with the thesis' beta = 0.5 and small Delta V).
+    pub final_stage: Option<Stage>,
+}
+
+/// The schedule and step parameters of a further MCM stage (see [`McmParams::final_stage`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Stage {
+    pub delta_v_per_particle: f64,
+    pub halvings: u32,
+    pub tries_per_particle: f64,
+    /// Original scheme: beta of eq. 2.10.
+    pub beta: f64,
+    /// Revised scheme: time step of eq. 3.9 and 3.12.
+    pub dt: f64,
 }
 
 impl McmParams {
@@ -87,6 +103,7 @@ impl McmParams {
             scheme: Scheme::Revised,
             seed,
             max_steps: 1_000_000,
+            final_stage: None,
         }
     }
 
@@ -128,7 +145,33 @@ impl McmParams {
         if self.halvings > 60 {
             return invalid(format!("halvings = {}: at most 60", self.halvings));
         }
+        if self.final_stage.is_some() {
+            self.stage_params(1)
+                .validate()
+                .map_err(|e| crate::Error::InvalidInput(format!("final stage: {e}")))?;
+        }
         Ok(())
+    }
+
+    /// The parameters in force in stage `stage` (0: the main stage, 1: the final stage).
+    pub fn stage_params(&self, stage: u32) -> McmParams {
+        match (stage, &self.final_stage) {
+            (1, Some(st)) => McmParams {
+                delta_v_per_particle: st.delta_v_per_particle,
+                halvings: st.halvings,
+                tries_per_particle: st.tries_per_particle,
+                beta: st.beta,
+                dt: st.dt,
+                final_stage: None,
+                ..self.clone()
+            },
+            _ => self.clone(),
+        }
+    }
+
+    /// Number of stages (1 or 2).
+    pub fn stages(&self) -> u32 {
+        1 + self.final_stage.is_some() as u32
     }
 }
 
@@ -607,80 +650,148 @@ pub fn run(prm: &McmParams) -> Result<McmResult> {
 
 /// Runs the MCM from a given overlap-free configuration.
 pub fn run_from(start: Packing, prm: &McmParams) -> Result<McmResult> {
-    prm.validate()?;
-    if start.n() != prm.n || start.length != prm.length {
-        return invalid(format!(
-            "start configuration: {} particles of length {} do not match n = {}, length = {}",
-            start.n(),
-            start.length,
-            prm.n,
-            prm.length
-        ));
+    let mut state = McmState::new(start, prm)?;
+    while !state.is_done() {
+        state.step(prm)?;
     }
-    let budget = (prm.tries_per_particle * start.n() as f64).ceil() as u64;
-    let mut state = start;
-    // The start must itself be overlap-free.
-    match remove_overlaps(&mut state, prm, 0)? {
-        Ok(_) => {}
-        Err(_) => {
+    Ok(state.into_result())
+}
+
+/// The complete state of an MCM run between two compression steps: everything the next step
+/// depends on (the run uses no random numbers after the start), so a run continued from a
+/// saved state gives bitwise the same result as an uninterrupted one.
+#[derive(Debug, Clone)]
+pub struct McmState {
+    /// The last overlap-free configuration.
+    pub packing: Packing,
+    /// Current volume step Delta V (D^3).
+    pub delta_v: f64,
+    /// Halvings of Delta V still allowed.
+    pub halvings_left: u32,
+    /// Accepted compression steps, in order.
+    pub history: Vec<StepRecord>,
+    /// Failed (reverted) compression steps.
+    pub failed_steps: usize,
+    /// Total particle moves over the run.
+    pub total_tries: u64,
+    /// The stage running (0: main, 1: final; see [`McmParams::final_stage`]).
+    pub stage: u32,
+    /// None while running; Some(true) when jammed (halvings of the last stage spent),
+    /// Some(false) at `max_steps`.
+    pub finished: Option<bool>,
+}
+
+/// What one call of [`McmState::step`] did.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum StepOutcome {
+    /// The compressed configuration was made overlap-free and accepted.
+    Accepted,
+    /// The overlaps could not be removed: reverted, Delta V halved.
+    Halved,
+    /// The run is over (see [`McmState::finished`]).
+    Finished,
+}
+
+impl McmState {
+    /// A run starting from an overlap-free configuration (checked against `prm`).
+    pub fn new(start: Packing, prm: &McmParams) -> Result<McmState> {
+        prm.validate()?;
+        if start.n() != prm.n || start.length != prm.length {
+            return invalid(format!(
+                "start configuration: {} particles of length {} do not match n = {}, length = {}",
+                start.n(),
+                start.length,
+                prm.n,
+                prm.length
+            ));
+        }
+        let mut packing = start;
+        // The start must itself be overlap-free.
+        if remove_overlaps(&mut packing, prm, 0)?.is_err() {
             return invalid("start configuration has overlaps deeper than overlap_tol");
         }
+        Ok(McmState {
+            delta_v: prm.delta_v_per_particle * packing.n() as f64,
+            packing,
+            halvings_left: prm.halvings,
+            history: Vec::new(),
+            failed_steps: 0,
+            total_tries: 0,
+            stage: 0,
+            finished: None,
+        })
     }
-    let mut dv = prm.delta_v_per_particle * state.n() as f64;
-    let mut halvings_left = prm.halvings;
-    let mut history = Vec::new();
-    let mut failed = 0usize;
-    let mut total = 0u64;
-    let vp = particle_volume(prm.length);
-    loop {
-        if history.len() >= prm.max_steps {
-            return Ok(McmResult {
-                packing: state,
-                history,
-                failed_steps: failed,
-                total_tries: total,
-                jammed: false,
-            });
+
+    pub fn is_done(&self) -> bool {
+        self.finished.is_some()
+    }
+
+    /// One compression step (sec. 2.2.1, 3.2): compress by Delta V and remove the overlaps
+    /// within `tries_per_particle` N moves; on failure revert to the last overlap-free
+    /// configuration and halve Delta V, or finish when no halving is left.
+    pub fn step(&mut self, all: &McmParams) -> Result<StepOutcome> {
+        let prm = &all.stage_params(self.stage);
+        if self.is_done() {
+            return Ok(StepOutcome::Finished);
         }
-        let trial = compress(&state, dv).filter(|t| t.n() as f64 * vp < t.box_length.powi(3));
+        if self.history.len() >= prm.max_steps {
+            self.finished = Some(false);
+            return Ok(StepOutcome::Finished);
+        }
+        let budget = (prm.tries_per_particle * self.packing.n() as f64).ceil() as u64;
+        let vp = particle_volume(self.packing.length);
+        let trial = compress(&self.packing, self.delta_v)
+            .filter(|t| t.n() as f64 * vp < t.box_length.powi(3));
         let outcome = match trial {
             None => None,
-            Some(mut t) => match cell_list(t.box_length, t.length) {
-                Err(e) => return Err(e),
-                Ok(_) => {
-                    let r = remove_overlaps(&mut t, prm, budget)?;
-                    Some((t, r))
-                }
-            },
+            Some(mut t) => {
+                cell_list(t.box_length, t.length)?;
+                let r = remove_overlaps(&mut t, prm, budget)?;
+                Some((t, r))
+            }
         };
         match outcome {
             Some((t, Ok(tries))) => {
-                total += tries;
-                state = t;
-                history.push(StepRecord {
-                    step: history.len() + 1,
-                    packing_fraction: state.packing_fraction(),
-                    delta_v: dv,
+                self.total_tries += tries;
+                self.packing = t;
+                self.history.push(StepRecord {
+                    step: self.history.len() + 1,
+                    packing_fraction: self.packing.packing_fraction(),
+                    delta_v: self.delta_v,
                     tries,
                 });
+                Ok(StepOutcome::Accepted)
             }
             other => {
                 if let Some((_, Err(tries))) = other {
-                    total += tries;
+                    self.total_tries += tries;
                 }
-                failed += 1;
-                if halvings_left == 0 {
-                    return Ok(McmResult {
-                        packing: state,
-                        history,
-                        failed_steps: failed,
-                        total_tries: total,
-                        jammed: true,
-                    });
+                self.failed_steps += 1;
+                if self.halvings_left == 0 {
+                    if self.stage + 1 < all.stages() {
+                        self.stage += 1;
+                        let next = all.stage_params(self.stage);
+                        self.delta_v = next.delta_v_per_particle * self.packing.n() as f64;
+                        self.halvings_left = next.halvings;
+                        return Ok(StepOutcome::Halved);
+                    }
+                    self.finished = Some(true);
+                    return Ok(StepOutcome::Finished);
                 }
-                halvings_left -= 1;
-                dv *= 0.5;
+                self.halvings_left -= 1;
+                self.delta_v *= 0.5;
+                Ok(StepOutcome::Halved)
             }
+        }
+    }
+
+    pub fn into_result(self) -> McmResult {
+        McmResult {
+            packing: self.packing,
+            history: self.history,
+            failed_steps: self.failed_steps,
+            total_tries: self.total_tries,
+            jammed: self.finished == Some(true),
         }
     }
 }

@@ -9,6 +9,8 @@
 //! `porelab run --builtin NAME` works on a fresh clone and `porelab run --list` shows them; the
 //! same files are the examples of the schema.
 
+pub mod packing;
+
 use crate::error::{invalid, Error, Result};
 use std::path::{Path, PathBuf};
 
@@ -22,6 +24,7 @@ pub struct Builtin {
 /// All built-in scenes, in the order `porelab run --list` prints them.
 pub fn builtins() -> Vec<Builtin> {
     let mut v: Vec<Builtin> = Vec::new();
+    v.extend(packing::builtins());
     v.sort_by_key(|b| b.name);
     v
 }
@@ -67,6 +70,7 @@ pub fn run_text(text: &str, origin: &str, out_stem: &str, opts: &RunOptions) -> 
         .clone()
         .unwrap_or_else(|| default_out_dir(out_stem));
     match scene_kind(text, origin)?.as_str() {
+        "packing" => packing::run_scene(text, origin, &out, opts),
         other => {
             let _ = (&out, opts);
             invalid(format!("{origin}: kind = \"{other}\": unknown engine"))
