@@ -46,6 +46,10 @@ fn explore() {
         q.halvings = env_f("MCM_H2", 0.0) as u32;
         q.delta_v_per_particle = env_f("MCM_DV2", p.delta_v_per_particle);
         q.tries_per_particle = env_f("MCM_TRIES2", p.tries_per_particle);
+        q.dt = env_f("MCM_DT2", p.dt);
+        if env_f("MCM_REV2", 0.0) > 0.0 {
+            q.scheme = Scheme::Revised;
+        }
         let r2 = porelab::packing::run_from(r.packing.clone(), &q).unwrap();
         r = r2;
     }

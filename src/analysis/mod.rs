@@ -12,10 +12,14 @@ use crate::error::invalid;
 use crate::Result;
 use nalgebra::{Matrix3, SymmetricEigen, UnitQuaternion, Vector3};
 
-/// Monodisperse spherocylinders (length 0: spheres) in the periodic box [0, L)^3.
+/// Monodisperse spherocylinders (length 0: spheres) in the periodic box [0, L)^3, or, with
+/// `wall_diameter`, inside a hard cylinder of that diameter about the z axis (x = y = 0),
+/// periodic along z over [0, L).
 #[derive(Debug, Clone, Copy)]
 pub struct Rods<'a> {
     pub box_length: f64,
+    /// Diameter of the confining cylinder (None: periodic cubic box).
+    pub wall_diameter: Option<f64>,
     pub radius: f64,
     /// Cylinder length between hemisphere centres (0 = spheres).
     pub length: f64,
@@ -55,6 +59,13 @@ impl Rods<'_> {
                 self.orientations.len()
             ));
         }
+        if let Some(d) = self.wall_diameter {
+            if !(d.is_finite() && d > 2.0 * self.radius) {
+                return invalid(format!(
+                    "wall_diameter = {d}: must be finite and larger than the particle diameter"
+                ));
+            }
+        }
         if let Some(i) = self
             .positions
             .iter()
@@ -66,9 +77,36 @@ impl Rods<'_> {
     }
 }
 
-/// Packing fraction: total particle volume over box volume (thesis eq. 3.1).
+/// Packing fraction: total particle volume over container volume (thesis eq. 3.1).
 pub fn packing_fraction(c: &Rods) -> f64 {
-    c.n() as f64 * c.particle_volume() / c.box_length.powi(3)
+    let v = match c.wall_diameter {
+        None => c.box_length.powi(3),
+        Some(d) => 0.25 * std::f64::consts::PI * d * d * c.box_length,
+    };
+    c.n() as f64 * c.particle_volume() / v
+}
+
+/// Deepest penetration (> 0) of any particle into the cylinder wall: the largest
+/// sqrt(p_x^2 + p_y^2) + R - R_cyl over the end points p (centres for spheres); None in the
+/// periodic box or when nothing penetrates.
+pub fn wall_penetration(c: &Rods) -> Result<Option<(usize, f64)>> {
+    c.check()?;
+    let Some(d) = c.wall_diameter else {
+        return Ok(None);
+    };
+    let h = 0.5 * c.length;
+    let mut worst: Option<(usize, f64)> = None;
+    for (i, (x, q)) in c.positions.iter().zip(c.orientations).enumerate() {
+        let a = q * Vector3::z();
+        for s in [-h, h] {
+            let e = x + s * a;
+            let pen = e.x.hypot(e.y) + c.radius - 0.5 * d;
+            if pen > 0.0 && worst.is_none_or(|w| pen > w.1) {
+                worst = Some((i, pen));
+            }
+        }
+    }
+    Ok(worst)
 }
 
 /// A pair (i < j) and its smallest surface gap over all periodic images (< 0: overlap).
@@ -100,8 +138,10 @@ pub fn pair_gaps(c: &Rods, max_gap: f64) -> Result<Vec<PairGap>> {
     for i in 0..n {
         for j in i + 1..n {
             let mut best = f64::INFINITY;
-            for sx in -1..=1 {
-                for sy in -1..=1 {
+            // Images along the periodic directions only (z alone in the cylinder).
+            let lat = if c.wall_diameter.is_some() { 0 } else { 1 };
+            for sx in -lat..=lat {
+                for sy in -lat..=lat {
                     for sz in -1..=1 {
                         let shift = Vector3::new(sx as f64, sy as f64, sz as f64) * bl;
                         let d = c.positions[j] + shift - c.positions[i];
@@ -139,11 +179,20 @@ pub fn worst_gap(c: &Rods) -> Result<Option<PairGap>> {
         .min_by(|a, b| a.gap.partial_cmp(&b.gap).unwrap()))
 }
 
-/// Independent overlap check: Ok(()) when no pair has gap below -`tol`; otherwise an error
-/// naming the worst pair and its gap.
+/// Independent overlap check: Ok(()) when no pair has gap below -`tol` and no particle
+/// penetrates the cylinder wall (if any) deeper than `tol`; otherwise an error naming the
+/// worst pair (or particle) and its overlap.
 pub fn check_no_overlap(c: &Rods, tol: f64) -> Result<()> {
     if !(tol.is_finite() && tol >= 0.0) {
         return invalid(format!("tol = {tol}: must be finite and >= 0"));
+    }
+    if let Some((i, pen)) = wall_penetration(c)? {
+        if pen > tol {
+            return invalid(format!(
+                "particle {i} penetrates the cylinder wall by {pen:e}, deeper than the contact \
+                 tolerance {tol:e}"
+            ));
+        }
     }
     if let Some(w) = worst_gap(c)? {
         if w.gap < -tol {
@@ -361,6 +410,9 @@ pub fn cubatic_order(orientations: &[UnitQuaternion<f64>], trials: usize) -> Res
 /// over all pairs with the minimum image, for r up to `r_max` < L/2.
 pub fn radial_distribution(c: &Rods, r_max: f64, bins: usize) -> Result<Vec<(f64, f64)>> {
     c.check()?;
+    if c.wall_diameter.is_some() {
+        return invalid("g(r): only for the periodic cubic box (no wall)");
+    }
     if bins == 0 {
         return invalid("bins = 0: need at least one bin");
     }
@@ -413,6 +465,7 @@ mod tests {
     ) -> Rods<'a> {
         Rods {
             box_length,
+            wall_diameter: None,
             radius: 0.5,
             length: 0.0,
             positions: pos,
@@ -445,6 +498,7 @@ mod tests {
         let (pos, ori) = spheres(&p);
         let r = Rods {
             box_length: m as f64,
+            wall_diameter: None,
             radius: 0.5,
             length: 0.0,
             positions: &pos,
@@ -466,6 +520,7 @@ mod tests {
         let (pos, ori) = spheres(&[Vector3::new(0.2, 5.0, 5.0), Vector3::new(9.3, 5.0, 5.0)]);
         let r = Rods {
             box_length: 10.0,
+            wall_diameter: None,
             radius: 0.5,
             length: 0.0,
             positions: &pos,
@@ -486,6 +541,7 @@ mod tests {
         ];
         let r = Rods {
             box_length: 10.0,
+            wall_diameter: None,
             radius: 0.5,
             length: 3.0,
             positions: &pos,
@@ -609,6 +665,7 @@ mod tests {
         let (pos, ori) = spheres(&[Vector3::zeros()]);
         let r = Rods {
             box_length: -1.0,
+            wall_diameter: None,
             radius: 0.5,
             length: 0.0,
             positions: &pos,

@@ -1,8 +1,9 @@
-//! Extended XYZ (the format OVITO, ASE and others read) for particle configurations in a
-//! periodic cubic box.
+//! Extended XYZ (the format OVITO, ASE and others read) for particle configurations in an
+//! orthorhombic cell (a periodic cubic box, or the bounding box of a cylinder, periodic along
+//! its axis only).
 //!
-//! Header line 2 (README, "Packing outputs", lists every column):
-//! `Lattice="L 0 0 0 L 0 0 0 L" Origin="0 0 0" pbc="T T T"
+//! Header line 2 (README, "Packing scenes and outputs", lists every column):
+//! `Lattice="Lx 0 0 0 Ly 0 0 0 Lz" Origin="x0 y0 z0" pbc="T T T"
 //! Properties=species:S:1:pos:R:3:orientation:R:4:aspherical_shape:R:3:radius:R:1:cylinder_length:R:1`
 //! plus any `key=value` pairs the caller adds. Orientation is the body-to-world unit quaternion
 //! as X, Y, Z, W (OVITO's order); the particle axis is the body z axis. Numbers are written
@@ -13,6 +14,25 @@ use crate::Result;
 use nalgebra::{Quaternion, UnitQuaternion, Vector3};
 use std::fmt::Write as _;
 use std::path::Path;
+
+/// An orthorhombic cell: edge lengths, origin (lowest corner) and periodicity per axis.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Cell {
+    pub lengths: [f64; 3],
+    pub origin: [f64; 3],
+    pub pbc: [bool; 3],
+}
+
+impl Cell {
+    /// The periodic cube [0, l)^3.
+    pub fn cubic(l: f64) -> Cell {
+        Cell {
+            lengths: [l; 3],
+            origin: [0.0; 3],
+            pbc: [true; 3],
+        }
+    }
+}
 
 /// The columns of one particle.
 #[derive(Debug, Clone, PartialEq)]
@@ -37,21 +57,28 @@ pub const PROPERTIES: &str =
 /// The extended XYZ text of one frame. `extra` holds further `key=value` header pairs
 /// (keys without whitespace; values are quoted when they contain spaces).
 pub fn to_string(
-    box_length: f64,
+    cell: &Cell,
     particles: &[XyzParticle],
     extra: &[(&str, String)],
 ) -> Result<String> {
-    if !(box_length.is_finite() && box_length > 0.0) {
-        return invalid(format!(
-            "box_length = {box_length}: must be positive and finite"
-        ));
+    if let Some(l) = cell.lengths.iter().find(|l| !(l.is_finite() && **l > 0.0)) {
+        return invalid(format!("cell length {l}: must be positive and finite"));
     }
-    let l = box_length;
+    if let Some(o) = cell.origin.iter().find(|o| !o.is_finite()) {
+        return invalid(format!("cell origin {o}: must be finite"));
+    }
+    let [lx, ly, lz] = cell.lengths;
+    let [ox, oy, oz] = cell.origin;
+    let tf = |b: bool| if b { "T" } else { "F" };
     let mut s = String::with_capacity(120 * (particles.len() + 2));
     let _ = writeln!(s, "{}", particles.len());
     let _ = write!(
         s,
-        "Lattice=\"{l} 0 0 0 {l} 0 0 0 {l}\" Origin=\"0 0 0\" pbc=\"T T T\" Properties={PROPERTIES}"
+        "Lattice=\"{lx} 0 0 0 {ly} 0 0 0 {lz}\" Origin=\"{ox} {oy} {oz}\" pbc=\"{} {} {}\" \
+         Properties={PROPERTIES}",
+        tf(cell.pbc[0]),
+        tf(cell.pbc[1]),
+        tf(cell.pbc[2])
     );
     for (k, v) in extra {
         if k.is_empty() || k.contains(char::is_whitespace) || k.contains('=') {
@@ -103,17 +130,17 @@ pub fn to_string(
 /// Writes one frame atomically (temporary file + rename).
 pub fn write(
     path: &Path,
-    box_length: f64,
+    cell: &Cell,
     particles: &[XyzParticle],
     extra: &[(&str, String)],
 ) -> Result<()> {
-    super::write_atomic(path, to_string(box_length, particles, extra)?.as_bytes())
+    super::write_atomic(path, to_string(cell, particles, extra)?.as_bytes())
 }
 
-/// Reads a frame written by [`to_string`]: (box length, particles). Checks the header's
-/// cubic `Lattice` and that `Properties` is exactly [`PROPERTIES`]; `origin` names the source
-/// in errors.
-pub fn parse(text: &str, origin: &str) -> Result<(f64, Vec<XyzParticle>)> {
+/// Reads a frame written by [`to_string`]: (cell, particles). Checks that the header's
+/// `Lattice` is orthorhombic and that `Properties` is exactly [`PROPERTIES`]; `origin` names
+/// the source in errors.
+pub fn parse(text: &str, origin: &str) -> Result<(Cell, Vec<XyzParticle>)> {
     let err = |line: usize, msg: String| Error::File {
         path: origin.to_string(),
         msg: format!("line {line}: {msg}"),
@@ -139,16 +166,38 @@ pub fn parse(text: &str, origin: &str) -> Result<(f64, Vec<XyzParticle>)> {
         .map(|t| t.parse::<f64>())
         .collect::<std::result::Result<_, _>>()
         .map_err(|_| err(2, format!("Lattice \"{lat}\" is not 9 numbers")))?;
-    if m.len() != 9
-        || m.iter()
-            .enumerate()
-            .any(|(k, v)| if k % 4 == 0 { *v != m[0] } else { *v != 0.0 })
-    {
+    if m.len() != 9 || m.iter().enumerate().any(|(k, v)| k % 4 != 0 && *v != 0.0) {
         return Err(err(
             2,
-            format!("Lattice \"{lat}\" is not a cubic box L 0 0 0 L 0 0 0 L"),
+            format!("Lattice \"{lat}\" is not an orthorhombic cell Lx 0 0 0 Ly 0 0 0 Lz"),
         ));
     }
+    let quoted = |key: &str| -> Option<Vec<&str>> {
+        header
+            .split(&format!("{key}=\""))
+            .nth(1)
+            .and_then(|r| r.split('"').next())
+            .map(|v| v.split_whitespace().collect())
+    };
+    let org: Vec<f64> = quoted("Origin")
+        .unwrap_or_else(|| vec!["0", "0", "0"])
+        .iter()
+        .map(|t| t.parse::<f64>())
+        .collect::<std::result::Result<_, _>>()
+        .map_err(|_| err(2, "Origin is not 3 numbers".into()))?;
+    let pbc: Vec<bool> = quoted("pbc")
+        .unwrap_or_else(|| vec!["T", "T", "T"])
+        .iter()
+        .map(|t| *t == "T")
+        .collect();
+    if org.len() != 3 || pbc.len() != 3 {
+        return Err(err(2, "Origin and pbc need 3 values each".into()));
+    }
+    let cell = Cell {
+        lengths: [m[0], m[4], m[8]],
+        origin: [org[0], org[1], org[2]],
+        pbc: [pbc[0], pbc[1], pbc[2]],
+    };
     let mut out = Vec::with_capacity(n);
     for (k, line) in lines.enumerate().take(n) {
         let t: Vec<&str> = line.split_whitespace().collect();
@@ -175,7 +224,7 @@ pub fn parse(text: &str, origin: &str) -> Result<(f64, Vec<XyzParticle>)> {
             format!("{} particles, header says {n}", out.len()),
         ));
     }
-    Ok((m[0], out))
+    Ok((cell, out))
 }
 
 #[cfg(test)]
@@ -208,7 +257,7 @@ mod tests {
     fn header_columns_and_exact_round_trip() {
         let p = sample();
         let text = to_string(
-            4.25,
+            &Cell::cubic(4.25),
             &p,
             &[("phi", "0.6".into()), ("title", "two rods".into())],
         )
@@ -226,31 +275,43 @@ mod tests {
             .map(|t| t.parse().unwrap())
             .collect();
         assert_eq!(cols, vec![0.15f64.sin(), 0.0, 0.0, 0.15f64.cos()]);
-        let (l, back) = parse(&text, "test").unwrap();
-        assert_eq!(l, 4.25);
+        let (c, back) = parse(&text, "test").unwrap();
+        assert_eq!(c, Cell::cubic(4.25));
         assert_eq!(back, p);
+        // A cylinder's bounding cell, periodic along z only.
+        let cyl = Cell {
+            lengths: [6.0, 6.0, 11.5],
+            origin: [-3.0, -3.0, 0.0],
+            pbc: [false, false, true],
+        };
+        let text = to_string(&cyl, &p, &[]).unwrap();
+        assert!(text.contains("Origin=\"-3 -3 0\" pbc=\"F F T\""));
+        assert_eq!(parse(&text, "test").unwrap().0, cyl);
     }
 
     #[test]
     fn bad_input_is_an_error() {
         let mut p = sample();
-        assert!(to_string(-1.0, &p, &[])
+        assert!(to_string(&Cell::cubic(-1.0), &p, &[])
             .unwrap_err()
             .to_string()
-            .contains("box_length"));
-        assert!(to_string(1.0, &p, &[("a b", "1".into())]).is_err());
+            .contains("cell length -1"));
+        assert!(to_string(&Cell::cubic(1.0), &p, &[("a b", "1".into())]).is_err());
         p[0].species = "two words".into();
-        assert!(to_string(1.0, &p, &[])
+        assert!(to_string(&Cell::cubic(1.0), &p, &[])
             .unwrap_err()
             .to_string()
             .contains("species"));
-        let text = to_string(2.0, &sample(), &[]).unwrap();
+        let text = to_string(&Cell::cubic(2.0), &sample(), &[]).unwrap();
         let truncated: String = text.lines().take(3).collect::<Vec<_>>().join("\n");
         assert!(parse(&truncated, "t")
             .unwrap_err()
             .to_string()
             .contains("header says 2"));
         let skew = text.replacen("Lattice=\"2 0 0", "Lattice=\"2 1 0", 1);
-        assert!(parse(&skew, "t").unwrap_err().to_string().contains("cubic"));
+        assert!(parse(&skew, "t")
+            .unwrap_err()
+            .to_string()
+            .contains("orthorhombic"));
     }
 }

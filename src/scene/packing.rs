@@ -11,6 +11,10 @@
 //! shape = "sphere"                 # "sphere" | "spherocylinder"  [sphere]
 //! n = 1000                         # number of particles (>= 2)     [1000]
 //! length_over_diameter = 0.0       # L/D of the cylinder between the caps (spherocylinder, > 0)
+//! [container]
+//! shape = "periodic"               # "periodic" (cubic box) | "cylinder" (hard wall, periodic
+//!                                  # along its axis z; sec. 2.2.4)  [periodic]
+//! diameter = 6.0                   # cylinder diameter D_cyl in D (> 1), cylinder only
 //! [mcm]
 //! seed = 1                         # ChaCha8 seed of the random start [1]
 //! scheme = "original"              # "original" (eq. 2.4-2.10) | "revised" (eq. 3.2-3.13)
@@ -24,6 +28,7 @@
 //! energy = 1.0                     # revised scheme, c of eq. 3.4
 //! max_steps = 1000000              # safety limit on accepted steps
 //! [final_stage]                    # optional second stage from where the first stopped
+//! scheme = "revised"               # [as in [mcm]]
 //! delta_v_per_particle = 1e-4      # required in the table
 //! halvings = 10                    # required in the table
 //! tries_per_particle = 1000.0      # [as in [mcm]]
@@ -47,7 +52,9 @@ use super::{Builtin, RunOptions};
 use crate::analysis;
 use crate::error::{invalid, Error};
 use crate::io::{write_atomic, xyz};
-use crate::packing::{self, McmParams, McmState, Packing, Scheme, Stage, StepOutcome, StepRecord};
+use crate::packing::{
+    self, Container, McmParams, McmState, Packing, Scheme, Stage, StepOutcome, StepRecord,
+};
 use crate::Result;
 use nalgebra::{Quaternion, UnitQuaternion, Vector3};
 use serde::{Deserialize, Serialize};
@@ -79,6 +86,8 @@ struct SceneFile {
     #[serde(default)]
     particles: ParticlesSpec,
     #[serde(default)]
+    container: ContainerSpec,
+    #[serde(default)]
     mcm: McmSpec,
     #[serde(default)]
     final_stage: Option<FinalStageSpec>,
@@ -108,6 +117,26 @@ impl Default for ParticlesSpec {
             shape: default_shape(),
             n: default_n(),
             length_over_diameter: None,
+        }
+    }
+}
+
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+struct ContainerSpec {
+    #[serde(default = "default_container")]
+    shape: String,
+    #[serde(default)]
+    diameter: Option<f64>,
+}
+fn default_container() -> String {
+    "periodic".into()
+}
+impl Default for ContainerSpec {
+    fn default() -> Self {
+        ContainerSpec {
+            shape: default_container(),
+            diameter: None,
         }
     }
 }
@@ -149,6 +178,7 @@ impl Default for McmSpec {
 #[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
 #[serde(deny_unknown_fields)]
 struct FinalStageSpec {
+    scheme: Option<String>,
     delta_v_per_particle: f64,
     halvings: u32,
     tries_per_particle: Option<f64>,
@@ -226,17 +256,43 @@ pub fn parse_scene(text: &str, origin: &str) -> Result<PackingScene> {
             ))
         }
     };
-    let m = &f.mcm;
-    let scheme = match m.scheme.as_str() {
-        "original" => Scheme::Original,
-        "revised" => Scheme::Revised,
-        other => {
+    let container = match (f.container.shape.as_str(), f.container.diameter) {
+        ("periodic", None) => Container::Periodic,
+        ("periodic", Some(d)) => {
             return bad(format!(
-                "mcm.scheme = \"{other}\": must be \"original\" or \"revised\""
+                "container.diameter = {d}: only a cylinder has a diameter"
+            ))
+        }
+        ("cylinder", Some(d)) if d.is_finite() && d > 1.0 => Container::Cylinder { diameter: d },
+        ("cylinder", Some(d)) => {
+            return bad(format!(
+                "container.diameter = {d}: must be finite and larger than the particle diameter 1"
+            ))
+        }
+        ("cylinder", None) => {
+            return bad("container.diameter: required for shape = \"cylinder\"".into())
+        }
+        (other, _) => {
+            return bad(format!(
+                "container.shape = \"{other}\": must be \"periodic\" or \"cylinder\""
             ))
         }
     };
+    let m = &f.mcm;
+    let scheme_of = |name: &str, key: &str| match name {
+        "original" => Ok(Scheme::Original),
+        "revised" => Ok(Scheme::Revised),
+        other => invalid(format!(
+            "{origin}: {key} = \"{other}\": must be \"original\" or \"revised\""
+        )),
+    };
+    let scheme = scheme_of(&m.scheme, "mcm.scheme")?;
+    let final_scheme = match f.final_stage.as_ref().and_then(|s| s.scheme.as_deref()) {
+        Some(name) => scheme_of(name, "final_stage.scheme")?,
+        None => scheme,
+    };
     let mut p = McmParams::new(f.particles.n, length, m.seed);
+    p.container = container;
     p.scheme = scheme;
     p.phi0 = m.phi0;
     p.delta_v_per_particle = m.delta_v_per_particle;
@@ -248,6 +304,7 @@ pub fn parse_scene(text: &str, origin: &str) -> Result<PackingScene> {
     p.energy = m.energy;
     p.max_steps = m.max_steps;
     p.final_stage = f.final_stage.as_ref().map(|s| Stage {
+        scheme: final_scheme,
         delta_v_per_particle: s.delta_v_per_particle,
         halvings: s.halvings,
         tries_per_particle: s.tries_per_particle.unwrap_or(m.tries_per_particle),
@@ -334,13 +391,12 @@ fn run_scene_limited(
         }
         c
     } else {
-        let start = packing::random_start(prm.n, prm.length, prm.phi0, prm.seed)?;
+        let start = packing::random_start_in(prm.container, prm.n, prm.length, prm.phi0, prm.seed)?;
         (McmState::new(start, prm)?, 0.0)
     };
     if !opts.quiet {
         eprintln!(
-            "packing: {} {}{}, {:?} scheme (eq. {}), periodic cubic box, seed {}; \
-             stages: {}",
+            "packing: {} {}{}, {:?} scheme (eq. {}), {}, seed {}; stages: {}",
             prm.n,
             if prm.length == 0.0 {
                 "spheres"
@@ -356,6 +412,12 @@ fn run_scene_limited(
             match prm.scheme {
                 Scheme::Original => "2.4-2.10",
                 Scheme::Revised => "3.2-3.13",
+            },
+            match prm.container {
+                Container::Periodic => "periodic cubic box".to_string(),
+                Container::Cylinder { diameter } => format!(
+                    "cylinder D_cyl = {diameter} (virtual-particle wall, sec. 2.2.4), periodic along z"
+                ),
             },
             prm.seed,
             prm.stages()
@@ -504,9 +566,17 @@ fn write_outputs(
             cylinder_length: p.length,
         })
         .collect();
+    let cell = match p.container {
+        Container::Periodic => xyz::Cell::cubic(p.box_length),
+        Container::Cylinder { diameter } => xyz::Cell {
+            lengths: [diameter, diameter, p.box_length],
+            origin: [-0.5 * diameter, -0.5 * diameter, 0.0],
+            pbc: [false, false, true],
+        },
+    };
     xyz::write(
         &out.join("final.xyz"),
-        p.box_length,
+        &cell,
         &parts,
         &[
             ("packing_fraction", format!("{}", m.packing_fraction)),
@@ -521,13 +591,15 @@ fn write_outputs(
         ));
     }
     write_atomic(&out.join("phi_history.csv"), csv.as_bytes())?;
-    let rmax = scene.gr_r_max.unwrap_or(3.0).min(0.5 * p.box_length);
-    let g = analysis::radial_distribution(&p.view(), rmax, scene.gr_bins)?;
-    let mut gcsv = String::from("r_D,g\n");
-    for (rc, v) in g {
-        gcsv.push_str(&format!("{rc},{v}\n"));
+    if p.container == Container::Periodic {
+        let rmax = scene.gr_r_max.unwrap_or(3.0).min(0.5 * p.box_length);
+        let g = analysis::radial_distribution(&p.view(), rmax, scene.gr_bins)?;
+        let mut gcsv = String::from("r_D,g\n");
+        for (rc, v) in g {
+            gcsv.push_str(&format!("{rc},{v}\n"));
+        }
+        write_atomic(&out.join("gr.csv"), gcsv.as_bytes())?;
     }
-    write_atomic(&out.join("gr.csv"), gcsv.as_bytes())?;
     let s = Summary {
         scene: origin,
         title: &scene.title,
@@ -646,6 +718,7 @@ fn read_checkpoint(path: &Path, scene: &PackingScene) -> Result<(McmState, f64)>
         )));
     }
     let packing = Packing {
+        container: scene.params.container,
         box_length: f(c.box_length),
         length: f(c.length),
         positions: c
@@ -749,15 +822,17 @@ s4_trials = 50
             assert_eq!(sa[k], sb[k], "{k}");
         }
         // The outputs describe an overlap-free packing: check the XYZ file independently.
-        let (l, parts) = xyz::parse(
+        let (cell, parts) = xyz::parse(
             &std::fs::read_to_string(a.join("final.xyz")).unwrap(),
             "final",
         )
         .unwrap();
+        let l = cell.lengths[0];
         let pos: Vec<_> = parts.iter().map(|p| p.position).collect();
         let ori: Vec<_> = parts.iter().map(|p| p.orientation).collect();
         let v = analysis::Rods {
             box_length: l,
+            wall_diameter: None,
             radius: 0.5,
             length: 0.5,
             positions: &pos,
