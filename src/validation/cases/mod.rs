@@ -37,6 +37,7 @@ pub fn runner_for(id: &str) -> Option<Runner> {
         "502" => Some(packing::case_502),
         "503" => Some(packing::case_503),
         "504" => Some(packing::case_504),
+        "505" => Some(packing::case_505),
         "401" => Some(brownian::case_401),
         "402" => Some(brownian::case_402),
         "403" => Some(brownian::case_403),

@@ -151,3 +151,41 @@ pub fn case_504(ctx: &CaseContext) -> Result<Vec<Row>> {
     got.insert("packing_fraction", rod.packing.packing_fraction());
     band_rows(ctx, &got)
 }
+
+/// Least-squares line y = a + b x: (a, b).
+fn line_fit(xs: &[f64], ys: &[f64]) -> (f64, f64) {
+    let m = xs.len() as f64;
+    let (mx, my) = (xs.iter().sum::<f64>() / m, ys.iter().sum::<f64>() / m);
+    let sxx: f64 = xs.iter().map(|x| (x - mx).powi(2)).sum();
+    let sxy: f64 = xs.iter().zip(ys).map(|(x, y)| (x - mx) * (y - my)).sum();
+    let b = sxy / sxx;
+    (my - b * mx, b)
+}
+
+/// Cylinder diameters of case 505 (particle diameters).
+const CYLINDERS_505: [f64; 5] = [4.0, 5.0, 6.0, 8.0, 10.0];
+
+pub fn case_505(ctx: &CaseContext) -> Result<Vec<Row>> {
+    let s = seed(ctx)?;
+    let n = 500;
+    let bulk = packing::run(&params(n, 0.0, s))?;
+    let mut deepest = deepest_overlap(&bulk)?;
+    let mut inv = Vec::new();
+    let mut phis = Vec::new();
+    for (k, &d) in CYLINDERS_505.iter().enumerate() {
+        let mut prm = params(n, 0.0, s + 1 + k as u64);
+        prm.container = packing::Container::Cylinder { diameter: d };
+        let r = packing::run(&prm)?;
+        let wall = analysis::wall_penetration(&r.packing.view())?.map_or(0.0, |w| w.1);
+        deepest = deepest.max(deepest_overlap(&r)?).max(wall);
+        inv.push(1.0 / d);
+        phis.push(r.packing.packing_fraction());
+    }
+    let (a, b) = line_fit(&inv, &phis);
+    let phi_bulk = bulk.packing.packing_fraction();
+    let mut got = BTreeMap::new();
+    got.insert("extrapolated_over_bulk", a / phi_bulk);
+    got.insert("slope_dphi_d_inverse_diameter", b);
+    got.insert("deepest_overlap", deepest);
+    band_rows(ctx, &got)
+}
