@@ -123,3 +123,58 @@ fn aspect_ten_ends_overlap_free() {
         Err(e) => assert!(e.to_string().contains("box length"), "{e}"),
     }
 }
+
+/// Aspect ratio L/D = 100 (thesis: phi0 = 0.005 for aspect ratios >= 50, sec. 2.2.6) with a
+/// coarse schedule: the run either ends overlap-free or stops with the minimum-image error
+/// once the box is shorter than twice a rod; never a silently overlapping result.
+#[test]
+fn aspect_hundred_ends_overlap_free_or_with_a_clear_error() {
+    let mut p = McmParams::new(600, 100.0, 4);
+    p.scheme = Scheme::Original;
+    p.phi0 = 0.005;
+    p.delta_v_per_particle = 500.0;
+    p.halvings = 1;
+    p.tries_per_particle = 5.0;
+    p.max_steps = 10;
+    match run(&p) {
+        Ok(r) => {
+            analysis::check_no_overlap(&r.packing.view(), p.overlap_tol * (1.0 + 1e-6)).unwrap();
+            eprintln!(
+                "L/D = 100: phi = {:.5}, steps = {}",
+                r.packing.packing_fraction(),
+                r.history.len()
+            );
+        }
+        Err(e) => {
+            let e = e.to_string();
+            assert!(e.contains("box length") && e.contains("pair cutoff"), "{e}");
+            eprintln!("L/D = 100: {e}");
+        }
+    }
+}
+
+/// A hard cylinder barely wider than a sphere (D_cyl = 1.2): the spheres must line up; the
+/// final configuration is overlap-free and inside the wall (independent check).
+#[test]
+fn narrow_cylinder_ends_overlap_free_and_inside() {
+    let mut p = McmParams::new(40, 0.0, 6);
+    p.scheme = Scheme::Original;
+    p.container = porelab::packing::Container::Cylinder { diameter: 1.2 };
+    p.delta_v_per_particle = 0.05;
+    p.halvings = 4;
+    p.tries_per_particle = 100.0;
+    let r = run(&p).unwrap();
+    analysis::check_no_overlap(&r.packing.view(), p.overlap_tol * (1.0 + 1e-6)).unwrap();
+    // Centres lie within 0.1 of the axis, so neighbours along it are at least
+    // sqrt(1 - 0.2^2) apart axially (lateral offset at most D_cyl - D = 0.2): at most one
+    // sphere per 0.9798 of length, phi <= (pi/6) / (pi 0.36 0.9798) = 0.4725 (plus the allowed
+    // overlap of 1e-4). A larger value would mean overlaps or wall penetration missed.
+    let phi = r.packing.packing_fraction();
+    let spacing = (1.0f64 - 0.2 * 0.2).sqrt() - p.overlap_tol;
+    let bound = (std::f64::consts::PI / 6.0) / (std::f64::consts::PI * 0.36 * spacing);
+    assert!(
+        phi <= bound,
+        "phi = {phi} above the single-file bound {bound}"
+    );
+    eprintln!("D_cyl = 1.2: phi = {phi:.4} (single-file bound {bound:.4})");
+}

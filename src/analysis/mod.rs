@@ -450,6 +450,81 @@ pub fn radial_distribution(c: &Rods, r_max: f64, bins: usize) -> Result<Vec<(f64
         .collect())
 }
 
+/// Fraction of wall-aligned particles in a cylinder (thesis sec. 2.2.5, Fig. 2.6): among the
+/// particles whose centre lies within `layer` of the wall (radial position > R_cyl - `layer`;
+/// the thesis takes `layer` = D), the fraction whose axis is tangential to the wall within
+/// `max_angle` radians, i.e. |u . r_hat| <= sin(max_angle) with r_hat the radial unit vector
+/// (thesis: 4 degrees). Returns (fraction, particles in the layer); the fraction is 0 for an
+/// empty layer. Errors without a wall.
+pub fn wall_aligned_fraction(c: &Rods, layer: f64, max_angle: f64) -> Result<(f64, usize)> {
+    c.check()?;
+    let Some(d) = c.wall_diameter else {
+        return invalid("wall alignment: needs a cylinder (wall_diameter)");
+    };
+    if !(layer.is_finite() && layer > 0.0) {
+        return invalid(format!("layer = {layer}: must be positive and finite"));
+    }
+    if !(0.0..=0.5 * std::f64::consts::PI).contains(&max_angle) {
+        return invalid(format!(
+            "max_angle = {max_angle}: must be in [0, pi/2] radians"
+        ));
+    }
+    let (mut near, mut aligned) = (0usize, 0usize);
+    for (x, q) in c.positions.iter().zip(c.orientations) {
+        let rho = x.x.hypot(x.y);
+        if rho <= 0.5 * d - layer || rho == 0.0 {
+            continue;
+        }
+        near += 1;
+        let u = q * Vector3::z();
+        let rhat = Vector3::new(x.x / rho, x.y / rho, 0.0);
+        if u.dot(&rhat).abs() <= max_angle.sin() {
+            aligned += 1;
+        }
+    }
+    let f = if near == 0 {
+        0.0
+    } else {
+        aligned as f64 / near as f64
+    };
+    Ok((f, near))
+}
+
+/// Histogram of particle axis directions (thesis sec. 2.2.5): polar angle theta of the
+/// headless axis in [0, pi/2] (u and -u identified, theta from +z) in `n_theta` equal bins,
+/// azimuth phi in [0, pi) in `n_phi` equal bins; counts[k_theta][k_phi].
+pub fn orientation_histogram(
+    axes: &[Vector3<f64>],
+    n_theta: usize,
+    n_phi: usize,
+) -> Result<Vec<Vec<usize>>> {
+    if n_theta == 0 || n_phi == 0 {
+        return invalid(format!(
+            "n_theta = {n_theta}, n_phi = {n_phi}: need at least one bin each"
+        ));
+    }
+    let mut h = vec![vec![0usize; n_phi]; n_theta];
+    for (i, u) in axes.iter().enumerate() {
+        let nu = u.norm();
+        if !(nu.is_finite() && nu > 0.0) {
+            return invalid(format!(
+                "axis {i} has norm {nu}: must be positive and finite"
+            ));
+        }
+        let mut u = u / nu;
+        if u.z < 0.0 {
+            u = -u;
+        }
+        let theta = u.z.clamp(-1.0, 1.0).acos();
+        let phi = u.y.atan2(u.x).rem_euclid(std::f64::consts::PI);
+        let kt =
+            ((theta / (0.5 * std::f64::consts::PI) * n_theta as f64) as usize).min(n_theta - 1);
+        let kp = ((phi / std::f64::consts::PI * n_phi as f64) as usize).min(n_phi - 1);
+        h[kt][kp] += 1;
+    }
+    Ok(h)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -658,6 +733,68 @@ mod tests {
             );
         }
         assert!(radial_distribution(&r, 6.0, 10).is_err());
+    }
+
+    #[test]
+    fn orientation_histogram_of_uniform_axes() {
+        use rand::{Rng, SeedableRng};
+        // Uniform directions: P(theta bin) = cos(theta0) - cos(theta1) on the half sphere,
+        // azimuth uniform; each count within 5 binomial standard deviations.
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(3);
+        let n = 200_000;
+        let axes: Vec<_> = (0..n)
+            .map(|_| random_rotation(rng.gen(), rng.gen(), rng.gen()) * Vector3::z())
+            .collect();
+        let (nt, np) = (6, 4);
+        let h = orientation_histogram(&axes, nt, np).unwrap();
+        let w = 0.5 * std::f64::consts::PI / nt as f64;
+        for (kt, row) in h.iter().enumerate() {
+            let p_theta = (kt as f64 * w).cos() - ((kt + 1) as f64 * w).cos();
+            for &c in row {
+                let p = p_theta / np as f64;
+                let sd = (n as f64 * p * (1.0 - p)).sqrt();
+                assert!((c as f64 - n as f64 * p).abs() < 5.0 * sd, "{kt}: {c}");
+            }
+        }
+        // Axis along -z counts as theta = 0; along y as theta = pi/2, phi = pi/2.
+        let h = orientation_histogram(&[-Vector3::z(), Vector3::y()], 2, 2).unwrap();
+        assert_eq!(h, vec![vec![1, 0], vec![0, 1]]);
+        assert!(orientation_histogram(&axes, 0, 1).is_err());
+    }
+
+    #[test]
+    fn wall_alignment_counts_tangential_particles_in_the_layer() {
+        // Cylinder D_cyl = 10; three rods in the layer (rho > 4): one along z (tangential),
+        // one along the azimuth (tangential), one radial (not); one rod near the axis (ignored).
+        let pos = vec![
+            Vector3::new(4.5, 0.0, 1.0),
+            Vector3::new(0.0, 4.4, 3.0),
+            Vector3::new(-4.2, 0.0, 5.0),
+            Vector3::new(0.5, 0.5, 7.0),
+        ];
+        let to = |v: Vector3<f64>| UnitQuaternion::rotation_between(&Vector3::z(), &v).unwrap();
+        let ori = vec![
+            UnitQuaternion::identity(),
+            to(Vector3::new(1.0, 0.0, 0.0)),
+            to(Vector3::new(1.0, 0.0, 0.0)),
+            UnitQuaternion::identity(),
+        ];
+        let r = Rods {
+            box_length: 20.0,
+            wall_diameter: Some(10.0),
+            radius: 0.5,
+            length: 1.0,
+            positions: &pos,
+            orientations: &ori,
+        };
+        let (f, near) = wall_aligned_fraction(&r, 1.0, 4f64.to_radians()).unwrap();
+        assert_eq!(near, 3);
+        assert!((f - 2.0 / 3.0).abs() < 1e-15);
+        let periodic = Rods {
+            wall_diameter: None,
+            ..r
+        };
+        assert!(wall_aligned_fraction(&periodic, 1.0, 0.1).is_err());
     }
 
     #[test]

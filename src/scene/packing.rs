@@ -70,6 +70,11 @@ pub fn builtins() -> Vec<Builtin> {
             toml: include_str!("builtin/packing-spheres.toml"),
         },
         Builtin {
+            name: "packing-cylinder",
+            about: "MCM: 500 spheres in a hard cylinder D_cyl = 6 (virtual-particle wall)",
+            toml: include_str!("builtin/packing-cylinder.toml"),
+        },
+        Builtin {
             name: "packing-spherocylinders",
             about: "MCM: 500 spherocylinders L/D = 0.4 in a periodic box (original scheme)",
             toml: include_str!("builtin/packing-spherocylinders.toml"),
@@ -485,6 +490,12 @@ pub struct Measures {
     pub rattlers: usize,
     pub nematic_s: f64,
     pub cubatic_s4: f64,
+    /// Cylinder only: fraction of the particles within D of the wall whose axis is tangential
+    /// to it within 4 degrees (thesis sec. 2.2.5, Fig. 2.6), and how many are in that layer.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub wall_aligned_fraction: Option<f64>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub wall_layer_particles: Option<usize>,
 }
 
 /// Measures a configuration with [`crate::analysis`].
@@ -506,6 +517,14 @@ pub fn measure(
     let (c0r, _) = analysis::extrapolated_contacts(v.n(), &gaps, cutoffs, Some(min_contacts))?;
     let dmin = cutoffs.iter().cloned().fold(f64::INFINITY, f64::min);
     let (_, rattlers) = analysis::mean_contacts(v.n(), &gaps, dmin, Some(min_contacts));
+    let wall = match p.container {
+        Container::Periodic => None,
+        Container::Cylinder { .. } => Some(analysis::wall_aligned_fraction(
+            &v,
+            2.0 * packing::RADIUS,
+            4f64.to_radians(),
+        )?),
+    };
     Ok(Measures {
         packing_fraction: p.packing_fraction(),
         deepest_overlap: deepest,
@@ -517,6 +536,8 @@ pub fn measure(
         rattlers,
         nematic_s: analysis::nematic_order(&p.axes())?,
         cubatic_s4: analysis::cubatic_order(&p.orientations, s4_trials)?,
+        wall_aligned_fraction: wall.map(|w| w.0),
+        wall_layer_particles: wall.map(|w| w.1),
     })
 }
 
@@ -600,6 +621,20 @@ fn write_outputs(
         }
         write_atomic(&out.join("gr.csv"), gcsv.as_bytes())?;
     }
+    let h = analysis::orientation_histogram(&p.axes(), 9, 18)?;
+    let mut hcsv = String::from("theta_lo_deg,theta_hi_deg,phi_lo_deg,phi_hi_deg,count\n");
+    for (kt, row) in h.iter().enumerate() {
+        for (kp, c) in row.iter().enumerate() {
+            hcsv.push_str(&format!(
+                "{},{},{},{},{c}\n",
+                kt * 10,
+                (kt + 1) * 10,
+                kp * 10,
+                (kp + 1) * 10
+            ));
+        }
+    }
+    write_atomic(&out.join("orientation_histogram.csv"), hcsv.as_bytes())?;
     let s = Summary {
         scene: origin,
         title: &scene.title,
