@@ -5,17 +5,19 @@
 //! cylinder of length L (= aspect L/D) between its hemisphere centres; L = 0 is a sphere.
 //!
 //! The algorithm (sec. 2.2.1, 3.2): a dilute random overlap-free start (random sequential
-//! addition at `phi0`, fixed seed, ChaCha8) in a periodic cubic box; the box volume is reduced
+//! addition at `phi0`, fixed seed, ChaCha8) in a periodic cubic box or a hard cylinder
+//! ([`Container`]; wall overlaps through virtual particles, sec. 2.2.4); the volume is reduced
 //! by Delta V and positions are scaled (orientations kept); overlaps deeper than
 //! `overlap_tol` are removed by translating and rotating the overlapping particles
 //! ([`Scheme::Revised`], eq. 3.2-3.13, or [`Scheme::Original`], eq. 2.4-2.10). When the
 //! overlaps cannot be removed within `tries_per_particle * N` particle moves, the run reverts
 //! to the last overlap-free configuration and halves Delta V, at most `halvings` times; the
-//! last overlap-free configuration is the result.
+//! last overlap-free configuration is the result. An optional final stage
+//! ([`McmParams::final_stage`]) continues from there with its own schedule and scheme.
 //!
 //! Overlap removal visits the particles in index order (Gauss-Seidel: each move sees the moves
 //! before it), with neighbour (Verlet) lists built by the periodic cell list
-//! ([`crate::contact::CellList`]) and rebuilt when a particle end has moved half the skin; a
+//! ([`crate::contact::CellList`]; slabs along the axis in the cylinder) and rebuilt when a particle end has moved half the skin; a
 //! particle is rechecked only when it or a neighbour moved. Each move counts as one try. Runs
 //! are deterministic for a given seed.
 

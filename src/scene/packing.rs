@@ -66,7 +66,7 @@ pub fn builtins() -> Vec<Builtin> {
     vec![
         Builtin {
             name: "packing-spheres",
-            about: "MCM: 1000 spheres in a periodic box (compacting stage + settling stage)",
+            about: "MCM: 1000 spheres in a periodic box (compacting + settling stage; ~2-3 min)",
             toml: include_str!("builtin/packing-spheres.toml"),
         },
         Builtin {

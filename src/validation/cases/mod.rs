@@ -38,6 +38,7 @@ pub fn runner_for(id: &str) -> Option<Runner> {
         "503" => Some(packing::case_503),
         "504" => Some(packing::case_504),
         "505" => Some(packing::case_505),
+        "506" => Some(packing::case_506),
         "401" => Some(brownian::case_401),
         "402" => Some(brownian::case_402),
         "403" => Some(brownian::case_403),
