@@ -11,6 +11,7 @@ use crate::contact::closest_points_segments;
 use crate::error::invalid;
 use crate::Result;
 use nalgebra::{Matrix3, SymmetricEigen, UnitQuaternion, Vector3};
+use rayon::prelude::*;
 
 /// Monodisperse spherocylinders (length 0: spheres) in the periodic box [0, L)^3, or, with
 /// `wall_diameter`, inside a hard cylinder of that diameter about the z axis (x = y = 0),
@@ -134,41 +135,47 @@ pub fn pair_gaps(c: &Rods, max_gap: f64) -> Result<Vec<PairGap>> {
     let axes: Vec<Vector3<f64>> = c.orientations.iter().map(|q| q * Vector3::z()).collect();
     let bl = c.box_length;
     let cut = reach + max_gap.max(0.0);
-    let mut out = Vec::new();
-    for i in 0..n {
-        for j in i + 1..n {
-            let mut best = f64::INFINITY;
-            // Images along the periodic directions only (z alone in the cylinder).
-            let lat = if c.wall_diameter.is_some() { 0 } else { 1 };
-            for sx in -lat..=lat {
-                for sy in -lat..=lat {
-                    for sz in -1..=1 {
-                        let shift = Vector3::new(sx as f64, sy as f64, sz as f64) * bl;
-                        let d = c.positions[j] + shift - c.positions[i];
-                        if d.norm() >= cut {
-                            continue;
+    // Rows i in parallel (rayon), concatenated in order: the result does not depend on the
+    // thread count.
+    let rows: Vec<Vec<PairGap>> = (0..n)
+        .into_par_iter()
+        .map(|i| {
+            let mut row = Vec::new();
+            for j in i + 1..n {
+                let mut best = f64::INFINITY;
+                // Images along the periodic directions only (z alone in the cylinder).
+                let lat = if c.wall_diameter.is_some() { 0 } else { 1 };
+                for sx in -lat..=lat {
+                    for sy in -lat..=lat {
+                        for sz in -1..=1 {
+                            let shift = Vector3::new(sx as f64, sy as f64, sz as f64) * bl;
+                            let d = c.positions[j] + shift - c.positions[i];
+                            if d.norm() >= cut {
+                                continue;
+                            }
+                            let dist = if c.length == 0.0 {
+                                d.norm()
+                            } else {
+                                let (_, _, p, q) = closest_points_segments(
+                                    &(-h * axes[i]),
+                                    &(h * axes[i]),
+                                    &(d - h * axes[j]),
+                                    &(d + h * axes[j]),
+                                );
+                                (q - p).norm()
+                            };
+                            best = best.min(dist - 2.0 * c.radius);
                         }
-                        let dist = if c.length == 0.0 {
-                            d.norm()
-                        } else {
-                            let (_, _, p, q) = closest_points_segments(
-                                &(-h * axes[i]),
-                                &(h * axes[i]),
-                                &(d - h * axes[j]),
-                                &(d + h * axes[j]),
-                            );
-                            (q - p).norm()
-                        };
-                        best = best.min(dist - 2.0 * c.radius);
                     }
                 }
+                if best < max_gap {
+                    row.push(PairGap { i, j, gap: best });
+                }
             }
-            if best < max_gap {
-                out.push(PairGap { i, j, gap: best });
-            }
-        }
-    }
-    Ok(out)
+            row
+        })
+        .collect();
+    Ok(rows.concat())
 }
 
 /// The deepest overlap found by the brute-force check: the most negative gap (or +inf when
