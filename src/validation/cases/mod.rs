@@ -39,6 +39,7 @@ pub fn runner_for(id: &str) -> Option<Runner> {
         "504" => Some(packing::case_504),
         "505" => Some(packing::case_505),
         "506" => Some(packing::case_506),
+        "507" => Some(packing::case_507),
         "401" => Some(brownian::case_401),
         "402" => Some(brownian::case_402),
         "403" => Some(brownian::case_403),

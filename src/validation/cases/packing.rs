@@ -17,6 +17,8 @@
 //! * 505 (slow): 500 spheres in hard cylinders D_cyl = 4..10: phi extrapolated linearly to
 //!   1/D_cyl -> 0 within 2% of the bulk value (thesis Fig. 2.10d), overlap-free and inside.
 //! * 506 (slow): 1000 spheres, two-stage schedule ([`two_stage_spheres`]): phi in 0.64 +- 0.01.
+//! * 507 (slow): 300 spherocylinders L/D = 0..2, same schedule: phi rises from the sphere
+//!   value to a maximum of 0.69-0.72 at L/D 0.3-0.6, then falls (thesis Fig. 2.8, 3.3).
 
 use crate::analysis;
 use crate::packing::{self, McmParams, McmResult, Scheme};
@@ -193,7 +195,7 @@ pub fn case_505(ctx: &CaseContext) -> Result<Vec<Row>> {
     band_rows(ctx, &got)
 }
 
-/// The two-stage schedule of case 506 and the built-in scene `packing-spheres`: a compacting
+/// The two-stage schedule of cases 506-507 and the built-in scene `packing-spheres`: a compacting
 /// stage (original scheme, beta = 1.3 in eq. 2.10, 3000 N tries) and a settling stage (revised
 /// scheme, dt = 0.1, Delta V = 0.001 N halved 6 times, 1000 N tries).
 pub fn two_stage_spheres(n: usize, seed: u64) -> McmParams {
@@ -217,5 +219,46 @@ pub fn case_506(ctx: &CaseContext) -> Result<Vec<Row>> {
     got.insert("packing_fraction", r.packing.packing_fraction());
     got.insert("deepest_overlap", deepest_overlap(&r)?);
     got.insert("jammed", if r.jammed { 1.0 } else { 0.0 });
+    band_rows(ctx, &got)
+}
+
+/// Aspect ratios L/D of case 507.
+const ASPECTS_507: [f64; 6] = [0.0, 0.2, 0.4, 0.6, 1.0, 2.0];
+
+pub fn case_507(ctx: &CaseContext) -> Result<Vec<Row>> {
+    use rayon::prelude::*;
+    let s = seed(ctx)?;
+    // Independent runs in parallel; each has its own fixed seed, so the result does not
+    // depend on the thread count.
+    let runs: Vec<Result<McmResult>> = ASPECTS_507
+        .par_iter()
+        .enumerate()
+        .map(|(k, &l)| {
+            let mut p = two_stage_spheres(300, s + k as u64);
+            p.length = l;
+            packing::run(&p)
+        })
+        .collect();
+    let mut phis = Vec::new();
+    let mut deepest = 0.0f64;
+    for r in runs {
+        let r = r?;
+        deepest = deepest.max(deepest_overlap(&r)?);
+        phis.push(r.packing.packing_fraction());
+    }
+    let (kmax, phi_max) =
+        phis.iter().enumerate().fold(
+            (0, f64::NEG_INFINITY),
+            |b, (k, &p)| if p > b.1 { (k, p) } else { b },
+        );
+    let mut got = BTreeMap::new();
+    got.insert("phi_max", phi_max);
+    got.insert("aspect_at_max", ASPECTS_507[kmax]);
+    got.insert("phi_max_minus_phi_spheres", phi_max - phis[0]);
+    got.insert(
+        "phi_aspect_2_minus_phi_max",
+        phis[ASPECTS_507.len() - 1] - phi_max,
+    );
+    got.insert("deepest_overlap", deepest);
     band_rows(ctx, &got)
 }
