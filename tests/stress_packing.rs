@@ -178,3 +178,30 @@ fn narrow_cylinder_ends_overlap_free_and_inside() {
     );
     eprintln!("D_cyl = 1.2: phi = {phi:.4} (single-file bound {bound:.4})");
 }
+
+/// Work-precision of the MCM (issue 5, benchmark): packing fraction reached against the try
+/// budget per compression step, plain schedule (beta 0.5) and over-relaxed (beta 1.3), for
+/// MCM_N spheres (default 500), printing tries, seconds and phi per budget.
+#[test]
+#[ignore = "benchmark: cargo test --release --test stress_packing -- --ignored --nocapture work_precision"]
+fn work_precision() {
+    let n = env_f("MCM_N", 500.0) as usize;
+    eprintln!("N = {n} spheres, seed 1, original scheme, Delta V 0.01 N, 6 halvings");
+    eprintln!("beta,tries_per_particle,total_tries,seconds,phi");
+    for beta in [0.5, 1.3] {
+        for tries in [100.0, 300.0, 1000.0, 3000.0] {
+            let mut p = McmParams::new(n, 0.0, 1);
+            p.scheme = Scheme::Original;
+            p.beta = beta;
+            p.tries_per_particle = tries;
+            let t = Instant::now();
+            let r = run(&p).unwrap();
+            eprintln!(
+                "{beta},{tries},{},{:.2},{:.4}",
+                r.total_tries,
+                t.elapsed().as_secs_f64(),
+                r.packing.packing_fraction()
+            );
+        }
+    }
+}
