@@ -40,6 +40,7 @@ pub fn runner_for(id: &str) -> Option<Runner> {
         "505" => Some(packing::case_505),
         "506" => Some(packing::case_506),
         "507" => Some(packing::case_507),
+        "508" => Some(packing::case_508),
         "401" => Some(brownian::case_401),
         "402" => Some(brownian::case_402),
         "403" => Some(brownian::case_403),
