@@ -11,11 +11,16 @@ use crate::contact::closest_points_segments;
 use crate::error::invalid;
 use crate::Result;
 use nalgebra::{Matrix3, SymmetricEigen, UnitQuaternion, Vector3};
+use rayon::prelude::*;
 
-/// Monodisperse spherocylinders (length 0: spheres) in the periodic box [0, L)^3.
+/// Monodisperse spherocylinders (length 0: spheres) in the periodic box [0, L)^3, or, with
+/// `wall_diameter`, inside a hard cylinder of that diameter about the z axis (x = y = 0),
+/// periodic along z over [0, L).
 #[derive(Debug, Clone, Copy)]
 pub struct Rods<'a> {
     pub box_length: f64,
+    /// Diameter of the confining cylinder (None: periodic cubic box).
+    pub wall_diameter: Option<f64>,
     pub radius: f64,
     /// Cylinder length between hemisphere centres (0 = spheres).
     pub length: f64,
@@ -55,6 +60,13 @@ impl Rods<'_> {
                 self.orientations.len()
             ));
         }
+        if let Some(d) = self.wall_diameter {
+            if !(d.is_finite() && d > 2.0 * self.radius) {
+                return invalid(format!(
+                    "wall_diameter = {d}: must be finite and larger than the particle diameter"
+                ));
+            }
+        }
         if let Some(i) = self
             .positions
             .iter()
@@ -66,9 +78,36 @@ impl Rods<'_> {
     }
 }
 
-/// Packing fraction: total particle volume over box volume (thesis eq. 3.1).
+/// Packing fraction: total particle volume over container volume (thesis eq. 3.1).
 pub fn packing_fraction(c: &Rods) -> f64 {
-    c.n() as f64 * c.particle_volume() / c.box_length.powi(3)
+    let v = match c.wall_diameter {
+        None => c.box_length.powi(3),
+        Some(d) => 0.25 * std::f64::consts::PI * d * d * c.box_length,
+    };
+    c.n() as f64 * c.particle_volume() / v
+}
+
+/// Deepest penetration (> 0) of any particle into the cylinder wall: the largest
+/// sqrt(p_x^2 + p_y^2) + R - R_cyl over the end points p (centres for spheres); None in the
+/// periodic box or when nothing penetrates.
+pub fn wall_penetration(c: &Rods) -> Result<Option<(usize, f64)>> {
+    c.check()?;
+    let Some(d) = c.wall_diameter else {
+        return Ok(None);
+    };
+    let h = 0.5 * c.length;
+    let mut worst: Option<(usize, f64)> = None;
+    for (i, (x, q)) in c.positions.iter().zip(c.orientations).enumerate() {
+        let a = q * Vector3::z();
+        for s in [-h, h] {
+            let e = x + s * a;
+            let pen = e.x.hypot(e.y) + c.radius - 0.5 * d;
+            if pen > 0.0 && worst.is_none_or(|w| pen > w.1) {
+                worst = Some((i, pen));
+            }
+        }
+    }
+    Ok(worst)
 }
 
 /// A pair (i < j) and its smallest surface gap over all periodic images (< 0: overlap).
@@ -96,39 +135,47 @@ pub fn pair_gaps(c: &Rods, max_gap: f64) -> Result<Vec<PairGap>> {
     let axes: Vec<Vector3<f64>> = c.orientations.iter().map(|q| q * Vector3::z()).collect();
     let bl = c.box_length;
     let cut = reach + max_gap.max(0.0);
-    let mut out = Vec::new();
-    for i in 0..n {
-        for j in i + 1..n {
-            let mut best = f64::INFINITY;
-            for sx in -1..=1 {
-                for sy in -1..=1 {
-                    for sz in -1..=1 {
-                        let shift = Vector3::new(sx as f64, sy as f64, sz as f64) * bl;
-                        let d = c.positions[j] + shift - c.positions[i];
-                        if d.norm() >= cut {
-                            continue;
+    // Rows i in parallel (rayon), concatenated in order: the result does not depend on the
+    // thread count.
+    let rows: Vec<Vec<PairGap>> = (0..n)
+        .into_par_iter()
+        .map(|i| {
+            let mut row = Vec::new();
+            for j in i + 1..n {
+                let mut best = f64::INFINITY;
+                // Images along the periodic directions only (z alone in the cylinder).
+                let lat = if c.wall_diameter.is_some() { 0 } else { 1 };
+                for sx in -lat..=lat {
+                    for sy in -lat..=lat {
+                        for sz in -1..=1 {
+                            let shift = Vector3::new(sx as f64, sy as f64, sz as f64) * bl;
+                            let d = c.positions[j] + shift - c.positions[i];
+                            if d.norm() >= cut {
+                                continue;
+                            }
+                            let dist = if c.length == 0.0 {
+                                d.norm()
+                            } else {
+                                let (_, _, p, q) = closest_points_segments(
+                                    &(-h * axes[i]),
+                                    &(h * axes[i]),
+                                    &(d - h * axes[j]),
+                                    &(d + h * axes[j]),
+                                );
+                                (q - p).norm()
+                            };
+                            best = best.min(dist - 2.0 * c.radius);
                         }
-                        let dist = if c.length == 0.0 {
-                            d.norm()
-                        } else {
-                            let (_, _, p, q) = closest_points_segments(
-                                &(-h * axes[i]),
-                                &(h * axes[i]),
-                                &(d - h * axes[j]),
-                                &(d + h * axes[j]),
-                            );
-                            (q - p).norm()
-                        };
-                        best = best.min(dist - 2.0 * c.radius);
                     }
                 }
+                if best < max_gap {
+                    row.push(PairGap { i, j, gap: best });
+                }
             }
-            if best < max_gap {
-                out.push(PairGap { i, j, gap: best });
-            }
-        }
-    }
-    Ok(out)
+            row
+        })
+        .collect();
+    Ok(rows.concat())
 }
 
 /// The deepest overlap found by the brute-force check: the most negative gap (or +inf when
@@ -139,11 +186,20 @@ pub fn worst_gap(c: &Rods) -> Result<Option<PairGap>> {
         .min_by(|a, b| a.gap.partial_cmp(&b.gap).unwrap()))
 }
 
-/// Independent overlap check: Ok(()) when no pair has gap below -`tol`; otherwise an error
-/// naming the worst pair and its gap.
+/// Independent overlap check: Ok(()) when no pair has gap below -`tol` and no particle
+/// penetrates the cylinder wall (if any) deeper than `tol`; otherwise an error naming the
+/// worst pair (or particle) and its overlap.
 pub fn check_no_overlap(c: &Rods, tol: f64) -> Result<()> {
     if !(tol.is_finite() && tol >= 0.0) {
         return invalid(format!("tol = {tol}: must be finite and >= 0"));
+    }
+    if let Some((i, pen)) = wall_penetration(c)? {
+        if pen > tol {
+            return invalid(format!(
+                "particle {i} penetrates the cylinder wall by {pen:e}, deeper than the contact \
+                 tolerance {tol:e}"
+            ));
+        }
     }
     if let Some(w) = worst_gap(c)? {
         if w.gap < -tol {
@@ -272,6 +328,210 @@ pub fn nematic_order(axes: &[Vector3<f64>]) -> Result<f64> {
     Ok(e.max())
 }
 
+/// Cubatic order parameter S4 (thesis eq. 4.17, after Batten et al.):
+/// max over unit n of (1/14N) sum_i sum_{j=1..3} (35 (u_ij.n)^4 - 30 (u_ij.n)^2 + 3), where
+/// u_ij are the three body axes of particle i. 1 for perfect cubatic order, 0 on average for
+/// isotropic orientations. The maximum is searched (as in the thesis) over trial directions
+/// (a deterministic Fibonacci lattice of `trials` points on the half sphere), the best of which
+/// are refined by projected gradient ascent.
+pub fn cubatic_order(orientations: &[UnitQuaternion<f64>], trials: usize) -> Result<f64> {
+    if orientations.is_empty() {
+        return invalid("no orientations: cubatic order needs at least one particle");
+    }
+    if trials < 10 {
+        return invalid(format!(
+            "trials = {trials}: need at least 10 trial directions"
+        ));
+    }
+    let axes: Vec<[Vector3<f64>; 3]> = orientations
+        .iter()
+        .map(|q| {
+            let r = q.to_rotation_matrix();
+            [
+                r.matrix().column(0).into(),
+                r.matrix().column(1).into(),
+                r.matrix().column(2).into(),
+            ]
+        })
+        .collect();
+    let n_f = orientations.len() as f64;
+    // sum_j c_j^2 = 1, so the summand is 35 sum_j c_j^4 - 21.
+    let value = |n: &Vector3<f64>| -> f64 {
+        let s: f64 = axes
+            .iter()
+            .map(|a| a.iter().map(|u| u.dot(n).powi(4)).sum::<f64>())
+            .sum();
+        (35.0 * s - 21.0 * n_f) / (14.0 * n_f)
+    };
+    let grad = |n: &Vector3<f64>| -> Vector3<f64> {
+        let mut g = Vector3::zeros();
+        for a in &axes {
+            for u in a {
+                g += 4.0 * u.dot(n).powi(3) * u;
+            }
+        }
+        g * (35.0 / (14.0 * n_f))
+    };
+    // Fibonacci lattice on the upper half sphere (n and -n give the same value).
+    let golden = std::f64::consts::PI * (3.0 - 5f64.sqrt());
+    let mut cand: Vec<(f64, Vector3<f64>)> = (0..trials)
+        .map(|k| {
+            let z = 1.0 - (k as f64 + 0.5) / trials as f64;
+            let r = (1.0 - z * z).sqrt();
+            let t = golden * k as f64;
+            let n = Vector3::new(r * t.cos(), r * t.sin(), z);
+            (value(&n), n)
+        })
+        .collect();
+    cand.sort_by(|a, b| b.0.partial_cmp(&a.0).unwrap());
+    let mut best = f64::NEG_INFINITY;
+    for (v0, n0) in cand.into_iter().take(5) {
+        let (mut v, mut n) = (v0, n0);
+        let mut step = 0.1;
+        for _ in 0..200 {
+            let g = grad(&n);
+            let gt = g - g.dot(&n) * n;
+            if gt.norm() < 1e-14 {
+                break;
+            }
+            let trial = (n + step * gt / gt.norm()).normalize();
+            let vt = value(&trial);
+            if vt > v {
+                v = vt;
+                n = trial;
+                step *= 1.2;
+            } else {
+                step *= 0.5;
+                if step < 1e-12 {
+                    break;
+                }
+            }
+        }
+        best = best.max(v);
+    }
+    Ok(best)
+}
+
+/// Radial distribution function of the particle centres in the periodic cubic box: bin
+/// centres r_k and g(r_k) = (pair count in the shell) / (N rho V_shell / 2), by brute force
+/// over all pairs with the minimum image, for r up to `r_max` < L/2.
+pub fn radial_distribution(c: &Rods, r_max: f64, bins: usize) -> Result<Vec<(f64, f64)>> {
+    c.check()?;
+    if c.wall_diameter.is_some() {
+        return invalid("g(r): only for the periodic cubic box (no wall)");
+    }
+    if bins == 0 {
+        return invalid("bins = 0: need at least one bin");
+    }
+    if !(r_max.is_finite() && r_max > 0.0 && r_max <= 0.5 * c.box_length) {
+        return invalid(format!(
+            "r_max = {r_max}: must be positive and at most half the box length {}",
+            0.5 * c.box_length
+        ));
+    }
+    let n = c.n();
+    if n < 2 {
+        return invalid(format!("{n} particles: g(r) needs at least 2"));
+    }
+    let dr = r_max / bins as f64;
+    let bl = c.box_length;
+    let mut hist = vec![0u64; bins];
+    for i in 0..n {
+        for j in i + 1..n {
+            let d = (c.positions[j] - c.positions[i]).map(|x| x - bl * (x / bl).round());
+            let r = d.norm();
+            if r < r_max {
+                hist[((r / dr) as usize).min(bins - 1)] += 1;
+            }
+        }
+    }
+    let rho = n as f64 / bl.powi(3);
+    Ok(hist
+        .iter()
+        .enumerate()
+        .map(|(k, &h)| {
+            let (r0, r1) = (k as f64 * dr, (k + 1) as f64 * dr);
+            let shell = 4.0 / 3.0 * std::f64::consts::PI * (r1.powi(3) - r0.powi(3));
+            (0.5 * (r0 + r1), h as f64 / (0.5 * n as f64 * rho * shell))
+        })
+        .collect())
+}
+
+/// Fraction of wall-aligned particles in a cylinder (thesis sec. 2.2.5, Fig. 2.6): among the
+/// particles whose centre lies within `layer` of the wall (radial position > R_cyl - `layer`;
+/// the thesis takes `layer` = D), the fraction whose axis is tangential to the wall within
+/// `max_angle` radians, i.e. |u . r_hat| <= sin(max_angle) with r_hat the radial unit vector
+/// (thesis: 4 degrees). Returns (fraction, particles in the layer); the fraction is 0 for an
+/// empty layer. Errors without a wall.
+pub fn wall_aligned_fraction(c: &Rods, layer: f64, max_angle: f64) -> Result<(f64, usize)> {
+    c.check()?;
+    let Some(d) = c.wall_diameter else {
+        return invalid("wall alignment: needs a cylinder (wall_diameter)");
+    };
+    if !(layer.is_finite() && layer > 0.0) {
+        return invalid(format!("layer = {layer}: must be positive and finite"));
+    }
+    if !(0.0..=0.5 * std::f64::consts::PI).contains(&max_angle) {
+        return invalid(format!(
+            "max_angle = {max_angle}: must be in [0, pi/2] radians"
+        ));
+    }
+    let (mut near, mut aligned) = (0usize, 0usize);
+    for (x, q) in c.positions.iter().zip(c.orientations) {
+        let rho = x.x.hypot(x.y);
+        if rho <= 0.5 * d - layer || rho == 0.0 {
+            continue;
+        }
+        near += 1;
+        let u = q * Vector3::z();
+        let rhat = Vector3::new(x.x / rho, x.y / rho, 0.0);
+        if u.dot(&rhat).abs() <= max_angle.sin() {
+            aligned += 1;
+        }
+    }
+    let f = if near == 0 {
+        0.0
+    } else {
+        aligned as f64 / near as f64
+    };
+    Ok((f, near))
+}
+
+/// Histogram of particle axis directions (thesis sec. 2.2.5): polar angle theta of the
+/// headless axis in [0, pi/2] (u and -u identified, theta from +z) in `n_theta` equal bins,
+/// azimuth phi in [0, pi) in `n_phi` equal bins; counts[k_theta][k_phi].
+pub fn orientation_histogram(
+    axes: &[Vector3<f64>],
+    n_theta: usize,
+    n_phi: usize,
+) -> Result<Vec<Vec<usize>>> {
+    if n_theta == 0 || n_phi == 0 {
+        return invalid(format!(
+            "n_theta = {n_theta}, n_phi = {n_phi}: need at least one bin each"
+        ));
+    }
+    let mut h = vec![vec![0usize; n_phi]; n_theta];
+    for (i, u) in axes.iter().enumerate() {
+        let nu = u.norm();
+        if !(nu.is_finite() && nu > 0.0) {
+            return invalid(format!(
+                "axis {i} has norm {nu}: must be positive and finite"
+            ));
+        }
+        let mut u = u / nu;
+        if u.z < 0.0 {
+            u = -u;
+        }
+        let theta = u.z.clamp(-1.0, 1.0).acos();
+        let phi = u.y.atan2(u.x).rem_euclid(std::f64::consts::PI);
+        let kt =
+            ((theta / (0.5 * std::f64::consts::PI) * n_theta as f64) as usize).min(n_theta - 1);
+        let kp = ((phi / std::f64::consts::PI * n_phi as f64) as usize).min(n_phi - 1);
+        h[kt][kp] += 1;
+    }
+    Ok(h)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -280,22 +540,47 @@ mod tests {
         (pos.to_vec(), vec![UnitQuaternion::identity(); pos.len()])
     }
 
+    fn sphere_rods<'a>(
+        box_length: f64,
+        pos: &'a [Vector3<f64>],
+        ori: &'a [UnitQuaternion<f64>],
+    ) -> Rods<'a> {
+        Rods {
+            box_length,
+            wall_diameter: None,
+            radius: 0.5,
+            length: 0.0,
+            positions: pos,
+            orientations: ori,
+        }
+    }
+
+    /// Volume of the spherical shell [k dr, (k + 1) dr).
+    fn shell_volume(k: usize, dr: f64) -> f64 {
+        let (r0, r1) = (k as f64 * dr, (k + 1) as f64 * dr);
+        4.0 / 3.0 * std::f64::consts::PI * (r1.powi(3) - r0.powi(3))
+    }
+
+    /// The m^3 sites of a simple cubic lattice of spacing 1 from the origin.
+    fn lattice(m: usize) -> Vec<Vector3<f64>> {
+        (0..m * m * m)
+            .map(|k| Vector3::new((k % m) as f64, ((k / m) % m) as f64, (k / (m * m)) as f64))
+            .collect()
+    }
+
     #[test]
     fn simple_cubic_lattice_has_six_contacts_and_pi_over_six() {
         // Unit spheres (diameter 1) on a simple cubic lattice of spacing 1: phi = pi/6, every
         // sphere touches 6 neighbours, some through the periodic boundary.
         let m = 4;
-        let mut p = Vec::new();
-        for a in 0..m {
-            for b in 0..m {
-                for c in 0..m {
-                    p.push(Vector3::new(a as f64, b as f64, c as f64) + Vector3::repeat(0.5));
-                }
-            }
-        }
+        let p: Vec<_> = lattice(m)
+            .into_iter()
+            .map(|x| x + Vector3::repeat(0.5))
+            .collect();
         let (pos, ori) = spheres(&p);
         let r = Rods {
             box_length: m as f64,
+            wall_diameter: None,
             radius: 0.5,
             length: 0.0,
             positions: &pos,
@@ -317,6 +602,7 @@ mod tests {
         let (pos, ori) = spheres(&[Vector3::new(0.2, 5.0, 5.0), Vector3::new(9.3, 5.0, 5.0)]);
         let r = Rods {
             box_length: 10.0,
+            wall_diameter: None,
             radius: 0.5,
             length: 0.0,
             positions: &pos,
@@ -337,6 +623,7 @@ mod tests {
         ];
         let r = Rods {
             box_length: 10.0,
+            wall_diameter: None,
             radius: 0.5,
             length: 3.0,
             positions: &pos,
@@ -372,11 +659,157 @@ mod tests {
         assert!(nematic_order(&[Vector3::zeros()]).is_err());
     }
 
+    /// Shoemake's uniform random rotation from three uniforms.
+    fn random_rotation(u1: f64, u2: f64, u3: f64) -> UnitQuaternion<f64> {
+        let tau = std::f64::consts::TAU;
+        UnitQuaternion::new_normalize(nalgebra::Quaternion::new(
+            (1.0 - u1).sqrt() * (tau * u2).cos(),
+            (1.0 - u1).sqrt() * (tau * u2).sin(),
+            u1.sqrt() * (tau * u3).sin(),
+            u1.sqrt() * (tau * u3).cos(),
+        ))
+    }
+
+    #[test]
+    fn cubatic_order_limits() {
+        use rand::{Rng, SeedableRng};
+        // One common orientation (any): perfect cubatic order, S4 = 1 exactly at the optimum.
+        let q = random_rotation(0.3, 0.7, 0.1);
+        let s4 = cubatic_order(&vec![q; 50], 500).unwrap();
+        assert!((s4 - 1.0).abs() < 1e-9, "{s4}");
+        // Two populations sharing the z axis (one turned 45 deg about it): n = z still gives 1.
+        let mut qs = vec![UnitQuaternion::identity(); 20];
+        qs.extend(vec![
+            UnitQuaternion::from_axis_angle(
+                &Vector3::z_axis(),
+                0.25 * std::f64::consts::PI
+            );
+            20
+        ]);
+        assert!((cubatic_order(&qs, 500).unwrap() - 1.0).abs() < 1e-9);
+        // Isotropic orientations: <35 c^4 - 30 c^2 + 3> = 7 - 10 + 3 = 0 for uniform c; the
+        // per-particle value has standard deviation below 1, so for N = 20000 the maximum over
+        // directions of the mean stays within a few times 1/sqrt(N) = 0.007 of 0.
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(4);
+        let iso: Vec<_> = (0..20000)
+            .map(|_| random_rotation(rng.gen(), rng.gen(), rng.gen()))
+            .collect();
+        let s4 = cubatic_order(&iso, 300).unwrap();
+        assert!(s4.abs() < 0.05, "{s4}");
+        assert!(cubatic_order(&[], 100).is_err());
+        assert!(cubatic_order(&iso[..3], 5).is_err());
+    }
+
+    #[test]
+    fn radial_distribution_of_lattice_and_ideal_gas() {
+        use rand::{Rng, SeedableRng};
+        // Simple cubic lattice, spacing 1: the first shell (r = 1) holds 6 neighbours, so
+        // 4 pi r^2 rho g dr integrated over its bin is 6; no pair closer than 1.
+        let m = 6;
+        let p = lattice(m);
+        let (pos, ori) = spheres(&p);
+        let r = sphere_rods(m as f64, &pos, &ori);
+        // Bins of 0.3 up to 1.2: the shell r = 1 lies inside [0.9, 1.2), the next (sqrt 2)
+        // beyond.
+        let g = radial_distribution(&r, 1.2, 4).unwrap();
+        let dr = 0.3;
+        let shell = |k: usize, v: f64| v * shell_volume(k, dr);
+        let first: f64 = g
+            .iter()
+            .enumerate()
+            .filter(|(_, (rc, _))| (rc - 1.05).abs() < 1e-9)
+            .map(|(k, (_, v))| shell(k, *v))
+            .sum();
+        assert!((first - 6.0).abs() < 1e-9, "{first}");
+        assert!(g.iter().take(3).all(|(_, v)| *v == 0.0));
+        // Uniform random points: g = 1 within the Poisson error of each bin.
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(9);
+        let pts: Vec<Vector3<f64>> = (0..3000)
+            .map(|_| Vector3::new(rng.gen(), rng.gen(), rng.gen()) * 10.0)
+            .collect();
+        let (pos, ori) = spheres(&pts);
+        let r = sphere_rods(10.0, &pos, &ori);
+        let g = radial_distribution(&r, 5.0, 10).unwrap();
+        let rho = 3.0;
+        for (k, (_, v)) in g.iter().enumerate() {
+            let expected_pairs = 0.5 * 3000.0 * rho * shell_volume(k, 0.5);
+            // 5 standard deviations of a Poisson count.
+            assert!(
+                (v - 1.0).abs() < 5.0 / expected_pairs.sqrt(),
+                "bin {k}: {v}"
+            );
+        }
+        assert!(radial_distribution(&r, 6.0, 10).is_err());
+    }
+
+    #[test]
+    fn orientation_histogram_of_uniform_axes() {
+        use rand::{Rng, SeedableRng};
+        // Uniform directions: P(theta bin) = cos(theta0) - cos(theta1) on the half sphere,
+        // azimuth uniform; each count within 5 binomial standard deviations.
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(3);
+        let n = 200_000;
+        let axes: Vec<_> = (0..n)
+            .map(|_| random_rotation(rng.gen(), rng.gen(), rng.gen()) * Vector3::z())
+            .collect();
+        let (nt, np) = (6, 4);
+        let h = orientation_histogram(&axes, nt, np).unwrap();
+        let w = 0.5 * std::f64::consts::PI / nt as f64;
+        for (kt, row) in h.iter().enumerate() {
+            let p_theta = (kt as f64 * w).cos() - ((kt + 1) as f64 * w).cos();
+            for &c in row {
+                let p = p_theta / np as f64;
+                let sd = (n as f64 * p * (1.0 - p)).sqrt();
+                assert!((c as f64 - n as f64 * p).abs() < 5.0 * sd, "{kt}: {c}");
+            }
+        }
+        // Axis along -z counts as theta = 0; along y as theta = pi/2, phi = pi/2.
+        let h = orientation_histogram(&[-Vector3::z(), Vector3::y()], 2, 2).unwrap();
+        assert_eq!(h, vec![vec![1, 0], vec![0, 1]]);
+        assert!(orientation_histogram(&axes, 0, 1).is_err());
+    }
+
+    #[test]
+    fn wall_alignment_counts_tangential_particles_in_the_layer() {
+        // Cylinder D_cyl = 10; three rods in the layer (rho > 4): one along z (tangential),
+        // one along the azimuth (tangential), one radial (not); one rod near the axis (ignored).
+        let pos = vec![
+            Vector3::new(4.5, 0.0, 1.0),
+            Vector3::new(0.0, 4.4, 3.0),
+            Vector3::new(-4.2, 0.0, 5.0),
+            Vector3::new(0.5, 0.5, 7.0),
+        ];
+        let to = |v: Vector3<f64>| UnitQuaternion::rotation_between(&Vector3::z(), &v).unwrap();
+        let ori = vec![
+            UnitQuaternion::identity(),
+            to(Vector3::new(1.0, 0.0, 0.0)),
+            to(Vector3::new(1.0, 0.0, 0.0)),
+            UnitQuaternion::identity(),
+        ];
+        let r = Rods {
+            box_length: 20.0,
+            wall_diameter: Some(10.0),
+            radius: 0.5,
+            length: 1.0,
+            positions: &pos,
+            orientations: &ori,
+        };
+        let (f, near) = wall_aligned_fraction(&r, 1.0, 4f64.to_radians()).unwrap();
+        assert_eq!(near, 3);
+        assert!((f - 2.0 / 3.0).abs() < 1e-15);
+        let periodic = Rods {
+            wall_diameter: None,
+            ..r
+        };
+        assert!(wall_aligned_fraction(&periodic, 1.0, 0.1).is_err());
+    }
+
     #[test]
     fn bad_input_is_an_error() {
         let (pos, ori) = spheres(&[Vector3::zeros()]);
         let r = Rods {
             box_length: -1.0,
+            wall_diameter: None,
             radius: 0.5,
             length: 0.0,
             positions: &pos,

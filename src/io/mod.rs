@@ -1,4 +1,7 @@
-//! Readers and writers: CSV tables with units in the headers; atomic file writes.
+//! Readers and writers: CSV tables with units in the headers; atomic file writes; extended
+//! XYZ particle configurations ([`xyz`]).
+
+pub mod xyz;
 
 use crate::error::{invalid, Error};
 use crate::Result;

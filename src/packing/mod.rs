@@ -5,17 +5,19 @@
 //! cylinder of length L (= aspect L/D) between its hemisphere centres; L = 0 is a sphere.
 //!
 //! The algorithm (sec. 2.2.1, 3.2): a dilute random overlap-free start (random sequential
-//! addition at `phi0`, fixed seed, ChaCha8) in a periodic cubic box; the box volume is reduced
+//! addition at `phi0`, fixed seed, ChaCha8) in a periodic cubic box or a hard cylinder
+//! ([`Container`]; wall overlaps through virtual particles, sec. 2.2.4); the volume is reduced
 //! by Delta V and positions are scaled (orientations kept); overlaps deeper than
 //! `overlap_tol` are removed by translating and rotating the overlapping particles
 //! ([`Scheme::Revised`], eq. 3.2-3.13, or [`Scheme::Original`], eq. 2.4-2.10). When the
 //! overlaps cannot be removed within `tries_per_particle * N` particle moves, the run reverts
 //! to the last overlap-free configuration and halves Delta V, at most `halvings` times; the
-//! last overlap-free configuration is the result.
+//! last overlap-free configuration is the result. An optional final stage
+//! ([`McmParams::final_stage`]) continues from there with its own schedule and scheme.
 //!
 //! Overlap removal visits the particles in index order (Gauss-Seidel: each move sees the moves
 //! before it), with neighbour (Verlet) lists built by the periodic cell list
-//! ([`crate::contact::CellList`]) and rebuilt when a particle end has moved half the skin; a
+//! ([`crate::contact::CellList`]; slabs along the axis in the cylinder) and rebuilt when a particle end has moved half the skin; a
 //! particle is rechecked only when it or a neighbour moved. Each move counts as one try. Runs
 //! are deterministic for a given seed.
 
@@ -68,6 +70,27 @@ pub struct McmParams {
     pub seed: u64,
     /// Safety limit on accepted compression steps.
     pub max_steps: usize,
+    /// Optional second stage, run from the configuration where the first one stopped, with
+    /// its own Delta V, halvings, tries and step parameters (e.g. a compacting first stage with
+    /// beta > 1 (original scheme), then a settling stage with the revised scheme, whose step
+    /// delta_min dt approaches contact gradually, thesis sec. 3.5.2, and small Delta V).
+    pub final_stage: Option<Stage>,
+    /// The container (default: periodic cubic box).
+    pub container: Container,
+}
+
+/// The schedule and step parameters of a further MCM stage (see [`McmParams::final_stage`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Stage {
+    /// Overlap-removal scheme of this stage.
+    pub scheme: Scheme,
+    pub delta_v_per_particle: f64,
+    pub halvings: u32,
+    pub tries_per_particle: f64,
+    /// Original scheme: beta of eq. 2.10.
+    pub beta: f64,
+    /// Revised scheme: time step of eq. 3.9 and 3.12.
+    pub dt: f64,
 }
 
 impl McmParams {
@@ -87,6 +110,8 @@ impl McmParams {
             scheme: Scheme::Revised,
             seed,
             max_steps: 1_000_000,
+            final_stage: None,
+            container: Container::Periodic,
         }
     }
 
@@ -128,7 +153,34 @@ impl McmParams {
         if self.halvings > 60 {
             return invalid(format!("halvings = {}: at most 60", self.halvings));
         }
+        if self.final_stage.is_some() {
+            self.stage_params(1)
+                .validate()
+                .map_err(|e| crate::Error::InvalidInput(format!("final stage: {e}")))?;
+        }
         Ok(())
+    }
+
+    /// The parameters in force in stage `stage` (0: the main stage, 1: the final stage).
+    pub fn stage_params(&self, stage: u32) -> McmParams {
+        match (stage, &self.final_stage) {
+            (1, Some(st)) => McmParams {
+                scheme: st.scheme,
+                delta_v_per_particle: st.delta_v_per_particle,
+                halvings: st.halvings,
+                tries_per_particle: st.tries_per_particle,
+                beta: st.beta,
+                dt: st.dt,
+                final_stage: None,
+                ..self.clone()
+            },
+            _ => self.clone(),
+        }
+    }
+
+    /// Number of stages (1 or 2).
+    pub fn stages(&self) -> u32 {
+        1 + self.final_stage.is_some() as u32
     }
 }
 
@@ -149,9 +201,54 @@ pub fn principal_inertia(length: f64, mass: f64) -> (f64, f64) {
     (ixy, iz)
 }
 
-/// A configuration: monodisperse spherocylinders (or spheres) in a periodic cubic box [0, L)^3.
+/// The simulation container.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Container {
+    /// Periodic cubic box [0, L)^3 (L = `box_length`).
+    Periodic,
+    /// Hard cylindrical wall of fixed diameter D_cyl about the z axis through x = y = 0,
+    /// periodic along z with period L = `box_length` (thesis sec. 2.2.4, Fig. 2.3 left);
+    /// compression shortens L, D_cyl stays fixed. Wall overlaps are removed through virtual
+    /// particles (Fig. 2.4).
+    Cylinder { diameter: f64 },
+}
+
+impl Container {
+    /// Volume of the container of length (or side) `l`.
+    pub fn volume(&self, l: f64) -> f64 {
+        match self {
+            Container::Periodic => l.powi(3),
+            Container::Cylinder { diameter } => {
+                0.25 * std::f64::consts::PI * diameter * diameter * l
+            }
+        }
+    }
+    /// Separation b - a: minimum image along the periodic directions.
+    fn separation(&self, a: &Vector3<f64>, b: &Vector3<f64>, l: f64) -> Vector3<f64> {
+        match self {
+            Container::Periodic => min_image(a, b, l),
+            Container::Cylinder { .. } => {
+                let mut d = b - a;
+                d.z -= l * (d.z / l).round();
+                d
+            }
+        }
+    }
+    /// Wraps a position into the periodic directions.
+    fn wrap(&self, x: &Vector3<f64>, l: f64) -> Vector3<f64> {
+        match self {
+            Container::Periodic => x.map(|c| wrap1(c, l)),
+            Container::Cylinder { .. } => Vector3::new(x.x, x.y, wrap1(x.z, l)),
+        }
+    }
+}
+
+/// A configuration: monodisperse spherocylinders (or spheres) in a [`Container`]: a periodic
+/// cubic box [0, L)^3, or a cylinder about the z axis, periodic in z over [0, L).
 #[derive(Debug, Clone)]
 pub struct Packing {
+    pub container: Container,
+    /// Side of the periodic box, or period along the cylinder axis.
     pub box_length: f64,
     /// Cylinder length L between hemisphere centres (0 = spheres).
     pub length: f64,
@@ -174,14 +271,18 @@ impl Packing {
     pub fn axes(&self) -> Vec<Vector3<f64>> {
         (0..self.n()).map(|i| self.axis(i)).collect()
     }
-    /// Packing fraction N V_p / V_box (thesis eq. 3.1).
+    /// Packing fraction N V_p / V_container (thesis eq. 3.1).
     pub fn packing_fraction(&self) -> f64 {
-        self.n() as f64 * particle_volume(self.length) / self.box_length.powi(3)
+        self.n() as f64 * particle_volume(self.length) / self.container.volume(self.box_length)
     }
     /// The configuration as the plain data the analysis functions take.
     pub fn view(&self) -> crate::analysis::Rods<'_> {
         crate::analysis::Rods {
             box_length: self.box_length,
+            wall_diameter: match self.container {
+                Container::Periodic => None,
+                Container::Cylinder { diameter } => Some(diameter),
+            },
             radius: RADIUS,
             length: self.length,
             positions: &self.positions,
@@ -397,16 +498,14 @@ fn move_original(
     (dx, Some(rot * q))
 }
 
-/// Wraps a position into [0, L)^3.
-fn wrap(x: &Vector3<f64>, l: f64) -> Vector3<f64> {
-    x.map(|c| {
-        let w = c - l * (c / l).floor();
-        if w >= l {
-            0.0
-        } else {
-            w
-        }
-    })
+/// Wraps a coordinate into [0, L).
+fn wrap1(c: f64, l: f64) -> f64 {
+    let w = c - l * (c / l).floor();
+    if w >= l {
+        0.0
+    } else {
+        w
+    }
 }
 
 /// Centre-distance cutoff for any contact (plus a margin for the contact tolerance).
@@ -414,41 +513,136 @@ fn pair_cutoff(length: f64) -> f64 {
     length + 2.0 * RADIUS + 1e-6
 }
 
-fn cell_list(box_length: f64, length: f64) -> Result<CellList> {
+/// Checks that the periodic length is at least twice the pair cutoff (unique minimum image)
+/// and, for a cylinder, that a particle fits in it.
+fn check_box(container: &Container, box_length: f64, length: f64) -> Result<()> {
     let rc = pair_cutoff(length);
-    if box_length < 2.0 * rc {
+    if box_length.is_nan() || box_length < 2.0 * rc {
         return invalid(format!(
             "box length {box_length:.4} is below twice the pair cutoff {rc:.4} (L + D): the \
              minimum image would miss contacts; use more particles"
         ));
     }
-    CellList::new(box_length, rc)
+    if let Container::Cylinder { diameter } = container {
+        if !(diameter.is_finite() && *diameter > 2.0 * RADIUS) {
+            return invalid(format!(
+                "cylinder diameter {diameter}: must be finite and larger than the particle \
+                 diameter 1"
+            ));
+        }
+    }
+    Ok(())
 }
 
-/// Neighbour (Verlet) lists: every j within the pair cutoff plus `skin` of i, by the periodic
-/// cell list.
+/// Neighbour (Verlet) lists: every j within the pair cutoff plus `skin` of i; by the periodic
+/// cell list in the cubic box, by slabs along the (periodic) axis in the cylinder.
 fn neighbour_lists(p: &Packing, skin: f64) -> Result<Vec<Vec<usize>>> {
-    let cells = CellList::new(p.box_length, pair_cutoff(p.length) + skin)?;
+    let rc = pair_cutoff(p.length) + skin;
     let mut nb = vec![Vec::new(); p.n()];
-    for (i, j, _) in cells.pairs(&p.positions) {
-        nb[i].push(j);
-        nb[j].push(i);
+    match p.container {
+        Container::Periodic => {
+            let cells = CellList::new(p.box_length, rc)?;
+            for (i, j, _) in cells.pairs(&p.positions) {
+                nb[i].push(j);
+                nb[j].push(i);
+            }
+        }
+        Container::Cylinder { .. } => {
+            let l = p.box_length;
+            let slabs = (l / rc).floor() as usize;
+            let slab_of = |x: &Vector3<f64>| ((x.z / l * slabs as f64) as usize).min(slabs - 1);
+            let mut members = vec![Vec::new(); slabs.max(1)];
+            for (i, x) in p.positions.iter().enumerate() {
+                members[if slabs >= 3 { slab_of(x) } else { 0 }].push(i);
+            }
+            let rc2 = rc * rc;
+            let mut consider = |i: usize, j: usize| {
+                let d = p.container.separation(&p.positions[i], &p.positions[j], l);
+                if d.norm_squared() < rc2 {
+                    nb[i].push(j);
+                    nb[j].push(i);
+                }
+            };
+            if slabs < 3 {
+                for i in 0..p.n() {
+                    for j in i + 1..p.n() {
+                        consider(i, j);
+                    }
+                }
+            } else {
+                for s in 0..slabs {
+                    let next = (s + 1) % slabs;
+                    for (a, &i) in members[s].iter().enumerate() {
+                        for &j in &members[s][a + 1..] {
+                            consider(i, j);
+                        }
+                        for &j in &members[next] {
+                            consider(i, j);
+                        }
+                    }
+                }
+            }
+            for v in nb.iter_mut() {
+                v.sort_unstable();
+            }
+        }
     }
     Ok(nb)
 }
 
-/// Overlaps deeper than `tol` of particle i with the particles in `nb`.
+/// Virtual particles for the wall overlaps of particle i (thesis sec. 2.2.4, Fig. 2.4): for
+/// each end point p (the centre for a sphere) that penetrates the cylinder,
+/// p_x^2 + p_y^2 > (R_cyl - R)^2, a particle identical to i, aligned with the cylinder axis,
+/// touching the wall from outside at the azimuth and height of p. Returns their centres
+/// relative to i's centre.
+fn wall_virtuals(p: &Packing, i: usize, out: &mut Vec<Vector3<f64>>) {
+    out.clear();
+    let Container::Cylinder { diameter } = p.container else {
+        return;
+    };
+    let rcyl = 0.5 * diameter;
+    let x = p.positions[i];
+    let a = p.axis(i);
+    let h = 0.5 * p.length;
+    let ends: &[f64] = if p.is_sphere() { &[0.0] } else { &[-1.0, 1.0] };
+    for &s in ends {
+        let e = x + s * h * a;
+        let rho = (e.x * e.x + e.y * e.y).sqrt();
+        if rho > rcyl - RADIUS {
+            let u = if rho > 0.0 {
+                Vector3::new(e.x / rho, e.y / rho, 0.0)
+            } else {
+                Vector3::x()
+            };
+            let c = (rcyl + RADIUS) * u + Vector3::new(0.0, 0.0, e.z);
+            out.push(c - x);
+        }
+    }
+}
+
+/// Overlaps deeper than `tol` of particle i with the particles in `nb` and with the virtual
+/// wall particles (cylinder).
 fn overlaps_of(p: &Packing, i: usize, nb: &[usize], tol: f64, out: &mut Vec<Overlap>) {
     out.clear();
     let ai = p.axis(i);
     let xi = p.positions[i];
-    for &j in nb {
-        let d = min_image(&xi, &p.positions[j], p.box_length);
+    let mut virt = Vec::new();
+    wall_virtuals(p, i, &mut virt);
+    let others = nb
+        .iter()
+        .map(|&j| {
+            (
+                p.container.separation(&xi, &p.positions[j], p.box_length),
+                p.axis(j),
+            )
+        })
+        .chain(virt.iter().map(|d| (*d, Vector3::z())));
+    for (d, aj) in others {
         let reach = pair_cutoff(p.length);
         if d.norm_squared() >= reach * reach {
             continue;
         }
-        let (gap, n, k, rci, li, _, _) = pair_geometry(p.length, &ai, &p.axis(j), &d);
+        let (gap, n, k, rci, li, _, _) = pair_geometry(p.length, &ai, &aj, &d);
         if gap < -tol {
             out.push(Overlap {
                 depth: -gap,
@@ -473,7 +667,7 @@ fn remove_overlaps(
     prm: &McmParams,
     budget: u64,
 ) -> Result<std::result::Result<u64, u64>> {
-    cell_list(p.box_length, p.length)?;
+    check_box(&p.container, p.box_length, p.length)?;
     let n = p.n();
     let skin = (0.5 * p.box_length - pair_cutoff(p.length)).min(0.3);
     let sphere = p.is_sphere();
@@ -509,7 +703,7 @@ fn remove_overlaps(
                 }
                 Scheme::Original => move_original(&ov, &p.orientations[i], sphere, xi, prm),
             };
-            p.positions[i] = wrap(&(p.positions[i] + dx), p.box_length);
+            p.positions[i] = p.container.wrap(&(p.positions[i] + dx), p.box_length);
             if let Some(q) = q {
                 p.orientations[i] = UnitQuaternion::new_normalize(*q.quaternion());
             }
@@ -517,7 +711,10 @@ fn remove_overlaps(
             for &j in &nb[i] {
                 dirty[j] = true;
             }
-            let disp = min_image(&ref_x[i], &p.positions[i], p.box_length).norm()
+            let disp = p
+                .container
+                .separation(&ref_x[i], &p.positions[i], p.box_length)
+                .norm()
                 + half * (p.axis(i) - ref_a[i]).norm();
             if disp > 0.5 * skin {
                 nb = neighbour_lists(p, skin)?;
@@ -531,14 +728,32 @@ fn remove_overlaps(
     }
 }
 
-/// A random overlap-free start: random sequential addition of N particles at packing
-/// fraction phi0, uniform positions and orientations (ChaCha8 seeded with `seed`).
+/// A random overlap-free start in the periodic cubic box (see [`random_start_in`]).
 pub fn random_start(n: usize, length: f64, phi0: f64, seed: u64) -> Result<Packing> {
+    random_start_in(Container::Periodic, n, length, phi0, seed)
+}
+
+/// A random overlap-free start: random sequential addition of N particles at packing
+/// fraction phi0, uniform positions (in the cylinder: uniform over the disk, rejected when an
+/// end point penetrates the wall) and orientations (ChaCha8 seeded with `seed`).
+pub fn random_start_in(
+    container: Container,
+    n: usize,
+    length: f64,
+    phi0: f64,
+    seed: u64,
+) -> Result<Packing> {
     let vp = particle_volume(length);
-    let box_length = (n as f64 * vp / phi0).cbrt();
-    cell_list(box_length, length)?;
+    let box_length = match container {
+        Container::Periodic => (n as f64 * vp / phi0).cbrt(),
+        Container::Cylinder { diameter } => {
+            n as f64 * vp / phi0 / (0.25 * std::f64::consts::PI * diameter * diameter)
+        }
+    };
+    check_box(&container, box_length, length)?;
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
     let mut p = Packing {
+        container,
         box_length,
         length,
         positions: Vec::with_capacity(n),
@@ -556,7 +771,15 @@ pub fn random_start(n: usize, length: f64, phi0: f64, seed: u64) -> Result<Packi
                 p.n()
             ));
         }
-        let x = Vector3::new(rng.gen::<f64>(), rng.gen::<f64>(), rng.gen::<f64>()) * box_length;
+        let u = Vector3::new(rng.gen::<f64>(), rng.gen::<f64>(), rng.gen::<f64>());
+        let x = match container {
+            Container::Periodic => u * box_length,
+            Container::Cylinder { diameter } => Vector3::new(
+                (u.x - 0.5) * diameter,
+                (u.y - 0.5) * diameter,
+                u.z * box_length,
+            ),
+        };
         // Uniform random rotation (Shoemake's method).
         let (u1, u2, u3): (f64, f64, f64) = (rng.gen(), rng.gen(), rng.gen());
         let tau = std::f64::consts::TAU;
@@ -567,8 +790,17 @@ pub fn random_start(n: usize, length: f64, phi0: f64, seed: u64) -> Result<Packi
             u1.sqrt() * (tau * u3).cos(),
         ));
         let a = q * Vector3::z();
+        if let Container::Cylinder { diameter } = container {
+            let inside = [-0.5 * length, 0.5 * length].iter().all(|s| {
+                let e = x + *s * a;
+                (e.x * e.x + e.y * e.y).sqrt() <= 0.5 * diameter - RADIUS
+            });
+            if !inside {
+                continue;
+            }
+        }
         let ok = (0..p.n()).all(|j| {
-            let d = min_image(&x, &p.positions[j], box_length);
+            let d = container.separation(&x, &p.positions[j], box_length);
             if d.norm_squared() >= rc2 {
                 return true;
             }
@@ -582,18 +814,26 @@ pub fn random_start(n: usize, length: f64, phi0: f64, seed: u64) -> Result<Packi
     Ok(p)
 }
 
-/// Compresses `p` by `dv`: new box side (L^3 - dv)^(1/3), positions scaled, orientations kept.
+/// Compresses `p` by `dv`, orientations kept: the cubic box to side (L^3 - dv)^(1/3) with all
+/// coordinates scaled; the cylinder to length L - dv / (pi R_cyl^2) with z scaled (its
+/// diameter is fixed, sec. 2.2.4).
 fn compress(p: &Packing, dv: f64) -> Option<Packing> {
-    let v = p.box_length.powi(3) - dv;
+    let v = p.container.volume(p.box_length) - dv;
     if v <= 0.0 {
         return None;
     }
-    let l = v.cbrt();
+    let l = match p.container {
+        Container::Periodic => v.cbrt(),
+        Container::Cylinder { diameter } => v / (0.25 * std::f64::consts::PI * diameter * diameter),
+    };
     let s = l / p.box_length;
     let mut q = p.clone();
     q.box_length = l;
     for x in q.positions.iter_mut() {
-        *x = wrap(&(*x * s), l);
+        *x = match p.container {
+            Container::Periodic => q.container.wrap(&(*x * s), l),
+            Container::Cylinder { .. } => q.container.wrap(&Vector3::new(x.x, x.y, x.z * s), l),
+        };
     }
     Some(q)
 }
@@ -601,86 +841,157 @@ fn compress(p: &Packing, dv: f64) -> Option<Packing> {
 /// Runs the mechanical contraction method from a random start (see the module docs).
 pub fn run(prm: &McmParams) -> Result<McmResult> {
     prm.validate()?;
-    let start = random_start(prm.n, prm.length, prm.phi0, prm.seed)?;
+    let start = random_start_in(prm.container, prm.n, prm.length, prm.phi0, prm.seed)?;
     run_from(start, prm)
 }
 
 /// Runs the MCM from a given overlap-free configuration.
 pub fn run_from(start: Packing, prm: &McmParams) -> Result<McmResult> {
-    prm.validate()?;
-    if start.n() != prm.n || start.length != prm.length {
-        return invalid(format!(
-            "start configuration: {} particles of length {} do not match n = {}, length = {}",
-            start.n(),
-            start.length,
-            prm.n,
-            prm.length
-        ));
+    let mut state = McmState::new(start, prm)?;
+    while !state.is_done() {
+        state.step(prm)?;
     }
-    let budget = (prm.tries_per_particle * start.n() as f64).ceil() as u64;
-    let mut state = start;
-    // The start must itself be overlap-free.
-    match remove_overlaps(&mut state, prm, 0)? {
-        Ok(_) => {}
-        Err(_) => {
+    Ok(state.into_result())
+}
+
+/// The complete state of an MCM run between two compression steps: everything the next step
+/// depends on (the run uses no random numbers after the start), so a run continued from a
+/// saved state gives bitwise the same result as an uninterrupted one.
+#[derive(Debug, Clone)]
+pub struct McmState {
+    /// The last overlap-free configuration.
+    pub packing: Packing,
+    /// Current volume step Delta V (D^3).
+    pub delta_v: f64,
+    /// Halvings of Delta V still allowed.
+    pub halvings_left: u32,
+    /// Accepted compression steps, in order.
+    pub history: Vec<StepRecord>,
+    /// Failed (reverted) compression steps.
+    pub failed_steps: usize,
+    /// Total particle moves over the run.
+    pub total_tries: u64,
+    /// The stage running (0: main, 1: final; see [`McmParams::final_stage`]).
+    pub stage: u32,
+    /// None while running; Some(true) when jammed (halvings of the last stage spent),
+    /// Some(false) at `max_steps`.
+    pub finished: Option<bool>,
+}
+
+/// What one call of [`McmState::step`] did.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum StepOutcome {
+    /// The compressed configuration was made overlap-free and accepted.
+    Accepted,
+    /// The overlaps could not be removed: reverted, Delta V halved.
+    Halved,
+    /// The run is over (see [`McmState::finished`]).
+    Finished,
+}
+
+impl McmState {
+    /// A run starting from an overlap-free configuration (checked against `prm`).
+    pub fn new(start: Packing, prm: &McmParams) -> Result<McmState> {
+        prm.validate()?;
+        if start.n() != prm.n || start.length != prm.length || start.container != prm.container {
+            return invalid(format!(
+                "start configuration: {} particles of length {} in {:?} do not match n = {}, \
+                 length = {}, container {:?}",
+                start.n(),
+                start.length,
+                start.container,
+                prm.n,
+                prm.length,
+                prm.container
+            ));
+        }
+        let mut packing = start;
+        // The start must itself be overlap-free.
+        if remove_overlaps(&mut packing, prm, 0)?.is_err() {
             return invalid("start configuration has overlaps deeper than overlap_tol");
         }
+        Ok(McmState {
+            delta_v: prm.delta_v_per_particle * packing.n() as f64,
+            packing,
+            halvings_left: prm.halvings,
+            history: Vec::new(),
+            failed_steps: 0,
+            total_tries: 0,
+            stage: 0,
+            finished: None,
+        })
     }
-    let mut dv = prm.delta_v_per_particle * state.n() as f64;
-    let mut halvings_left = prm.halvings;
-    let mut history = Vec::new();
-    let mut failed = 0usize;
-    let mut total = 0u64;
-    let vp = particle_volume(prm.length);
-    loop {
-        if history.len() >= prm.max_steps {
-            return Ok(McmResult {
-                packing: state,
-                history,
-                failed_steps: failed,
-                total_tries: total,
-                jammed: false,
-            });
+
+    pub fn is_done(&self) -> bool {
+        self.finished.is_some()
+    }
+
+    /// One compression step (sec. 2.2.1, 3.2): compress by Delta V and remove the overlaps
+    /// within `tries_per_particle` N moves; on failure revert to the last overlap-free
+    /// configuration and halve Delta V, or finish when no halving is left.
+    pub fn step(&mut self, all: &McmParams) -> Result<StepOutcome> {
+        let prm = &all.stage_params(self.stage);
+        if self.is_done() {
+            return Ok(StepOutcome::Finished);
         }
-        let trial = compress(&state, dv).filter(|t| t.n() as f64 * vp < t.box_length.powi(3));
+        if self.history.len() >= prm.max_steps {
+            self.finished = Some(false);
+            return Ok(StepOutcome::Finished);
+        }
+        let budget = (prm.tries_per_particle * self.packing.n() as f64).ceil() as u64;
+        let vp = particle_volume(self.packing.length);
+        let trial = compress(&self.packing, self.delta_v)
+            .filter(|t| t.n() as f64 * vp < t.container.volume(t.box_length));
         let outcome = match trial {
             None => None,
-            Some(mut t) => match cell_list(t.box_length, t.length) {
-                Err(e) => return Err(e),
-                Ok(_) => {
-                    let r = remove_overlaps(&mut t, prm, budget)?;
-                    Some((t, r))
-                }
-            },
+            Some(mut t) => {
+                check_box(&t.container, t.box_length, t.length)?;
+                let r = remove_overlaps(&mut t, prm, budget)?;
+                Some((t, r))
+            }
         };
         match outcome {
             Some((t, Ok(tries))) => {
-                total += tries;
-                state = t;
-                history.push(StepRecord {
-                    step: history.len() + 1,
-                    packing_fraction: state.packing_fraction(),
-                    delta_v: dv,
+                self.total_tries += tries;
+                self.packing = t;
+                self.history.push(StepRecord {
+                    step: self.history.len() + 1,
+                    packing_fraction: self.packing.packing_fraction(),
+                    delta_v: self.delta_v,
                     tries,
                 });
+                Ok(StepOutcome::Accepted)
             }
             other => {
                 if let Some((_, Err(tries))) = other {
-                    total += tries;
+                    self.total_tries += tries;
                 }
-                failed += 1;
-                if halvings_left == 0 {
-                    return Ok(McmResult {
-                        packing: state,
-                        history,
-                        failed_steps: failed,
-                        total_tries: total,
-                        jammed: true,
-                    });
+                self.failed_steps += 1;
+                if self.halvings_left == 0 {
+                    if self.stage + 1 < all.stages() {
+                        self.stage += 1;
+                        let next = all.stage_params(self.stage);
+                        self.delta_v = next.delta_v_per_particle * self.packing.n() as f64;
+                        self.halvings_left = next.halvings;
+                        return Ok(StepOutcome::Halved);
+                    }
+                    self.finished = Some(true);
+                    return Ok(StepOutcome::Finished);
                 }
-                halvings_left -= 1;
-                dv *= 0.5;
+                self.halvings_left -= 1;
+                self.delta_v *= 0.5;
+                Ok(StepOutcome::Halved)
             }
+        }
+    }
+
+    pub fn into_result(self) -> McmResult {
+        McmResult {
+            packing: self.packing,
+            history: self.history,
+            failed_steps: self.failed_steps,
+            total_tries: self.total_tries,
+            jammed: self.finished == Some(true),
         }
     }
 }

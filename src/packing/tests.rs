@@ -1,6 +1,24 @@
 use super::*;
 use crate::analysis;
 
+/// Parameters of a short test run: scheme, Delta V per particle, halvings, tries per particle.
+fn quick(
+    n: usize,
+    length: f64,
+    seed: u64,
+    scheme: Scheme,
+    dv: f64,
+    h: u32,
+    tries: f64,
+) -> McmParams {
+    let mut prm = McmParams::new(n, length, seed);
+    prm.scheme = scheme;
+    prm.delta_v_per_particle = dv;
+    prm.halvings = h;
+    prm.tries_per_particle = tries;
+    prm
+}
+
 #[test]
 fn inertia_of_sphere_and_volume() {
     // L = 0: I = 2/5 m R^2 for a sphere; V = pi/6 for diameter 1.
@@ -40,6 +58,7 @@ fn random_start_is_overlap_free_and_deterministic() {
 fn two_overlapping_spheres_are_separated() {
     for scheme in [Scheme::Revised, Scheme::Original] {
         let mut p = Packing {
+            container: Container::Periodic,
             box_length: 10.0,
             length: 0.0,
             positions: vec![Vector3::new(5.0, 5.0, 5.0), Vector3::new(5.9, 5.0, 5.0)],
@@ -67,6 +86,7 @@ fn crossed_rods_are_separated_with_rotation() {
         let q1 =
             UnitQuaternion::rotation_between(&Vector3::z(), &Vector3::new(1.0, 1.0, 0.0)).unwrap();
         let mut p = Packing {
+            container: Container::Periodic,
             box_length: 12.0,
             length: 3.0,
             positions: vec![Vector3::new(6.0, 6.0, 6.0), Vector3::new(6.8, 6.5, 6.6)],
@@ -89,11 +109,7 @@ fn crossed_rods_are_separated_with_rotation() {
 
 #[test]
 fn small_sphere_run_is_overlap_free_dense_and_deterministic() {
-    let mut prm = McmParams::new(40, 0.0, 3);
-    prm.scheme = Scheme::Original;
-    prm.delta_v_per_particle = 0.02;
-    prm.halvings = 3;
-    prm.tries_per_particle = 50.0;
+    let prm = quick(40, 0.0, 3, Scheme::Original, 0.02, 3, 50.0);
     let a = run(&prm).unwrap();
     let b = run(&prm).unwrap();
     assert_eq!(a.packing.positions, b.packing.positions);
@@ -115,14 +131,69 @@ fn small_sphere_run_is_overlap_free_dense_and_deterministic() {
 #[test]
 fn small_rod_run_is_overlap_free() {
     for scheme in [Scheme::Revised, Scheme::Original] {
-        let mut prm = McmParams::new(40, 1.0, 5);
-        prm.scheme = scheme;
-        prm.delta_v_per_particle = 0.05;
-        prm.halvings = 3;
-        prm.tries_per_particle = 100.0;
+        let prm = quick(40, 1.0, 5, scheme, 0.05, 3, 100.0);
         let a = run(&prm).unwrap();
         analysis::check_no_overlap(&a.packing.view(), prm.overlap_tol).unwrap();
         let phi = a.packing.packing_fraction();
         assert!(phi > 0.3, "{scheme:?}: phi = {phi}");
     }
+}
+
+#[test]
+fn wall_overlaps_are_removed_by_virtual_particles() {
+    // A sphere whose centre lies 0.3 D beyond the allowed radius R_cyl - R, and a rod whose
+    // upper end pokes through the wall: each is moved back inside (sec. 2.2.4, Fig. 2.4).
+    for scheme in [Scheme::Revised, Scheme::Original] {
+        for (length, x, q) in [
+            (0.0, Vector3::new(1.8, 0.0, 5.0), UnitQuaternion::identity()),
+            (
+                2.0,
+                Vector3::new(0.9, 0.3, 5.0),
+                UnitQuaternion::rotation_between(&Vector3::z(), &Vector3::new(1.0, 0.0, 1.0))
+                    .unwrap(),
+            ),
+        ] {
+            let mut p = Packing {
+                container: Container::Cylinder { diameter: 3.0 },
+                box_length: 10.0,
+                length,
+                positions: vec![x],
+                orientations: vec![q],
+            };
+            let before = analysis::wall_penetration(&p.view()).unwrap().unwrap().1;
+            assert!(before > 0.1, "{scheme:?} L = {length}: {before}");
+            let mut prm = McmParams::new(1, length, 1);
+            prm.scheme = scheme;
+            let r = remove_overlaps(&mut p, &prm, 10_000).unwrap();
+            assert!(r.is_ok(), "{scheme:?} L = {length}: {r:?}");
+            let after = analysis::wall_penetration(&p.view())
+                .unwrap()
+                .map_or(0.0, |w| w.1);
+            assert!(after <= prm.overlap_tol, "{scheme:?} L = {length}: {after}");
+            // Moved inwards, not along the axis (the wall is the only overlap).
+            assert!(p.positions[0].xy().norm() < x.xy().norm());
+        }
+    }
+}
+
+#[test]
+fn cylinder_run_is_overlap_free_and_inside() {
+    // (The revised scheme at dt = 0.1 compacts little within 100 N tries; README.)
+    for (length, scheme) in [(0.0, Scheme::Original), (1.0, Scheme::Original)] {
+        let mut prm = quick(60, length, 8, scheme, 0.05, 3, 100.0);
+        prm.container = Container::Cylinder { diameter: 3.5 };
+        let a = run(&prm).unwrap();
+        let b = run(&prm).unwrap();
+        assert_eq!(a.packing.positions, b.packing.positions);
+        // Independent check: all pairs over the z images, and every end point inside.
+        analysis::check_no_overlap(&a.packing.view(), prm.overlap_tol * (1.0 + 1e-6)).unwrap();
+        let phi = a.packing.packing_fraction();
+        assert!(phi > 0.35 && phi < 0.7405, "L = {length}: phi = {phi}");
+        assert_eq!(phi, analysis::packing_fraction(&a.packing.view()));
+    }
+    // A cylinder narrower than a particle is refused, naming the rule.
+    let mut prm = McmParams::new(10, 0.0, 1);
+    prm.container = Container::Cylinder { diameter: 0.9 };
+    let e = run(&prm).unwrap_err().to_string();
+    assert!(e.contains("cylinder diameter 0.9"), "{e}");
 }

@@ -10,6 +10,7 @@
 //! same files are the examples of the schema.
 
 pub mod brownian;
+pub mod packing;
 
 use crate::error::{invalid, Error, Result};
 use std::path::{Path, PathBuf};
@@ -24,6 +25,7 @@ pub struct Builtin {
 /// All built-in scenes, in the order `porelab run --list` prints them.
 pub fn builtins() -> Vec<Builtin> {
     let mut v = brownian::builtins();
+    v.extend(packing::builtins());
     v.sort_by_key(|b| b.name);
     v
 }
@@ -70,8 +72,9 @@ pub fn run_text(text: &str, origin: &str, out_stem: &str, opts: &RunOptions) -> 
         .unwrap_or_else(|| default_out_dir(out_stem));
     match scene_kind(text, origin)?.as_str() {
         "brownian" => brownian::run_scene(text, origin, &out, opts),
+        "packing" => packing::run_scene(text, origin, &out, opts),
         other => invalid(format!(
-            "{origin}: kind = \"{other}\": unknown engine (known: \"brownian\")"
+            "{origin}: kind = \"{other}\": unknown engine (known: \"brownian\", \"packing\")"
         )),
     }
 }

@@ -14,6 +14,12 @@
 //! * 503 (slow): spherocylinders L/D = 0.4 pack denser than spheres (same run parameters),
 //!   nematic order below 0.1, overlap-free.
 //! * 504 (slow): 300 spherocylinders L/D = 5: nematic order below 0.1, overlap-free.
+//! * 505 (slow): 500 spheres in hard cylinders D_cyl = 4..10: phi extrapolated linearly to
+//!   1/D_cyl -> 0 within 2% of the bulk value (thesis Fig. 2.10d), overlap-free and inside.
+//! * 506 (slow): 1000 spheres, two-stage schedule ([`two_stage_spheres`]): phi in 0.64 +- 0.01.
+//! * 507 (slow): 300 particles at L/D = 0, 0.4, 1, same schedule: phi rises from the sphere
+//!   value to a maximum of 0.69-0.72 at L/D 0.3-0.6, then falls (thesis Fig. 2.8, 3.3).
+//! * 508 (slow): rods L/D = 2 in cylinders D_cyl = 2 and 6: S >= 0.8 and <= 0.2 (Fig. 2.10c).
 
 use crate::analysis;
 use crate::packing::{self, McmParams, McmResult, Scheme};
@@ -149,5 +155,142 @@ pub fn case_504(ctx: &CaseContext) -> Result<Vec<Row>> {
     );
     got.insert("deepest_overlap", deepest_overlap(&rod)?);
     got.insert("packing_fraction", rod.packing.packing_fraction());
+    band_rows(ctx, &got)
+}
+
+/// Least-squares line y = a + b x: (a, b).
+fn line_fit(xs: &[f64], ys: &[f64]) -> (f64, f64) {
+    let m = xs.len() as f64;
+    let (mx, my) = (xs.iter().sum::<f64>() / m, ys.iter().sum::<f64>() / m);
+    let sxx: f64 = xs.iter().map(|x| (x - mx).powi(2)).sum();
+    let sxy: f64 = xs.iter().zip(ys).map(|(x, y)| (x - mx) * (y - my)).sum();
+    let b = sxy / sxx;
+    (my - b * mx, b)
+}
+
+/// Cylinder diameters of case 505 (particle diameters).
+const CYLINDERS_505: [f64; 5] = [4.0, 5.0, 6.0, 8.0, 10.0];
+
+pub fn case_505(ctx: &CaseContext) -> Result<Vec<Row>> {
+    let s = seed(ctx)?;
+    let n = 500;
+    let bulk = packing::run(&params(n, 0.0, s))?;
+    let mut deepest = deepest_overlap(&bulk)?;
+    let mut inv = Vec::new();
+    let mut phis = Vec::new();
+    for (k, &d) in CYLINDERS_505.iter().enumerate() {
+        let mut prm = params(n, 0.0, s + 1 + k as u64);
+        prm.container = packing::Container::Cylinder { diameter: d };
+        let r = packing::run(&prm)?;
+        let wall = analysis::wall_penetration(&r.packing.view())?.map_or(0.0, |w| w.1);
+        deepest = deepest.max(deepest_overlap(&r)?).max(wall);
+        inv.push(1.0 / d);
+        phis.push(r.packing.packing_fraction());
+    }
+    let (a, b) = line_fit(&inv, &phis);
+    let phi_bulk = bulk.packing.packing_fraction();
+    let mut got = BTreeMap::new();
+    got.insert("extrapolated_over_bulk", a / phi_bulk);
+    got.insert("slope_dphi_d_inverse_diameter", b);
+    got.insert("deepest_overlap", deepest);
+    band_rows(ctx, &got)
+}
+
+/// The two-stage schedule of cases 506-507 and the built-in scene `packing-spheres`: a compacting
+/// stage (original scheme, beta = 1.3 in eq. 2.10, 3000 N tries) and a settling stage (revised
+/// scheme, dt = 0.1, Delta V = 0.001 N halved 6 times, 1000 N tries).
+pub fn two_stage_spheres(n: usize, seed: u64) -> McmParams {
+    let mut p = params(n, 0.0, seed);
+    p.beta = 1.3;
+    p.tries_per_particle = 3000.0;
+    p.final_stage = Some(packing::Stage {
+        scheme: Scheme::Revised,
+        delta_v_per_particle: 0.001,
+        halvings: 6,
+        tries_per_particle: 1000.0,
+        beta: 0.5,
+        dt: 0.1,
+    });
+    p
+}
+
+pub fn case_506(ctx: &CaseContext) -> Result<Vec<Row>> {
+    let r = packing::run(&two_stage_spheres(1000, seed(ctx)?))?;
+    let mut got = BTreeMap::new();
+    got.insert("packing_fraction", r.packing.packing_fraction());
+    got.insert("deepest_overlap", deepest_overlap(&r)?);
+    got.insert("jammed", if r.jammed { 1.0 } else { 0.0 });
+    band_rows(ctx, &got)
+}
+
+/// Aspect ratios L/D of case 507 (spheres, near the maximum, beyond it).
+const ASPECTS_507: [f64; 3] = [0.0, 0.4, 1.0];
+
+pub fn case_507(ctx: &CaseContext) -> Result<Vec<Row>> {
+    use rayon::prelude::*;
+    let s = seed(ctx)?;
+    // Independent runs in parallel; each has its own fixed seed, so the result does not
+    // depend on the thread count.
+    let runs: Vec<Result<McmResult>> = ASPECTS_507
+        .par_iter()
+        .enumerate()
+        .map(|(k, &l)| {
+            let mut p = two_stage_spheres(300, s + k as u64);
+            p.length = l;
+            packing::run(&p)
+        })
+        .collect();
+    let mut phis = Vec::new();
+    let mut deepest = 0.0f64;
+    for r in runs {
+        let r = r?;
+        deepest = deepest.max(deepest_overlap(&r)?);
+        phis.push(r.packing.packing_fraction());
+    }
+    let (kmax, phi_max) =
+        phis.iter().enumerate().fold(
+            (0, f64::NEG_INFINITY),
+            |b, (k, &p)| if p > b.1 { (k, p) } else { b },
+        );
+    let mut got = BTreeMap::new();
+    got.insert("phi_max", phi_max);
+    got.insert("aspect_at_max", ASPECTS_507[kmax]);
+    got.insert("phi_max_minus_phi_spheres", phi_max - phis[0]);
+    got.insert(
+        "phi_aspect_1_minus_phi_max",
+        phis[ASPECTS_507.len() - 1] - phi_max,
+    );
+    got.insert("deepest_overlap", deepest);
+    band_rows(ctx, &got)
+}
+
+pub fn case_508(ctx: &CaseContext) -> Result<Vec<Row>> {
+    use rayon::prelude::*;
+    let s = seed(ctx)?;
+    // Rods of aspect ratio Lambda = L/D + 1 = 3 in a narrow (D_cyl / Lambda = 2/3) and a wide
+    // (D_cyl / Lambda = 2) cylinder. (D_cyl = 1.5 leaves so few orientations that fit that the
+    // random start fails, with its error.)
+    let cases = [(2.0, 100usize), (6.0, 200usize)];
+    let runs: Vec<Result<McmResult>> = cases
+        .par_iter()
+        .enumerate()
+        .map(|(k, &(d, n))| {
+            let mut p = params(n, 2.0, s + k as u64);
+            p.container = packing::Container::Cylinder { diameter: d };
+            packing::run(&p)
+        })
+        .collect();
+    let mut got = BTreeMap::new();
+    let mut deepest = 0.0f64;
+    for (r, key) in runs
+        .into_iter()
+        .zip(["nematic_order_narrow", "nematic_order_wide"])
+    {
+        let r = r?;
+        let wall = analysis::wall_penetration(&r.packing.view())?.map_or(0.0, |w| w.1);
+        deepest = deepest.max(deepest_overlap(&r)?).max(wall);
+        got.insert(key, analysis::nematic_order(&r.packing.axes())?);
+    }
+    got.insert("deepest_overlap", deepest);
     band_rows(ctx, &got)
 }

@@ -1,0 +1,960 @@
+//! Packing scenes (`kind = "packing"`): the mechanical contraction method of [`crate::packing`]
+//! run from a TOML file, with outputs and checkpoints in the output folder.
+//!
+//! Schema (every table and key optional unless marked; defaults in brackets; reduced units:
+//! particle diameter 1):
+//!
+//! ```toml
+//! kind = "packing"                 # required
+//! title = "..."                    # free text, copied to the summary
+//! [particles]
+//! shape = "sphere"                 # "sphere" | "spherocylinder"  [sphere]
+//! n = 1000                         # number of particles (>= 2)     [1000]
+//! length_over_diameter = 0.0       # L/D of the cylinder between the caps (spherocylinder, > 0)
+//! [container]
+//! shape = "periodic"               # "periodic" (cubic box) | "cylinder" (hard wall, periodic
+//!                                  # along its axis z; sec. 2.2.4)  [periodic]
+//! diameter = 6.0                   # cylinder diameter D_cyl in D (> 1), cylinder only
+//! [mcm]
+//! seed = 1                         # ChaCha8 seed of the random start [1]
+//! scheme = "original"              # "original" (eq. 2.4-2.10) | "revised" (eq. 3.2-3.13)
+//! phi0 = 0.05                      # start packing fraction, (0, 0.2]
+//! delta_v_per_particle = 0.01      # Delta V / N in D^3
+//! halvings = 6                     # halvings of Delta V after failed steps
+//! tries_per_particle = 200.0       # particle moves allowed per compression step / N
+//! overlap_tol = 1e-4               # overlaps below this count as removed (sec. 2.2.6)
+//! beta = 0.5                       # original scheme, eq. 2.10
+//! dt = 0.1                         # revised scheme, eq. 3.9 / 3.12
+//! energy = 1.0                     # revised scheme, c of eq. 3.4
+//! max_steps = 1000000              # safety limit on accepted steps
+//! [final_stage]                    # optional second stage from where the first stopped
+//! scheme = "revised"               # [as in [mcm]]
+//! delta_v_per_particle = 1e-4      # required in the table
+//! halvings = 10                    # required in the table
+//! tries_per_particle = 1000.0      # [as in [mcm]]
+//! beta = 0.5                       # [as in [mcm]]
+//! dt = 0.1                         # [as in [mcm]]
+//! [analysis]
+//! contact_cutoffs = [1e-8, 1e-7, 1e-6, 1e-5]   # gap cut-offs for the extrapolation (sec. 2.2.5)
+//! rattler_min_contacts = 4         # fewer contacts: rattler [4 spheres, 5 spherocylinders]
+//! gr_r_max = 3.0                   # g(r) range (<= half the box) [min(3, L/2)]
+//! gr_bins = 150                    # [150]
+//! s4_trials = 2000                 # trial directions of the S4 maximisation (eq. 4.17)
+//! ```
+//!
+//! Outputs in the output folder (README, "Packing outputs"): `final.xyz` (extended XYZ),
+//! `summary.json`, `phi_history.csv`, `gr.csv`, and `checkpoint.json`, written atomically after
+//! every compression step. When `checkpoint.json` is present, `porelab run` resumes from it
+//! (after checking that it was written by the same scene) and reaches bitwise the same
+//! configuration as an uninterrupted run: the MCM draws no random numbers after the start.
+
+use super::{Builtin, RunOptions};
+use crate::analysis;
+use crate::error::{invalid, Error};
+use crate::io::{write_atomic, xyz};
+use crate::packing::{
+    self, Container, McmParams, McmState, Packing, Scheme, Stage, StepOutcome, StepRecord,
+};
+use crate::Result;
+use nalgebra::{Quaternion, UnitQuaternion, Vector3};
+use serde::{Deserialize, Serialize};
+use std::path::Path;
+use std::time::Instant;
+
+/// The built-in packing scenes.
+pub fn builtins() -> Vec<Builtin> {
+    vec![
+        Builtin {
+            name: "packing-spheres",
+            about: "MCM: 1000 spheres in a periodic box (compacting + settling stage; ~2-3 min)",
+            toml: include_str!("builtin/packing-spheres.toml"),
+        },
+        Builtin {
+            name: "packing-cylinder",
+            about: "MCM: 500 spheres in a hard cylinder D_cyl = 6 (virtual-particle wall)",
+            toml: include_str!("builtin/packing-cylinder.toml"),
+        },
+        Builtin {
+            name: "packing-spherocylinders",
+            about: "MCM: 500 spherocylinders L/D = 0.4 in a periodic box (original scheme)",
+            toml: include_str!("builtin/packing-spherocylinders.toml"),
+        },
+    ]
+}
+
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+struct SceneFile {
+    kind: String,
+    #[serde(default)]
+    title: String,
+    #[serde(default)]
+    particles: ParticlesSpec,
+    #[serde(default)]
+    container: ContainerSpec,
+    #[serde(default)]
+    mcm: McmSpec,
+    #[serde(default)]
+    final_stage: Option<FinalStageSpec>,
+    #[serde(default)]
+    analysis: AnalysisSpec,
+}
+
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+struct ParticlesSpec {
+    #[serde(default = "default_shape")]
+    shape: String,
+    #[serde(default = "default_n")]
+    n: usize,
+    #[serde(default)]
+    length_over_diameter: Option<f64>,
+}
+fn default_shape() -> String {
+    "sphere".into()
+}
+fn default_n() -> usize {
+    1000
+}
+impl Default for ParticlesSpec {
+    fn default() -> Self {
+        ParticlesSpec {
+            shape: default_shape(),
+            n: default_n(),
+            length_over_diameter: None,
+        }
+    }
+}
+
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+struct ContainerSpec {
+    #[serde(default = "default_container")]
+    shape: String,
+    #[serde(default)]
+    diameter: Option<f64>,
+}
+fn default_container() -> String {
+    "periodic".into()
+}
+impl Default for ContainerSpec {
+    fn default() -> Self {
+        ContainerSpec {
+            shape: default_container(),
+            diameter: None,
+        }
+    }
+}
+
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields, default)]
+struct McmSpec {
+    seed: u64,
+    scheme: String,
+    phi0: f64,
+    delta_v_per_particle: f64,
+    halvings: u32,
+    tries_per_particle: f64,
+    overlap_tol: f64,
+    beta: f64,
+    dt: f64,
+    energy: f64,
+    max_steps: usize,
+}
+impl Default for McmSpec {
+    fn default() -> Self {
+        let p = McmParams::new(2, 0.0, 1);
+        McmSpec {
+            seed: 1,
+            scheme: "original".into(),
+            phi0: p.phi0,
+            delta_v_per_particle: p.delta_v_per_particle,
+            halvings: p.halvings,
+            tries_per_particle: p.tries_per_particle,
+            overlap_tol: p.overlap_tol,
+            beta: p.beta,
+            dt: p.dt,
+            energy: p.energy,
+            max_steps: p.max_steps,
+        }
+    }
+}
+
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+struct FinalStageSpec {
+    scheme: Option<String>,
+    delta_v_per_particle: f64,
+    halvings: u32,
+    tries_per_particle: Option<f64>,
+    beta: Option<f64>,
+    dt: Option<f64>,
+}
+
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields, default)]
+struct AnalysisSpec {
+    contact_cutoffs: Vec<f64>,
+    rattler_min_contacts: Option<usize>,
+    gr_r_max: Option<f64>,
+    gr_bins: usize,
+    s4_trials: usize,
+}
+impl Default for AnalysisSpec {
+    fn default() -> Self {
+        AnalysisSpec {
+            contact_cutoffs: vec![1e-8, 1e-7, 1e-6, 1e-5],
+            rattler_min_contacts: None,
+            gr_r_max: None,
+            gr_bins: 150,
+            s4_trials: 2000,
+        }
+    }
+}
+
+/// A parsed and checked packing scene.
+#[derive(Debug, Clone)]
+pub struct PackingScene {
+    pub title: String,
+    pub params: McmParams,
+    pub cutoffs: Vec<f64>,
+    pub rattler_min_contacts: usize,
+    pub gr_r_max: Option<f64>,
+    pub gr_bins: usize,
+    pub s4_trials: usize,
+    /// Canonical JSON of the parsed file: a checkpoint must carry the same text to be resumed.
+    fingerprint: String,
+}
+
+/// Parses a packing scene; `origin` names the source in errors.
+pub fn parse_scene(text: &str, origin: &str) -> Result<PackingScene> {
+    let f: SceneFile = toml::from_str(text).map_err(|e| Error::File {
+        path: origin.to_string(),
+        msg: format!("packing scene: {e}"),
+    })?;
+    let bad = |msg: String| invalid::<PackingScene>(format!("{origin}: {msg}"));
+    if f.kind != "packing" {
+        return bad(format!(
+            "kind = \"{}\": a packing scene needs kind = \"packing\"",
+            f.kind
+        ));
+    }
+    let length = match (f.particles.shape.as_str(), f.particles.length_over_diameter) {
+        ("sphere", l) if l.unwrap_or(0.0) == 0.0 => 0.0,
+        ("sphere", Some(l)) => {
+            return bad(format!(
+                "particles.length_over_diameter = {l}: a sphere has none (use shape = \"spherocylinder\")"
+            ))
+        }
+        ("spherocylinder", Some(l)) if l.is_finite() && l > 0.0 => l,
+        ("spherocylinder", Some(l)) => {
+            return bad(format!(
+                "particles.length_over_diameter = {l}: must be positive and finite for a spherocylinder"
+            ))
+        }
+        ("spherocylinder", None) => {
+            return bad("particles.length_over_diameter: required for shape = \"spherocylinder\"".into())
+        }
+        (other, _) => {
+            return bad(format!(
+                "particles.shape = \"{other}\": must be \"sphere\" or \"spherocylinder\""
+            ))
+        }
+    };
+    let container = match (f.container.shape.as_str(), f.container.diameter) {
+        ("periodic", None) => Container::Periodic,
+        ("periodic", Some(d)) => {
+            return bad(format!(
+                "container.diameter = {d}: only a cylinder has a diameter"
+            ))
+        }
+        ("cylinder", Some(d)) if d.is_finite() && d > 1.0 => Container::Cylinder { diameter: d },
+        ("cylinder", Some(d)) => {
+            return bad(format!(
+                "container.diameter = {d}: must be finite and larger than the particle diameter 1"
+            ))
+        }
+        ("cylinder", None) => {
+            return bad("container.diameter: required for shape = \"cylinder\"".into())
+        }
+        (other, _) => {
+            return bad(format!(
+                "container.shape = \"{other}\": must be \"periodic\" or \"cylinder\""
+            ))
+        }
+    };
+    let m = &f.mcm;
+    let scheme_of = |name: &str, key: &str| match name {
+        "original" => Ok(Scheme::Original),
+        "revised" => Ok(Scheme::Revised),
+        other => invalid(format!(
+            "{origin}: {key} = \"{other}\": must be \"original\" or \"revised\""
+        )),
+    };
+    let scheme = scheme_of(&m.scheme, "mcm.scheme")?;
+    let final_scheme = match f.final_stage.as_ref().and_then(|s| s.scheme.as_deref()) {
+        Some(name) => scheme_of(name, "final_stage.scheme")?,
+        None => scheme,
+    };
+    let mut p = McmParams::new(f.particles.n, length, m.seed);
+    p.container = container;
+    p.scheme = scheme;
+    p.phi0 = m.phi0;
+    p.delta_v_per_particle = m.delta_v_per_particle;
+    p.halvings = m.halvings;
+    p.tries_per_particle = m.tries_per_particle;
+    p.overlap_tol = m.overlap_tol;
+    p.beta = m.beta;
+    p.dt = m.dt;
+    p.energy = m.energy;
+    p.max_steps = m.max_steps;
+    p.final_stage = f.final_stage.as_ref().map(|s| Stage {
+        scheme: final_scheme,
+        delta_v_per_particle: s.delta_v_per_particle,
+        halvings: s.halvings,
+        tries_per_particle: s.tries_per_particle.unwrap_or(m.tries_per_particle),
+        beta: s.beta.unwrap_or(m.beta),
+        dt: s.dt.unwrap_or(m.dt),
+    });
+    p.validate()
+        .map_err(|e| Error::InvalidInput(format!("{origin}: {e}")))?;
+    let a = &f.analysis;
+    if a.contact_cutoffs.len() < 2 {
+        return bad(format!(
+            "analysis.contact_cutoffs has {} values: need at least 2 for the extrapolation",
+            a.contact_cutoffs.len()
+        ));
+    }
+    if let Some(d) = a
+        .contact_cutoffs
+        .iter()
+        .find(|d| !(d.is_finite() && **d > 0.0))
+    {
+        return bad(format!(
+            "analysis.contact_cutoffs: {d} must be positive and finite"
+        ));
+    }
+    if a.gr_bins == 0 {
+        return bad("analysis.gr_bins = 0: need at least one bin".into());
+    }
+    if let Some(r) = a.gr_r_max {
+        if !(r.is_finite() && r > 0.0) {
+            return bad(format!(
+                "analysis.gr_r_max = {r}: must be positive and finite"
+            ));
+        }
+    }
+    if a.s4_trials < 10 {
+        return bad(format!(
+            "analysis.s4_trials = {}: need at least 10",
+            a.s4_trials
+        ));
+    }
+    let fingerprint = serde_json::to_string(&f).map_err(|e| Error::InvalidInput(e.to_string()))?;
+    Ok(PackingScene {
+        title: f.title.clone(),
+        params: p,
+        cutoffs: a.contact_cutoffs.clone(),
+        rattler_min_contacts: a
+            .rattler_min_contacts
+            .unwrap_or(if length == 0.0 { 4 } else { 5 }),
+        gr_r_max: a.gr_r_max,
+        gr_bins: a.gr_bins,
+        s4_trials: a.s4_trials,
+        fingerprint,
+    })
+}
+
+/// `porelab run` entry point for `kind = "packing"`.
+/// `--threads` sets the worker threads of the parallel analysis (the MCM moves themselves are
+/// sequential); results do not depend on it.
+pub fn run_scene(text: &str, origin: &str, out: &Path, opts: &RunOptions) -> Result<()> {
+    match opts.threads {
+        None => run_scene_limited(text, origin, out, opts, None),
+        Some(0) => invalid("--threads 0: need at least one thread"),
+        Some(t) => rayon::ThreadPoolBuilder::new()
+            .num_threads(t)
+            .build()
+            .map_err(|e| Error::InvalidInput(format!("--threads {t}: {e}")))?
+            .install(|| run_scene_limited(text, origin, out, opts, None)),
+    }
+}
+
+/// Runs (or resumes) a scene; with `max_new_steps` it stops after that many compression
+/// steps, leaving the checkpoint behind as an interrupted run would (used by the tests).
+fn run_scene_limited(
+    text: &str,
+    origin: &str,
+    out: &Path,
+    opts: &RunOptions,
+    max_new_steps: Option<usize>,
+) -> Result<()> {
+    let scene = parse_scene(text, origin)?;
+    let prm = &scene.params;
+    std::fs::create_dir_all(out)?;
+    let ckpt_path = out.join("checkpoint.json");
+    let (mut state, mut seconds) = if ckpt_path.exists() {
+        let c = read_checkpoint(&ckpt_path, &scene)?;
+        if !opts.quiet {
+            eprintln!(
+                "resuming {} from {} (step {}, phi = {:.4})",
+                origin,
+                ckpt_path.display(),
+                c.0.history.len(),
+                c.0.packing.packing_fraction()
+            );
+        }
+        c
+    } else {
+        let start = packing::random_start_in(prm.container, prm.n, prm.length, prm.phi0, prm.seed)?;
+        (McmState::new(start, prm)?, 0.0)
+    };
+    if !opts.quiet {
+        eprintln!(
+            "packing: {} {}{}, {:?} scheme (eq. {}), {}, seed {}; stages: {}",
+            prm.n,
+            if prm.length == 0.0 {
+                "spheres"
+            } else {
+                "spherocylinders"
+            },
+            if prm.length == 0.0 {
+                String::new()
+            } else {
+                format!(" L/D = {}", prm.length)
+            },
+            prm.scheme,
+            match prm.scheme {
+                Scheme::Original => "2.4-2.10",
+                Scheme::Revised => "3.2-3.13",
+            },
+            match prm.container {
+                Container::Periodic => "periodic cubic box".to_string(),
+                Container::Cylinder { diameter } => format!(
+                    "cylinder D_cyl = {diameter} (virtual-particle wall, sec. 2.2.4), periodic along z"
+                ),
+            },
+            prm.seed,
+            prm.stages()
+        );
+    }
+    let bar = if opts.quiet {
+        indicatif::ProgressBar::hidden()
+    } else {
+        let b = indicatif::ProgressBar::new_spinner();
+        b.set_style(
+            indicatif::ProgressStyle::with_template("{spinner} [{elapsed_precise}] {msg}")
+                .unwrap_or_else(|_| indicatif::ProgressStyle::default_spinner()),
+        );
+        b
+    };
+    let t0 = Instant::now();
+    let base = seconds;
+    let mut new_steps = 0usize;
+    while !state.is_done() {
+        if max_new_steps.is_some_and(|m| new_steps >= m) {
+            bar.finish_and_clear();
+            return Ok(());
+        }
+        let o = state.step(prm)?;
+        new_steps += 1;
+        seconds = base + t0.elapsed().as_secs_f64();
+        write_checkpoint(&ckpt_path, &scene, &state, seconds)?;
+        if o != StepOutcome::Finished {
+            bar.set_message(format!(
+                "stage {} step {}  phi = {:.5}  Delta V = {:.3e}  halvings left {}  tries {}",
+                state.stage + 1,
+                state.history.len(),
+                state.packing.packing_fraction(),
+                state.delta_v,
+                state.halvings_left,
+                state.total_tries
+            ));
+            bar.tick();
+        }
+    }
+    bar.finish_and_clear();
+    let summary = write_outputs(out, origin, &scene, &state, seconds)?;
+    if !opts.quiet {
+        eprintln!("{summary}");
+        eprintln!("outputs in {}", out.display());
+    }
+    Ok(())
+}
+
+/// Observables of a final configuration (thesis sec. 2.2.5, 3.3, eq. 2.11, 4.17).
+#[derive(Debug, Clone, Serialize)]
+pub struct Measures {
+    pub packing_fraction: f64,
+    /// Deepest overlap (>= 0) by the independent brute-force check over all pairs and images.
+    pub deepest_overlap: f64,
+    pub contact_cutoffs: Vec<f64>,
+    /// Mean contacts at each cut-off, all particles.
+    pub contacts_at_cutoffs: Vec<f64>,
+    /// Linear extrapolation to zero cut-off, all particles counted (rattlers included).
+    pub contacts_extrapolated: f64,
+    /// The same with rattlers removed repeatedly (fewer than `rattler_min_contacts`).
+    pub contacts_extrapolated_no_rattlers: f64,
+    pub rattler_min_contacts: usize,
+    /// Rattlers at the smallest cut-off.
+    pub rattlers: usize,
+    pub nematic_s: f64,
+    pub cubatic_s4: f64,
+    /// Cylinder only: fraction of the particles within D of the wall whose axis is tangential
+    /// to it within 4 degrees (thesis sec. 2.2.5, Fig. 2.6), and how many are in that layer.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub wall_aligned_fraction: Option<f64>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub wall_layer_particles: Option<usize>,
+}
+
+/// Measures a configuration with [`crate::analysis`].
+pub fn measure(
+    p: &Packing,
+    cutoffs: &[f64],
+    min_contacts: usize,
+    s4_trials: usize,
+) -> Result<Measures> {
+    let v = p.view();
+    let dmax = cutoffs.iter().cloned().fold(0.0, f64::max);
+    let gaps = analysis::pair_gaps(&v, dmax)?;
+    let deepest = gaps.iter().map(|g| -g.gap).fold(0.0f64, f64::max);
+    let contacts_at: Vec<f64> = cutoffs
+        .iter()
+        .map(|&d| analysis::mean_contacts(v.n(), &gaps, d, None).0)
+        .collect();
+    let (c0, _) = analysis::extrapolated_contacts(v.n(), &gaps, cutoffs, None)?;
+    let (c0r, _) = analysis::extrapolated_contacts(v.n(), &gaps, cutoffs, Some(min_contacts))?;
+    let dmin = cutoffs.iter().cloned().fold(f64::INFINITY, f64::min);
+    let (_, rattlers) = analysis::mean_contacts(v.n(), &gaps, dmin, Some(min_contacts));
+    let wall = match p.container {
+        Container::Periodic => None,
+        Container::Cylinder { .. } => Some(analysis::wall_aligned_fraction(
+            &v,
+            2.0 * packing::RADIUS,
+            4f64.to_radians(),
+        )?),
+    };
+    Ok(Measures {
+        packing_fraction: p.packing_fraction(),
+        deepest_overlap: deepest,
+        contact_cutoffs: cutoffs.to_vec(),
+        contacts_at_cutoffs: contacts_at,
+        contacts_extrapolated: c0,
+        contacts_extrapolated_no_rattlers: c0r,
+        rattler_min_contacts: min_contacts,
+        rattlers,
+        nematic_s: analysis::nematic_order(&p.axes())?,
+        cubatic_s4: analysis::cubatic_order(&p.orientations, s4_trials)?,
+        wall_aligned_fraction: wall.map(|w| w.0),
+        wall_layer_particles: wall.map(|w| w.1),
+    })
+}
+
+#[derive(Serialize)]
+struct Summary<'a> {
+    scene: &'a str,
+    title: &'a str,
+    shape: &'static str,
+    n: usize,
+    length_over_diameter: f64,
+    seed: u64,
+    scheme: String,
+    box_length: f64,
+    #[serde(flatten)]
+    measures: Measures,
+    compression_steps: usize,
+    failed_steps: usize,
+    total_tries: u64,
+    jammed: bool,
+    seconds: f64,
+}
+
+fn write_outputs(
+    out: &Path,
+    origin: &str,
+    scene: &PackingScene,
+    state: &McmState,
+    seconds: f64,
+) -> Result<String> {
+    let p = &state.packing;
+    let prm = &scene.params;
+    let m = measure(
+        p,
+        &scene.cutoffs,
+        scene.rattler_min_contacts,
+        scene.s4_trials,
+    )?;
+    let sphere = p.is_sphere();
+    let r = packing::RADIUS;
+    let parts: Vec<xyz::XyzParticle> = (0..p.n())
+        .map(|i| xyz::XyzParticle {
+            species: if sphere { "S" } else { "SC" }.to_string(),
+            position: p.positions[i],
+            orientation: p.orientations[i],
+            aspherical_shape: if sphere { [r; 3] } else { [r, r, p.length] },
+            radius: r,
+            cylinder_length: p.length,
+        })
+        .collect();
+    let cell = match p.container {
+        Container::Periodic => xyz::Cell::cubic(p.box_length),
+        Container::Cylinder { diameter } => xyz::Cell {
+            lengths: [diameter, diameter, p.box_length],
+            origin: [-0.5 * diameter, -0.5 * diameter, 0.0],
+            pbc: [false, false, true],
+        },
+    };
+    xyz::write(
+        &out.join("final.xyz"),
+        &cell,
+        &parts,
+        &[
+            ("packing_fraction", format!("{}", m.packing_fraction)),
+            ("seed", format!("{}", prm.seed)),
+        ],
+    )?;
+    let mut csv = String::from("step,delta_v_D3,packing_fraction,tries\n");
+    for h in &state.history {
+        csv.push_str(&format!(
+            "{},{},{},{}\n",
+            h.step, h.delta_v, h.packing_fraction, h.tries
+        ));
+    }
+    write_atomic(&out.join("phi_history.csv"), csv.as_bytes())?;
+    if p.container == Container::Periodic {
+        let rmax = scene.gr_r_max.unwrap_or(3.0).min(0.5 * p.box_length);
+        let g = analysis::radial_distribution(&p.view(), rmax, scene.gr_bins)?;
+        let mut gcsv = String::from("r_D,g\n");
+        for (rc, v) in g {
+            gcsv.push_str(&format!("{rc},{v}\n"));
+        }
+        write_atomic(&out.join("gr.csv"), gcsv.as_bytes())?;
+    }
+    let h = analysis::orientation_histogram(&p.axes(), 9, 18)?;
+    let mut hcsv = String::from("theta_lo_deg,theta_hi_deg,phi_lo_deg,phi_hi_deg,count\n");
+    for (kt, row) in h.iter().enumerate() {
+        for (kp, c) in row.iter().enumerate() {
+            hcsv.push_str(&format!(
+                "{},{},{},{},{c}\n",
+                kt * 10,
+                (kt + 1) * 10,
+                kp * 10,
+                (kp + 1) * 10
+            ));
+        }
+    }
+    write_atomic(&out.join("orientation_histogram.csv"), hcsv.as_bytes())?;
+    let s = Summary {
+        scene: origin,
+        title: &scene.title,
+        shape: if sphere { "sphere" } else { "spherocylinder" },
+        n: p.n(),
+        length_over_diameter: p.length,
+        seed: prm.seed,
+        scheme: format!("{:?}", prm.scheme).to_lowercase(),
+        box_length: p.box_length,
+        measures: m,
+        compression_steps: state.history.len(),
+        failed_steps: state.failed_steps,
+        total_tries: state.total_tries,
+        jammed: state.finished == Some(true),
+        seconds,
+    };
+    let json = serde_json::to_string_pretty(&s).map_err(|e| Error::InvalidInput(e.to_string()))?;
+    write_atomic(&out.join("summary.json"), json.as_bytes())?;
+    Ok(json)
+}
+
+/// The checkpoint: the scene fingerprint and the full [`McmState`], every f64 stored as its
+/// IEEE bits so the resumed run starts from bitwise the same state.
+#[derive(Serialize, Deserialize)]
+struct Checkpoint {
+    format: u32,
+    scene: String,
+    seconds: f64,
+    box_length: u64,
+    length: u64,
+    positions: Vec<[u64; 3]>,
+    /// Quaternion (w, i, j, k) bits.
+    orientations: Vec<[u64; 4]>,
+    delta_v: u64,
+    halvings_left: u32,
+    stage: u32,
+    /// (step, packing fraction bits, Delta V bits, tries) per accepted step.
+    history: Vec<(usize, u64, u64, u64)>,
+    failed_steps: usize,
+    total_tries: u64,
+    finished: Option<bool>,
+}
+
+fn write_checkpoint(path: &Path, scene: &PackingScene, s: &McmState, seconds: f64) -> Result<()> {
+    let p = &s.packing;
+    let c = Checkpoint {
+        format: 1,
+        scene: scene.fingerprint.clone(),
+        seconds,
+        box_length: p.box_length.to_bits(),
+        length: p.length.to_bits(),
+        positions: p
+            .positions
+            .iter()
+            .map(|x| [x.x.to_bits(), x.y.to_bits(), x.z.to_bits()])
+            .collect(),
+        orientations: p
+            .orientations
+            .iter()
+            .map(|q| {
+                let q = q.quaternion();
+                [q.w.to_bits(), q.i.to_bits(), q.j.to_bits(), q.k.to_bits()]
+            })
+            .collect(),
+        delta_v: s.delta_v.to_bits(),
+        halvings_left: s.halvings_left,
+        stage: s.stage,
+        history: s
+            .history
+            .iter()
+            .map(|h| {
+                (
+                    h.step,
+                    h.packing_fraction.to_bits(),
+                    h.delta_v.to_bits(),
+                    h.tries,
+                )
+            })
+            .collect(),
+        failed_steps: s.failed_steps,
+        total_tries: s.total_tries,
+        finished: s.finished,
+    };
+    let text = serde_json::to_vec(&c).map_err(|e| Error::InvalidInput(e.to_string()))?;
+    write_atomic(path, &text)
+}
+
+fn read_checkpoint(path: &Path, scene: &PackingScene) -> Result<(McmState, f64)> {
+    let file_err = |msg: String| Error::File {
+        path: path.display().to_string(),
+        msg,
+    };
+    let text = std::fs::read(path)?;
+    let c: Checkpoint = serde_json::from_slice(&text)
+        .map_err(|e| file_err(format!("not a packing checkpoint: {e}")))?;
+    if c.format != 1 {
+        return Err(file_err(format!(
+            "checkpoint format {}: this porelab reads format 1",
+            c.format
+        )));
+    }
+    if c.scene != scene.fingerprint {
+        return Err(file_err(
+            "written by a different scene (parameters differ): delete it to start afresh, or \
+             choose another output folder with --out"
+                .into(),
+        ));
+    }
+    let f = f64::from_bits;
+    if c.positions.len() != scene.params.n || c.orientations.len() != scene.params.n {
+        return Err(file_err(format!(
+            "{} positions, {} orientations: the scene has n = {}",
+            c.positions.len(),
+            c.orientations.len(),
+            scene.params.n
+        )));
+    }
+    let packing = Packing {
+        container: scene.params.container,
+        box_length: f(c.box_length),
+        length: f(c.length),
+        positions: c
+            .positions
+            .iter()
+            .map(|b| Vector3::new(f(b[0]), f(b[1]), f(b[2])))
+            .collect(),
+        orientations: c
+            .orientations
+            .iter()
+            .map(|b| {
+                UnitQuaternion::new_unchecked(Quaternion::new(f(b[0]), f(b[1]), f(b[2]), f(b[3])))
+            })
+            .collect(),
+    };
+    let state = McmState {
+        packing,
+        delta_v: f(c.delta_v),
+        halvings_left: c.halvings_left,
+        history: c
+            .history
+            .iter()
+            .map(|h| StepRecord {
+                step: h.0,
+                packing_fraction: f(h.1),
+                delta_v: f(h.2),
+                tries: h.3,
+            })
+            .collect(),
+        failed_steps: c.failed_steps,
+        total_tries: c.total_tries,
+        stage: c.stage,
+        finished: c.finished,
+    };
+    Ok((state, c.seconds))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const SMALL: &str = r#"
+kind = "packing"
+title = "test"
+[particles]
+shape = "spherocylinder"
+n = 40
+length_over_diameter = 0.5
+[mcm]
+seed = 11
+delta_v_per_particle = 0.05
+halvings = 2
+tries_per_particle = 50.0
+[final_stage]
+delta_v_per_particle = 0.005
+halvings = 1
+[analysis]
+gr_bins = 20
+s4_trials = 50
+"#;
+
+    fn tmp(name: &str) -> std::path::PathBuf {
+        let d = std::env::temp_dir().join(format!("porelab-scene-{}-{name}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&d);
+        d
+    }
+
+    fn quiet() -> RunOptions {
+        RunOptions {
+            quiet: true,
+            ..Default::default()
+        }
+    }
+
+    #[test]
+    fn interrupted_run_resumes_to_the_same_result() {
+        let (a, b) = (tmp("full"), tmp("resumed"));
+        run_scene(SMALL, "test", &a, &quiet()).unwrap();
+        // Interrupt twice (after 7 and 5 more steps), then finish.
+        run_scene_limited(SMALL, "test", &b, &quiet(), Some(7)).unwrap();
+        assert!(b.join("checkpoint.json").exists() && !b.join("final.xyz").exists());
+        run_scene_limited(SMALL, "test", &b, &quiet(), Some(5)).unwrap();
+        run_scene(SMALL, "test", &b, &quiet()).unwrap();
+        for f in ["final.xyz", "phi_history.csv", "gr.csv"] {
+            let (x, y) = (
+                std::fs::read(a.join(f)).unwrap(),
+                std::fs::read(b.join(f)).unwrap(),
+            );
+            assert!(x == y, "{f} differs between the full and the resumed run");
+        }
+        let sa: serde_json::Value =
+            serde_json::from_slice(&std::fs::read(a.join("summary.json")).unwrap()).unwrap();
+        let sb: serde_json::Value =
+            serde_json::from_slice(&std::fs::read(b.join("summary.json")).unwrap()).unwrap();
+        for k in [
+            "packing_fraction",
+            "compression_steps",
+            "total_tries",
+            "cubatic_s4",
+        ] {
+            assert_eq!(sa[k], sb[k], "{k}");
+        }
+        // The outputs describe an overlap-free packing: check the XYZ file independently.
+        let (cell, parts) = xyz::parse(
+            &std::fs::read_to_string(a.join("final.xyz")).unwrap(),
+            "final",
+        )
+        .unwrap();
+        let l = cell.lengths[0];
+        let pos: Vec<_> = parts.iter().map(|p| p.position).collect();
+        let ori: Vec<_> = parts.iter().map(|p| p.orientation).collect();
+        let v = analysis::Rods {
+            box_length: l,
+            wall_diameter: None,
+            radius: 0.5,
+            length: 0.5,
+            positions: &pos,
+            orientations: &ori,
+        };
+        analysis::check_no_overlap(&v, 1e-4 * (1.0 + 1e-6)).unwrap();
+        assert_eq!(
+            sa["packing_fraction"].as_f64().unwrap(),
+            analysis::packing_fraction(&v)
+        );
+        // The history has one row per accepted step, increasing packing fraction.
+        let hist = std::fs::read_to_string(a.join("phi_history.csv")).unwrap();
+        let phis: Vec<f64> = hist
+            .lines()
+            .skip(1)
+            .map(|l| l.split(',').nth(2).unwrap().parse().unwrap())
+            .collect();
+        assert_eq!(phis.len() as u64, sa["compression_steps"].as_u64().unwrap());
+        assert!(phis.windows(2).all(|w| w[1] > w[0]));
+        // One worker thread gives the same outputs as the default pool.
+        let c = tmp("one-thread");
+        let one = RunOptions {
+            quiet: true,
+            threads: Some(1),
+            ..Default::default()
+        };
+        run_scene(SMALL, "test", &c, &one).unwrap();
+        for f in [
+            "final.xyz",
+            "phi_history.csv",
+            "gr.csv",
+            "orientation_histogram.csv",
+        ] {
+            assert!(
+                std::fs::read(a.join(f)).unwrap() == std::fs::read(c.join(f)).unwrap(),
+                "{f} depends on the thread count"
+            );
+        }
+        let _ = std::fs::remove_dir_all(&c);
+        // A changed scene refuses the old checkpoint, naming it.
+        let changed = SMALL.replace("seed = 11", "seed = 12");
+        let e = run_scene_limited(&changed, "test", &b, &quiet(), Some(1)).unwrap_err();
+        assert!(e.to_string().contains("different scene"), "{e}");
+        let _ = std::fs::remove_dir_all(&a);
+        let _ = std::fs::remove_dir_all(&b);
+    }
+
+    #[test]
+    fn misspelt_and_bad_keys_are_rejected_by_name() {
+        let e = parse_scene(&SMALL.replace("halvings = 2", "halvings_ = 2"), "t").unwrap_err();
+        assert!(e.to_string().contains("halvings_"), "{e}");
+        let e = parse_scene(&SMALL.replace("n = 40", "n = 1"), "t").unwrap_err();
+        assert!(e.to_string().contains("n = 1"), "{e}");
+        let e = parse_scene(&SMALL.replace("\"spherocylinder\"", "\"cube\""), "t").unwrap_err();
+        assert!(e.to_string().contains("cube"), "{e}");
+        let e = parse_scene(&SMALL.replace("length_over_diameter = 0.5", ""), "t").unwrap_err();
+        assert!(e.to_string().contains("length_over_diameter"), "{e}");
+        let e = parse_scene(
+            &SMALL.replace(
+                "[final_stage]\ndelta_v_per_particle = 0.005",
+                "[final_stage]\ndelta_v_per_particle = -1",
+            ),
+            "t",
+        )
+        .unwrap_err();
+        assert!(
+            e.to_string().contains("final stage") && e.to_string().contains("delta_v"),
+            "{e}"
+        );
+        let e = parse_scene(&format!("{SMALL}\n[box]\nx = 1\n"), "t").unwrap_err();
+        assert!(e.to_string().contains("box"), "{e}");
+    }
+
+    #[test]
+    fn builtins_parse() {
+        for b in builtins() {
+            parse_scene(b.toml, b.name).unwrap();
+        }
+    }
+}
