@@ -23,6 +23,7 @@
 
 use crate::analysis;
 use crate::packing::{self, McmParams, McmResult, Scheme};
+use super::common::band_rows;
 use crate::validation::{CaseContext, Row};
 use crate::{Error, Result};
 use std::collections::BTreeMap;
@@ -36,44 +37,6 @@ fn seed(ctx: &CaseContext) -> Result<u64> {
     })
 }
 
-/// Rows from measured quantities against the bands of expected.csv.
-fn band_rows(ctx: &CaseContext, got: &BTreeMap<&str, f64>) -> Result<Vec<Row>> {
-    let t = ctx.expected_table()?;
-    if t.is_empty() {
-        return Err(Error::Validation(format!(
-            "{}: no rows",
-            t.path().display()
-        )));
-    }
-    let mut rows = Vec::new();
-    for i in 0..t.len() {
-        let q = t.str(i, "quantity")?;
-        let (lo, hi) = (t.f64(i, "lower")?, t.f64(i, "upper")?);
-        if !(lo <= hi) {
-            return Err(Error::Validation(format!(
-                "{} line {}: lower = {lo} above upper = {hi}",
-                t.path().display(),
-                t.line(i)
-            )));
-        }
-        let v = got.get(q).copied().ok_or_else(|| {
-            Error::Validation(format!(
-                "{} line {}: quantity `{q}` is not measured by case {} (known: {:?})",
-                t.path().display(),
-                t.line(i),
-                ctx.id,
-                got.keys().collect::<Vec<_>>()
-            ))
-        })?;
-        rows.push(Row::new(
-            format!("{q} in [{lo}, {hi}]"),
-            v,
-            0.5 * (lo + hi),
-            0.5 * (hi - lo),
-        ));
-    }
-    Ok(rows)
-}
 
 /// Deepest overlap (>= 0) found by the independent brute-force check.
 fn deepest_overlap(r: &McmResult) -> Result<f64> {
