@@ -1,7 +1,8 @@
 """Peer timing: Magpylib's vectorized cylinder field on the same random points as
 `porelab bench field` (R = 1 m, L = 2 m, box |x|,|y| <= 3, |z| <= 5), one call per batch.
 
-Usage: python benches/peer_magpylib.py [N]   (default N = 1e6 points of the same distribution)
+Usage: taskset -c 0 python benches/peer_magpylib.py [N]   (default N = 1e6 points of the same
+distribution; pin to one core for a per-core rate: unpinned, the call uses about two cores)
 Prints points per second for longitudinal, transverse and oblique magnetization.
 Needs `pip install magpylib numpy`; porelab itself never calls Python.
 """
