@@ -21,9 +21,9 @@
 //!   value to a maximum of 0.69-0.72 at L/D 0.3-0.6, then falls (thesis Fig. 2.8, 3.3).
 //! * 508 (slow): rods L/D = 2 in cylinders D_cyl = 2 and 6: S >= 0.8 and <= 0.2 (Fig. 2.10c).
 
+use super::common::band_rows;
 use crate::analysis;
 use crate::packing::{self, McmParams, McmResult, Scheme};
-use super::common::band_rows;
 use crate::validation::{CaseContext, Row};
 use crate::{Error, Result};
 use std::collections::BTreeMap;
@@ -36,7 +36,6 @@ fn seed(ctx: &CaseContext) -> Result<u64> {
         ))
     })
 }
-
 
 /// Deepest overlap (>= 0) found by the independent brute-force check.
 fn deepest_overlap(r: &McmResult) -> Result<f64> {
