@@ -140,7 +140,7 @@ pub fn case_416(ctx: &CaseContext) -> Result<Vec<Row>> {
     let seed = required_seed(ctx, "case 416 needs a seed")?;
     let tally = |r: f64| -> Result<Tally> {
         Ok(Tally::of(
-            &runs(&experiment(r, 90.0, 20.0, 20, 5.0, 5e-4)?, seed, 2)?,
+            &runs(&experiment(r, 90.0, 20.0, 40, 5.0, 5e-4)?, seed, 2)?,
             None,
         ))
     };
