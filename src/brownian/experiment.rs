@@ -512,7 +512,8 @@ impl CaptureExperiment {
         }
     }
 
-    /// Volumes (m^3) of the regions in `regions` (TOP, SIDE), for the volume-weighted average.
+    /// Volumes (m^3) of the regions in `regions`, for the volume-weighted average: TOP and SIDE
+    /// from the region shape; the block as n lattice cells of volume d^3.
     pub fn region_volumes(&self, regions: &[Region]) -> Result<Vec<f64>> {
         let magnet = self.magnet(axis_at_angle(self.alpha))?;
         let body = CylinderBody::from_magnet(&magnet)?;
@@ -520,7 +521,9 @@ impl CaptureExperiment {
             Placement::TopSide { shape, .. } => {
                 regions.iter().map(|r| shape.volume(&body, *r)).collect()
             }
-            Placement::Block { .. } => vec![1.0; regions.len()],
+            Placement::Block { n, spacing_m, .. } => {
+                vec![n as f64 * spacing_m.powi(3); regions.len()]
+            }
         })
     }
 }
