@@ -1,0 +1,309 @@
+//! Incremental Verlet lists for the overlap removal.
+//!
+//! The overlap removal moves one particle at a time (thesis sec. 2.2.1), so rebuilding every
+//! list when one particle has drifted (the classic Verlet criterion) costs O(N) per rebuild
+//! and, near jamming where a few particles keep moving, dominated the run time (about 60% for
+//! N = 1000 spheres, measured with `perf`). Here each particle keeps its own reference
+//! position and axis; when particle i has moved more than skin/4 from its reference, only
+//! i's list is rebuilt (from a cell grid that follows every move) and i is added to or removed
+//! from the lists of the particles it gained or lost.
+//!
+//! Why skin/4: a pair (i, j) is last decided at the later of the two particles' rebuilds,
+//! t* (both lists are updated then), with both positions current. After t* each particle stays
+//! within skin/4 of its reference, and its position at t* was too, so each has moved less than
+//! skin/2 since t*; a pair not listed at t* was at least cutoff + skin apart then and is still
+//! farther than the cutoff now. The lists are by centre distance (the pair cutoff L + D bounds
+//! any contact of two rods), so rotations do not count.
+
+use super::{Container, Packing};
+use crate::error::invalid;
+use crate::Result;
+use nalgebra::Vector3;
+
+/// A uniform cell grid over the container: periodic along the periodic directions, clamped
+/// (cells at the edge take everything beyond it) across the cylinder.
+#[derive(Debug, Clone)]
+struct Grid {
+    /// Cells per direction (1 where there are fewer than 3 cells of the list cutoff, so each
+    /// pair is searched once).
+    dims: [usize; 3],
+    lower: [f64; 3],
+    cell_size: [f64; 3],
+    periodic: [bool; 3],
+    members: Vec<Vec<usize>>,
+    cell_of: Vec<usize>,
+}
+
+impl Grid {
+    fn new(container: &Container, box_length: f64, cutoff: f64, pos: &[Vector3<f64>]) -> Grid {
+        let (lower, extent, periodic) = match container {
+            Container::Periodic => ([0.0; 3], [box_length; 3], [true; 3]),
+            Container::Cylinder { diameter } => {
+                let r = 0.5 * diameter;
+                (
+                    [-r, -r, 0.0],
+                    [*diameter, *diameter, box_length],
+                    [false, false, true],
+                )
+            }
+        };
+        let mut dims = [1usize; 3];
+        let mut cell_size = [0.0; 3];
+        for k in 0..3 {
+            let m = (extent[k] / cutoff).floor() as usize;
+            // Periodic: fewer than 3 cells would visit a neighbour cell twice.
+            dims[k] = if periodic[k] && m < 3 { 1 } else { m.max(1) };
+            cell_size[k] = extent[k] / dims[k] as f64;
+        }
+        let mut g = Grid {
+            dims,
+            lower,
+            cell_size,
+            periodic,
+            members: vec![Vec::new(); dims[0] * dims[1] * dims[2]],
+            cell_of: vec![0; pos.len()],
+        };
+        for (i, x) in pos.iter().enumerate() {
+            let c = g.cell_index(x);
+            g.cell_of[i] = c;
+            g.members[c].push(i);
+        }
+        g
+    }
+
+    fn coords(&self, x: &Vector3<f64>) -> [usize; 3] {
+        let mut c = [0usize; 3];
+        for k in 0..3 {
+            let m = self.dims[k];
+            let s = ((x[k] - self.lower[k]) / self.cell_size[k]).floor();
+            c[k] = if self.periodic[k] {
+                (s.rem_euclid(m as f64) as usize).min(m - 1)
+            } else {
+                s.clamp(0.0, (m - 1) as f64) as usize
+            };
+        }
+        c
+    }
+
+    fn cell_index(&self, x: &Vector3<f64>) -> usize {
+        let c = self.coords(x);
+        (c[0] * self.dims[1] + c[1]) * self.dims[2] + c[2]
+    }
+
+    /// Moves particle i to the cell of its new position.
+    fn update(&mut self, i: usize, x: &Vector3<f64>) {
+        let c = self.cell_index(x);
+        let old = self.cell_of[i];
+        if c != old {
+            let v = &mut self.members[old];
+            let at = v
+                .iter()
+                .position(|&j| j == i)
+                .expect("particle in its cell");
+            v.swap_remove(at);
+            self.members[c].push(i);
+            self.cell_of[i] = c;
+        }
+    }
+
+    /// Calls `f(j)` for every particle in the cells around the cell of `x` (each once).
+    fn for_each_near(&self, x: &Vector3<f64>, mut f: impl FnMut(usize)) {
+        let c = self.coords(x);
+        let mut range = [[0usize; 3]; 3];
+        let mut count = [0usize; 3];
+        for k in 0..3 {
+            let m = self.dims[k];
+            if m == 1 {
+                range[k][0] = 0;
+                count[k] = 1;
+            } else if self.periodic[k] {
+                range[k] = [(c[k] + m - 1) % m, c[k], (c[k] + 1) % m];
+                count[k] = 3;
+            } else {
+                let lo = c[k].saturating_sub(1);
+                let hi = (c[k] + 1).min(m - 1);
+                for (n, v) in (lo..=hi).enumerate() {
+                    range[k][n] = v;
+                }
+                count[k] = hi - lo + 1;
+            }
+        }
+        for a in &range[0][..count[0]] {
+            for b in &range[1][..count[1]] {
+                for z in &range[2][..count[2]] {
+                    let cell = (a * self.dims[1] + b) * self.dims[2] + z;
+                    for &j in &self.members[cell] {
+                        f(j);
+                    }
+                }
+            }
+        }
+    }
+}
+
+/// Per-particle Verlet lists with per-particle references (see the module docs).
+#[derive(Debug, Clone)]
+pub(super) struct Neighbours {
+    /// Neighbour list of each particle: every j within `list_cutoff` at the later of the two
+    /// particles' last rebuilds.
+    pub lists: Vec<Vec<usize>>,
+    list_cutoff: f64,
+    skin: f64,
+    grid: Grid,
+    ref_x: Vec<Vector3<f64>>,
+    /// Rebuilds of single lists since construction (for tests and profiling).
+    pub rebuilds: u64,
+}
+
+impl Neighbours {
+    /// Lists for the pair cutoff `cutoff` plus `skin` (both positive).
+    pub fn new(p: &Packing, cutoff: f64, skin: f64) -> Result<Neighbours> {
+        if !(skin > 0.0 && cutoff > 0.0 && (cutoff + skin) <= 0.5 * p.box_length) {
+            return invalid(format!(
+                "neighbour lists: cutoff {cutoff} + skin {skin} must be positive and at most \
+                 half the periodic length {}",
+                p.box_length
+            ));
+        }
+        let list_cutoff = cutoff + skin;
+        let grid = Grid::new(&p.container, p.box_length, list_cutoff, &p.positions);
+        let mut nb = Neighbours {
+            lists: vec![Vec::new(); p.n()],
+            list_cutoff,
+            skin,
+            grid,
+            ref_x: p.positions.clone(),
+            rebuilds: 0,
+        };
+        let c2 = list_cutoff * list_cutoff;
+        for i in 0..p.n() {
+            let xi = p.positions[i];
+            let mut found = Vec::new();
+            nb.grid.for_each_near(&xi, |j| {
+                if j > i
+                    && p.container
+                        .separation(&xi, &p.positions[j], p.box_length)
+                        .norm_squared()
+                        < c2
+                {
+                    found.push(j);
+                }
+            });
+            for j in found {
+                nb.lists[i].push(j);
+                nb.lists[j].push(i);
+            }
+        }
+        for v in nb.lists.iter_mut() {
+            v.sort_unstable();
+        }
+        Ok(nb)
+    }
+
+    /// To be called after particle i moved: follows it in the grid and, when it has drifted
+    /// more than skin/4 from its reference, rebuilds its list.
+    pub fn moved(&mut self, p: &Packing, i: usize) {
+        let xi = p.positions[i];
+        self.grid.update(i, &xi);
+        let disp2 = p
+            .container
+            .separation(&self.ref_x[i], &xi, p.box_length)
+            .norm_squared();
+        if disp2 <= (0.25 * self.skin).powi(2) {
+            return;
+        }
+        self.rebuilds += 1;
+        let old = std::mem::take(&mut self.lists[i]);
+        for &j in &old {
+            let v = &mut self.lists[j];
+            if let Ok(at) = v.binary_search(&i) {
+                v.remove(at);
+            }
+        }
+        let c2 = self.list_cutoff * self.list_cutoff;
+        let mut fresh = old;
+        fresh.clear();
+        self.grid.for_each_near(&xi, |j| {
+            if j != i
+                && p.container
+                    .separation(&xi, &p.positions[j], p.box_length)
+                    .norm_squared()
+                    < c2
+            {
+                fresh.push(j);
+            }
+        });
+        fresh.sort_unstable();
+        for &j in &fresh {
+            let v = &mut self.lists[j];
+            if let Err(at) = v.binary_search(&i) {
+                v.insert(at, i);
+            }
+        }
+        self.lists[i] = fresh;
+        self.ref_x[i] = xi;
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::packing::random_start_in;
+    use rand::{Rng, SeedableRng};
+    use rand_chacha::ChaCha8Rng;
+
+    /// After many random moves, every pair closer than the cutoff is listed both ways (brute
+    /// force over all pairs), in the box and in the cylinder, for spheres and rods.
+    #[test]
+    fn lists_stay_complete_under_random_moves() {
+        for (container, length) in [
+            (Container::Periodic, 0.0),
+            (Container::Periodic, 1.5),
+            (Container::Cylinder { diameter: 6.0 }, 0.0),
+            (Container::Cylinder { diameter: 5.0 }, 1.0),
+        ] {
+            let mut p = random_start_in(container, 300, length, 0.1, 3).unwrap();
+            let cutoff = length + 1.0;
+            let mut nb = Neighbours::new(&p, cutoff, 0.3).unwrap();
+            let mut rng = ChaCha8Rng::seed_from_u64(9);
+            for _ in 0..20_000 {
+                let i = rng.gen_range(0..p.n());
+                let step = Vector3::new(rng.gen(), rng.gen(), rng.gen()).map(|u: f64| u - 0.5);
+                let x = p.positions[i] + 0.05 * step;
+                let x = match container {
+                    Container::Periodic => x,
+                    Container::Cylinder { diameter } => {
+                        let rho = (x.x * x.x + x.y * x.y).sqrt();
+                        let s = (0.5 * diameter / rho).min(1.0);
+                        Vector3::new(x.x * s, x.y * s, x.z)
+                    }
+                };
+                p.positions[i] = p.container.wrap(&x, p.box_length);
+                if length > 0.0 {
+                    let rot = nalgebra::UnitQuaternion::from_scaled_axis(0.05 * step);
+                    p.orientations[i] = rot * p.orientations[i];
+                }
+                nb.moved(&p, i);
+            }
+            assert!(nb.rebuilds > 100, "rebuilds {}", nb.rebuilds);
+            let c2 = cutoff * cutoff;
+            for i in 0..p.n() {
+                for j in 0..p.n() {
+                    if i == j {
+                        continue;
+                    }
+                    let d = p
+                        .container
+                        .separation(&p.positions[i], &p.positions[j], p.box_length);
+                    if d.norm_squared() < c2 {
+                        assert!(
+                            nb.lists[i].binary_search(&j).is_ok(),
+                            "{container:?} L={length}: pair ({i}, {j}) at {} missing",
+                            d.norm()
+                        );
+                    }
+                }
+            }
+        }
+    }
+}
