@@ -24,6 +24,7 @@
 use crate::contact::closest_points_segments;
 use crate::error::invalid;
 use crate::Result;
+pub use container::Container;
 use nalgebra::{Matrix3, Unit, UnitQuaternion, Vector3};
 use neighbours::Neighbours;
 use rand::{Rng, SeedableRng};
@@ -202,48 +203,6 @@ pub fn principal_inertia(length: f64, mass: f64) -> (f64, f64) {
     (ixy, iz)
 }
 
-/// The simulation container.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub enum Container {
-    /// Periodic cubic box [0, L)^3 (L = `box_length`).
-    Periodic,
-    /// Hard cylindrical wall of fixed diameter D_cyl about the z axis through x = y = 0,
-    /// periodic along z with period L = `box_length` (thesis sec. 2.2.4, Fig. 2.3 left);
-    /// compression shortens L, D_cyl stays fixed. Wall overlaps are removed through virtual
-    /// particles (Fig. 2.4).
-    Cylinder { diameter: f64 },
-}
-
-impl Container {
-    /// Volume of the container of length (or side) `l`.
-    pub fn volume(&self, l: f64) -> f64 {
-        match self {
-            Container::Periodic => l.powi(3),
-            Container::Cylinder { diameter } => {
-                0.25 * std::f64::consts::PI * diameter * diameter * l
-            }
-        }
-    }
-    /// Separation b - a: minimum image along the periodic directions.
-    fn separation(&self, a: &Vector3<f64>, b: &Vector3<f64>, l: f64) -> Vector3<f64> {
-        match self {
-            Container::Periodic => min_image(a, b, l),
-            Container::Cylinder { .. } => {
-                let mut d = b - a;
-                d.z = min_image1(d.z, l);
-                d
-            }
-        }
-    }
-    /// Wraps a position into the periodic directions.
-    fn wrap(&self, x: &Vector3<f64>, l: f64) -> Vector3<f64> {
-        match self {
-            Container::Periodic => x.map(|c| wrap1(c, l)),
-            Container::Cylinder { .. } => Vector3::new(x.x, x.y, wrap1(x.z, l)),
-        }
-    }
-}
-
 /// A configuration: monodisperse spherocylinders (or spheres) in a [`Container`]: a periodic
 /// cubic box [0, L)^3, or a cylinder about the z axis, periodic in z over [0, L).
 #[derive(Debug, Clone)]
@@ -331,34 +290,6 @@ struct Overlap {
     rc: Vector3<f64>,
     /// Position of i's axis point along its axis, in [-L/2, L/2] (l_ij of eq. 2.4).
     l: f64,
-}
-
-/// Minimum-image separation b - a in a cubic periodic box.
-fn min_image(a: &Vector3<f64>, b: &Vector3<f64>, l: f64) -> Vector3<f64> {
-    (b - a).map(|d| min_image1(d, l))
-}
-
-/// Minimum image of one coordinate difference. Positions are kept wrapped into [0, L), so
-/// |d| < L and one shift suffices; larger differences fall back to rounding. (A branch instead
-/// of `f64::round`, which is a libm call and took 19% of an MCM run.)
-#[inline]
-fn min_image1(d: f64, l: f64) -> f64 {
-    let h = 0.5 * l;
-    if d > h {
-        if d <= 3.0 * h {
-            d - l
-        } else {
-            d - l * (d / l).round()
-        }
-    } else if d < -h {
-        if d >= -3.0 * h {
-            d + l
-        } else {
-            d - l * (d / l).round()
-        }
-    } else {
-        d
-    }
 }
 
 /// Gap and contact geometry of i (at the origin) and j at separation `d` (minimum image).
@@ -522,16 +453,6 @@ fn move_original(
     (dx, Some(rot * q))
 }
 
-/// Wraps a coordinate into [0, L).
-fn wrap1(c: f64, l: f64) -> f64 {
-    let w = c - l * (c / l).floor();
-    if w >= l {
-        0.0
-    } else {
-        w
-    }
-}
-
 /// Centre-distance cutoff for any contact (plus a margin for the contact tolerance).
 fn pair_cutoff(length: f64) -> f64 {
     length + 2.0 * RADIUS + 1e-6
@@ -547,45 +468,7 @@ fn check_box(container: &Container, box_length: f64, length: f64) -> Result<()> 
              minimum image would miss contacts; use more particles"
         ));
     }
-    if let Container::Cylinder { diameter } = container {
-        if !(diameter.is_finite() && *diameter > 2.0 * RADIUS) {
-            return invalid(format!(
-                "cylinder diameter {diameter}: must be finite and larger than the particle \
-                 diameter 1"
-            ));
-        }
-    }
-    Ok(())
-}
-
-/// Virtual particles for the wall overlaps of particle i (thesis sec. 2.2.4, Fig. 2.4): for
-/// each end point p (the centre for a sphere) that penetrates the cylinder,
-/// p_x^2 + p_y^2 > (R_cyl - R)^2, a particle identical to i, aligned with the cylinder axis,
-/// touching the wall from outside at the azimuth and height of p. Returns their centres
-/// relative to i's centre.
-fn wall_virtuals(p: &Packing, i: usize, out: &mut Vec<Vector3<f64>>) {
-    out.clear();
-    let Container::Cylinder { diameter } = p.container else {
-        return;
-    };
-    let rcyl = 0.5 * diameter;
-    let x = p.positions[i];
-    let a = p.axis(i);
-    let h = 0.5 * p.length;
-    let ends: &[f64] = if p.is_sphere() { &[0.0] } else { &[-1.0, 1.0] };
-    for &s in ends {
-        let e = x + s * h * a;
-        let rho = (e.x * e.x + e.y * e.y).sqrt();
-        if rho > rcyl - RADIUS {
-            let u = if rho > 0.0 {
-                Vector3::new(e.x / rho, e.y / rho, 0.0)
-            } else {
-                Vector3::x()
-            };
-            let c = (rcyl + RADIUS) * u + Vector3::new(0.0, 0.0, e.z);
-            out.push(c - x);
-        }
-    }
+    container.check(2.0 * RADIUS)
 }
 
 /// Overlaps deeper than `tol` of particle i with the particles in `nb` and with the virtual
@@ -598,23 +481,24 @@ fn overlaps_of(p: &Packing, i: usize, nb: &[usize], tol: f64, out: &mut Vec<Over
     let ai = axis(i);
     let xi = p.positions[i];
     let mut virt = Vec::new();
-    wall_virtuals(p, i, &mut virt);
+    p.container
+        .wall_virtuals(&xi, &p.axis(i), 0.5 * p.length, RADIUS, &mut virt);
     let reach2 = pair_cutoff(p.length).powi(2);
     let others = nb
         .iter()
         .map(|&j| {
             (
                 p.container.separation(&xi, &p.positions[j], p.box_length),
-                Some(j),
+                Ok(j),
             )
         })
-        .chain(virt.iter().map(|d| (*d, None)));
+        .chain(virt.iter().map(|(d, a)| (*d, Err(*a))));
     for (d, j) in others {
         if d.norm_squared() >= reach2 {
             continue;
         }
-        // Virtual wall particles are aligned with the cylinder axis (sec. 2.2.4).
-        let aj = j.map_or(Vector3::z(), axis);
+        // Virtual wall particles come with their own axis (sec. 2.2.4).
+        let aj = j.map_or_else(|a| a, axis);
         let (gap, n, k, rci, li, _, _) = pair_geometry(p.length, &ai, &aj, &d);
         if gap < -tol {
             out.push(Overlap {
@@ -748,12 +632,7 @@ pub fn random_start_in(
     seed: u64,
 ) -> Result<Packing> {
     let vp = particle_volume(length);
-    let box_length = match container {
-        Container::Periodic => (n as f64 * vp / phi0).cbrt(),
-        Container::Cylinder { diameter } => {
-            n as f64 * vp / phi0 / (0.25 * std::f64::consts::PI * diameter * diameter)
-        }
-    };
+    let box_length = container.length_for_volume(n as f64 * vp / phi0);
     check_box(&container, box_length, length)?;
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
     let mut p = Packing {
@@ -776,14 +655,7 @@ pub fn random_start_in(
             ));
         }
         let u = Vector3::new(rng.gen::<f64>(), rng.gen::<f64>(), rng.gen::<f64>());
-        let x = match container {
-            Container::Periodic => u * box_length,
-            Container::Cylinder { diameter } => Vector3::new(
-                (u.x - 0.5) * diameter,
-                (u.y - 0.5) * diameter,
-                u.z * box_length,
-            ),
-        };
+        let x = container.point_in_bounding_box(&u, box_length);
         // Uniform random rotation (Shoemake's method).
         let (u1, u2, u3): (f64, f64, f64) = (rng.gen(), rng.gen(), rng.gen());
         let tau = std::f64::consts::TAU;
@@ -794,14 +666,11 @@ pub fn random_start_in(
             u1.sqrt() * (tau * u3).cos(),
         ));
         let a = q * Vector3::z();
-        if let Container::Cylinder { diameter } = container {
-            let inside = [-0.5 * length, 0.5 * length].iter().all(|s| {
-                let e = x + *s * a;
-                (e.x * e.x + e.y * e.y).sqrt() <= 0.5 * diameter - RADIUS
-            });
-            if !inside {
-                continue;
-            }
+        let inside = [-0.5 * length, 0.5 * length]
+            .iter()
+            .all(|s| container.sphere_inside(&(x + *s * a), RADIUS));
+        if !inside {
+            continue;
         }
         let ok = (0..p.n()).all(|j| {
             let d = container.separation(&x, &p.positions[j], box_length);
@@ -826,18 +695,11 @@ fn compress(p: &Packing, dv: f64) -> Option<Packing> {
     if v <= 0.0 {
         return None;
     }
-    let l = match p.container {
-        Container::Periodic => v.cbrt(),
-        Container::Cylinder { diameter } => v / (0.25 * std::f64::consts::PI * diameter * diameter),
-    };
-    let s = l / p.box_length;
+    let l = p.container.length_for_volume(v);
     let mut q = p.clone();
     q.box_length = l;
     for x in q.positions.iter_mut() {
-        *x = match p.container {
-            Container::Periodic => q.container.wrap(&(*x * s), l),
-            Container::Cylinder { .. } => q.container.wrap(&Vector3::new(x.x, x.y, x.z * s), l),
-        };
+        *x = p.container.scale_position(x, p.box_length, l);
     }
     Some(q)
 }
@@ -1000,6 +862,7 @@ impl McmState {
     }
 }
 
+mod container;
 mod neighbours;
 
 #[cfg(test)]

@@ -36,17 +36,7 @@ struct Grid {
 
 impl Grid {
     fn new(container: &Container, box_length: f64, cutoff: f64, pos: &[Vector3<f64>]) -> Grid {
-        let (lower, extent, periodic) = match container {
-            Container::Periodic => ([0.0; 3], [box_length; 3], [true; 3]),
-            Container::Cylinder { diameter } => {
-                let r = 0.5 * diameter;
-                (
-                    [-r, -r, 0.0],
-                    [*diameter, *diameter, box_length],
-                    [false, false, true],
-                )
-            }
-        };
+        let (lower, extent, periodic) = container.grid_bounds(box_length);
         let mut dims = [1usize; 3];
         let mut cell_size = [0.0; 3];
         for k in 0..3 {
