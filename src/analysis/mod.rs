@@ -15,12 +15,15 @@ use rayon::prelude::*;
 
 /// Monodisperse spherocylinders (length 0: spheres) in the periodic box [0, L)^3, or, with
 /// `wall_diameter`, inside a hard cylinder of that diameter about the z axis (x = y = 0),
-/// periodic along z over [0, L).
+/// periodic along z over [0, L), or, with `wedge` = (l_w, alpha in radians), inside the hard
+/// wedge 0 <= y <= x tan(alpha), x <= l_w, periodic along z over [0, L) (thesis sec. 2.2.4).
 #[derive(Debug, Clone, Copy)]
 pub struct Rods<'a> {
     pub box_length: f64,
     /// Diameter of the confining cylinder (None: periodic cubic box).
     pub wall_diameter: Option<f64>,
+    /// Hard wedge (length l_w, angle alpha in radians); excludes `wall_diameter`.
+    pub wedge: Option<(f64, f64)>,
     pub radius: f64,
     /// Cylinder length between hemisphere centres (0 = spheres).
     pub length: f64,
@@ -67,6 +70,16 @@ impl Rods<'_> {
                 ));
             }
         }
+        if let Some((l, a)) = self.wedge {
+            if self.wall_diameter.is_some() {
+                return invalid("wedge and wall_diameter: a container has one wall type");
+            }
+            if !(l.is_finite() && l > 0.0 && a > 0.0 && a < 0.5 * std::f64::consts::PI) {
+                return invalid(format!(
+                    "wedge = ({l}, {a} rad): needs a positive finite length and 0 < alpha < pi/2"
+                ));
+            }
+        }
         if let Some(i) = self
             .positions
             .iter()
@@ -80,20 +93,30 @@ impl Rods<'_> {
 
 /// Packing fraction: total particle volume over container volume (thesis eq. 3.1).
 pub fn packing_fraction(c: &Rods) -> f64 {
-    let v = match c.wall_diameter {
-        None => c.box_length.powi(3),
-        Some(d) => 0.25 * std::f64::consts::PI * d * d * c.box_length,
+    let v = match (c.wall_diameter, c.wedge) {
+        (Some(d), _) => 0.25 * std::f64::consts::PI * d * d * c.box_length,
+        (None, Some((l, a))) => 0.5 * l * l * a.tan() * c.box_length,
+        (None, None) => c.box_length.powi(3),
     };
     c.n() as f64 * c.particle_volume() / v
 }
 
-/// Deepest penetration (> 0) of any particle into the cylinder wall: the largest
-/// sqrt(p_x^2 + p_y^2) + R - R_cyl over the end points p (centres for spheres); None in the
+/// Deepest penetration (> 0) of any particle into the wall: over the end points p (centres
+/// for spheres), the largest sqrt(p_x^2 + p_y^2) + R - R_cyl in the cylinder, or R minus the
+/// distance to the nearest of the back, bottom and slope planes in the wedge; None in the
 /// periodic box or when nothing penetrates.
 pub fn wall_penetration(c: &Rods) -> Result<Option<(usize, f64)>> {
     c.check()?;
-    let Some(d) = c.wall_diameter else {
+    if c.wall_diameter.is_none() && c.wedge.is_none() {
         return Ok(None);
+    }
+    let depth = |e: &Vector3<f64>| match (c.wall_diameter, c.wedge) {
+        (Some(d), _) => e.x.hypot(e.y) + c.radius - 0.5 * d,
+        (None, Some((l, a))) => {
+            let slope = (e.x * a.tan() - e.y) * a.cos();
+            c.radius - (l - e.x).min(e.y).min(slope)
+        }
+        (None, None) => f64::NEG_INFINITY,
     };
     let h = 0.5 * c.length;
     let mut worst: Option<(usize, f64)> = None;
@@ -101,7 +124,7 @@ pub fn wall_penetration(c: &Rods) -> Result<Option<(usize, f64)>> {
         let a = q * Vector3::z();
         for s in [-h, h] {
             let e = x + s * a;
-            let pen = e.x.hypot(e.y) + c.radius - 0.5 * d;
+            let pen = depth(&e);
             if pen > 0.0 && worst.is_none_or(|w| pen > w.1) {
                 worst = Some((i, pen));
             }
@@ -144,7 +167,11 @@ pub fn pair_gaps(c: &Rods, max_gap: f64) -> Result<Vec<PairGap>> {
             for j in i + 1..n {
                 let mut best = f64::INFINITY;
                 // Images along the periodic directions only (z alone in the cylinder).
-                let lat = if c.wall_diameter.is_some() { 0 } else { 1 };
+                let lat = if c.wall_diameter.is_some() || c.wedge.is_some() {
+                    0
+                } else {
+                    1
+                };
                 for sx in -lat..=lat {
                     for sy in -lat..=lat {
                         for sz in -1..=1 {
@@ -417,7 +444,7 @@ pub fn cubatic_order(orientations: &[UnitQuaternion<f64>], trials: usize) -> Res
 /// over all pairs with the minimum image, for r up to `r_max` < L/2.
 pub fn radial_distribution(c: &Rods, r_max: f64, bins: usize) -> Result<Vec<(f64, f64)>> {
     c.check()?;
-    if c.wall_diameter.is_some() {
+    if c.wall_diameter.is_some() || c.wedge.is_some() {
         return invalid("g(r): only for the periodic cubic box (no wall)");
     }
     if bins == 0 {
@@ -548,6 +575,7 @@ mod tests {
         Rods {
             box_length,
             wall_diameter: None,
+            wedge: None,
             radius: 0.5,
             length: 0.0,
             positions: pos,
@@ -581,6 +609,7 @@ mod tests {
         let r = Rods {
             box_length: m as f64,
             wall_diameter: None,
+            wedge: None,
             radius: 0.5,
             length: 0.0,
             positions: &pos,
@@ -603,6 +632,7 @@ mod tests {
         let r = Rods {
             box_length: 10.0,
             wall_diameter: None,
+            wedge: None,
             radius: 0.5,
             length: 0.0,
             positions: &pos,
@@ -624,6 +654,7 @@ mod tests {
         let r = Rods {
             box_length: 10.0,
             wall_diameter: None,
+            wedge: None,
             radius: 0.5,
             length: 3.0,
             positions: &pos,
@@ -789,6 +820,7 @@ mod tests {
         let r = Rods {
             box_length: 20.0,
             wall_diameter: Some(10.0),
+            wedge: None,
             radius: 0.5,
             length: 1.0,
             positions: &pos,
@@ -799,6 +831,7 @@ mod tests {
         assert!((f - 2.0 / 3.0).abs() < 1e-15);
         let periodic = Rods {
             wall_diameter: None,
+            wedge: None,
             ..r
         };
         assert!(wall_aligned_fraction(&periodic, 1.0, 0.1).is_err());
@@ -810,6 +843,7 @@ mod tests {
         let r = Rods {
             box_length: -1.0,
             wall_diameter: None,
+            wedge: None,
             radius: 0.5,
             length: 0.0,
             positions: &pos,

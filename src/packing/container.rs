@@ -19,17 +19,41 @@ pub enum Container {
     /// compression shortens L, D_cyl stays fixed. Wall overlaps are removed through virtual
     /// particles (Fig. 2.4).
     Cylinder { diameter: f64 },
+    /// Hard wedge (thesis sec. 2.2.4, Fig. 2.3 right, 2.5): the right triangular prism
+    /// 0 <= y <= x tan(alpha), x <= l_w, of fixed length l_w = `length` along x and height
+    /// h_w = l_w tan(alpha) along y (acute edge along the z axis through the origin), periodic
+    /// along z (the width w_w = `box_length`); compression narrows w_w only. Its three walls
+    /// (back x = l_w, bottom y = 0, slope y = x tan(alpha)) act through virtual particles.
+    Wedge { length: f64, angle_rad: f64 },
 }
 
 impl Container {
     /// Checks the container's own parameters against the particle diameter `particle_d`.
     pub fn check(&self, particle_d: f64) -> Result<()> {
-        if let Container::Cylinder { diameter } = self {
-            if !(diameter.is_finite() && *diameter > particle_d) {
-                return invalid(format!(
-                    "cylinder diameter {diameter}: must be finite and larger than the particle \
-                     diameter {particle_d}"
-                ));
+        match *self {
+            Container::Periodic => {}
+            Container::Cylinder { diameter } => {
+                if !(diameter.is_finite() && diameter > particle_d) {
+                    return invalid(format!(
+                        "cylinder diameter {diameter}: must be finite and larger than the \
+                         particle diameter {particle_d}"
+                    ));
+                }
+            }
+            Container::Wedge { length, angle_rad } => {
+                if !(angle_rad > 0.0 && angle_rad < 0.5 * std::f64::consts::PI) {
+                    return invalid(format!(
+                        "wedge angle {:.6} degrees: must be between 0 and 90",
+                        angle_rad.to_degrees()
+                    ));
+                }
+                let lmin = wedge_min_length(0.5 * particle_d, 0.0, angle_rad);
+                if !(length.is_finite() && length > lmin) {
+                    return invalid(format!(
+                        "wedge length {length}: must be finite and longer than the {lmin:.6} a \
+                         sphere of diameter {particle_d} needs at this angle (eq. 2.12)"
+                    ));
+                }
             }
         }
         Ok(())
@@ -42,6 +66,7 @@ impl Container {
             Container::Cylinder { diameter } => {
                 0.25 * std::f64::consts::PI * diameter * diameter * l
             }
+            Container::Wedge { length, angle_rad } => 0.5 * length * length * angle_rad.tan() * l,
         }
     }
 
@@ -54,6 +79,7 @@ impl Container {
             Container::Cylinder { diameter } => {
                 v / (0.25 * std::f64::consts::PI * diameter * diameter)
             }
+            Container::Wedge { length, angle_rad } => v / (0.5 * length * length * angle_rad.tan()),
         }
     }
 
@@ -64,30 +90,53 @@ impl Container {
         let s = to / from;
         match self {
             Container::Periodic => self.wrap(&(x * s), to),
-            Container::Cylinder { .. } => self.wrap(&Vector3::new(x.x, x.y, x.z * s), to),
+            Container::Cylinder { .. } | Container::Wedge { .. } => {
+                self.wrap(&Vector3::new(x.x, x.y, x.z * s), to)
+            }
         }
     }
 
-    /// A point of the container's bounding box for `u` in [0, 1)^3 (uniform `u`: uniform
-    /// point; the caller rejects points outside with [`sphere_inside`]).
+    /// A trial centre for a particle of radius `r` for `u` in [0, 1)^3 (uniform `u`: uniform
+    /// over a region that contains every centre allowed by [`sphere_inside`], which the caller
+    /// checks): the box; the cylinder's bounding square; in the wedge the triangle of centres
+    /// at least r from all three walls (it is small near the minimal wedge length, eq. 2.12).
     ///
     /// [`sphere_inside`]: Container::sphere_inside
-    pub fn point_in_bounding_box(&self, u: &Vector3<f64>, l: f64) -> Vector3<f64> {
-        match self {
+    pub fn trial_centre(&self, u: &Vector3<f64>, l: f64, r: f64) -> Vector3<f64> {
+        match *self {
             Container::Periodic => u * l,
             Container::Cylinder { diameter } => {
                 Vector3::new((u.x - 0.5) * diameter, (u.y - 0.5) * diameter, u.z * l)
+            }
+            Container::Wedge { length, angle_rad } => {
+                // Vertices of the inner triangle: on y = r at the slope offset by r and at the
+                // back offset by r, and the back/slope corner.
+                let x0 = r / (0.5 * angle_rad).tan();
+                let xb = length - r;
+                let a = Vector3::new(x0, r, 0.0);
+                let b = Vector3::new(xb, r, 0.0);
+                let c = Vector3::new(xb, xb * angle_rad.tan() - r / angle_rad.cos(), 0.0);
+                // Uniform in a triangle: fold the unit square along its diagonal.
+                let (mut s, mut t) = (u.x, u.y);
+                if s + t > 1.0 {
+                    s = 1.0 - s;
+                    t = 1.0 - t;
+                }
+                a + s * (b - a) + t * (c - a) + Vector3::new(0.0, 0.0, u.z * l)
             }
         }
     }
 
     /// True when a sphere of radius `r` at `x` does not penetrate any wall.
     pub fn sphere_inside(&self, x: &Vector3<f64>, r: f64) -> bool {
-        match self {
+        match *self {
             Container::Periodic => true,
             Container::Cylinder { diameter } => {
                 (x.x * x.x + x.y * x.y).sqrt() <= 0.5 * diameter - r
             }
+            Container::Wedge { length, angle_rad } => wedge_wall_distances(x, length, angle_rad)
+                .iter()
+                .all(|d| *d >= r),
         }
     }
 
@@ -104,6 +153,11 @@ impl Container {
                     [false, false, true],
                 )
             }
+            Container::Wedge { length, angle_rad } => (
+                [0.0; 3],
+                [*length, length * angle_rad.tan(), l],
+                [false, false, true],
+            ),
         }
     }
 
@@ -111,7 +165,7 @@ impl Container {
     pub fn separation(&self, a: &Vector3<f64>, b: &Vector3<f64>, l: f64) -> Vector3<f64> {
         match self {
             Container::Periodic => (b - a).map(|d| min_image1(d, l)),
-            Container::Cylinder { .. } => {
+            Container::Cylinder { .. } | Container::Wedge { .. } => {
                 let mut d = b - a;
                 d.z = min_image1(d.z, l);
                 d
@@ -123,7 +177,9 @@ impl Container {
     pub fn wrap(&self, x: &Vector3<f64>, l: f64) -> Vector3<f64> {
         match self {
             Container::Periodic => x.map(|c| wrap1(c, l)),
-            Container::Cylinder { .. } => Vector3::new(x.x, x.y, wrap1(x.z, l)),
+            Container::Cylinder { .. } | Container::Wedge { .. } => {
+                Vector3::new(x.x, x.y, wrap1(x.z, l))
+            }
         }
     }
 
@@ -134,7 +190,15 @@ impl Container {
     /// `x`, unit axis) of each onto `out` (cleared first).
     ///
     /// Cylinder: p penetrates when p_x^2 + p_y^2 > (R_cyl - R)^2; the virtual particle is
-    /// aligned with the cylinder axis at the azimuth and height of p.
+    /// aligned with the cylinder axis at the azimuth and height of p. Wedge: see the comments
+    /// at each plane.
+    ///
+    /// An end point more than R/2 beyond a wall (possible after a large move into a narrow
+    /// corner) would get a virtual particle on its inner side under the thesis' construction,
+    /// which pushes it further out or, beyond R, not at all, so an escaped particle would be
+    /// accepted silently. Such a virtual particle is placed R/2 beyond the end point instead:
+    /// the push always points inward, and every penetration counts as an overlap, so an
+    /// accepted configuration is inside its walls.
     pub fn wall_virtuals(
         &self,
         x: &Vector3<f64>,
@@ -144,25 +208,80 @@ impl Container {
         out: &mut Vec<(Vector3<f64>, Vector3<f64>)>,
     ) {
         out.clear();
-        let Container::Cylinder { diameter } = *self else {
-            return;
-        };
-        let rcyl = 0.5 * diameter;
         let ends: &[f64] = if h == 0.0 { &[0.0] } else { &[-1.0, 1.0] };
-        for &s in ends {
-            let e = x + s * h * a;
-            let rho = (e.x * e.x + e.y * e.y).sqrt();
-            if rho > rcyl - r {
-                let u = if rho > 0.0 {
-                    Vector3::new(e.x / rho, e.y / rho, 0.0)
-                } else {
-                    Vector3::x()
-                };
-                let c = (rcyl + r) * u + Vector3::new(0.0, 0.0, e.z);
-                out.push((c - x, Vector3::z()));
+        match *self {
+            Container::Periodic => {}
+            Container::Cylinder { diameter } => {
+                let rcyl = 0.5 * diameter;
+                for &s in ends {
+                    let e = x + s * h * a;
+                    let rho = (e.x * e.x + e.y * e.y).sqrt();
+                    if rho > rcyl - r {
+                        let u = if rho > 0.0 {
+                            Vector3::new(e.x / rho, e.y / rho, 0.0)
+                        } else {
+                            Vector3::x()
+                        };
+                        let c = if rcyl - rho >= -ESCAPED * r {
+                            (rcyl + r) * u + Vector3::new(0.0, 0.0, e.z)
+                        } else {
+                            e + ESCAPED * r * u
+                        };
+                        out.push((c - x, Vector3::z()));
+                    }
+                }
+            }
+            Container::Wedge { length, angle_rad } => {
+                let (sin, cos) = angle_rad.sin_cos();
+                for &s in ends {
+                    let e = x + s * h * a;
+                    let [back, bottom, slope] = wedge_wall_distances(&e, length, angle_rad);
+                    // Back plane x = l_w: p_x > l_w - R; virtual at (l_w + R, p_y, p_z), along y.
+                    if back < r {
+                        let c = Vector3::new(length + r.max(ESCAPED * r - back), e.y, e.z);
+                        out.push((c - x, Vector3::y()));
+                    }
+                    // Bottom plane y = 0: p_y < R; virtual at (p_x, -R, p_z), along x.
+                    if bottom < r {
+                        let c = Vector3::new(e.x, -r.max(ESCAPED * r - bottom), e.z);
+                        out.push((c - x, Vector3::x()));
+                    }
+                    // Slope: p_y > p_x tan(alpha) - R / cos(alpha), i.e. closer than R to the
+                    // plane; virtual at the foot of p on the slope plus R along its outward
+                    // normal (-sin, cos, 0), aligned with the slope (Fig. 2.5).
+                    if slope < r {
+                        let n_out = Vector3::new(-sin, cos, 0.0);
+                        let c = e + (slope.max(-ESCAPED * r) + r) * n_out;
+                        out.push((c - x, Vector3::new(cos, sin, 0.0)));
+                    }
+                }
             }
         }
     }
+}
+
+/// How far beyond a wall (in particle radii) the thesis' virtual-particle placement is kept
+/// (see [`Container::wall_virtuals`]).
+const ESCAPED: f64 = 0.5;
+
+/// Minimum wedge length l_w,min = R / tan(alpha/2) + R + L cos(alpha) (thesis eq. 2.12): a
+/// single row of particles (radius R, cylinder length L) aligned with the slope just fits.
+pub fn wedge_min_length(radius: f64, length: f64, angle_rad: f64) -> f64 {
+    radius / (0.5 * angle_rad).tan() + radius + length * angle_rad.cos()
+}
+
+/// Packing fraction of that single row, one particle per width 2R (thesis eq. 2.13).
+pub fn wedge_min_packing_fraction(radius: f64, length: f64, angle_rad: f64) -> f64 {
+    let lmin = wedge_min_length(radius, length, angle_rad);
+    std::f64::consts::PI * radius * radius * (4.0 / 3.0 * radius + length)
+        / (0.5 * 2.0 * radius * lmin * lmin * angle_rad.tan())
+}
+
+/// Signed distances of point `x` from the wedge's back, bottom and slope planes, positive
+/// inside.
+fn wedge_wall_distances(x: &Vector3<f64>, length: f64, angle_rad: f64) -> [f64; 3] {
+    let (sin, cos) = angle_rad.sin_cos();
+    [length - x.x, x.y, x.x * sin - x.y * cos]
 }
 
 /// Minimum image of one coordinate difference. Positions are kept wrapped into [0, L), so
@@ -218,5 +337,82 @@ mod tests {
             let l = 3.7;
             assert!((c.length_for_volume(c.volume(l)) - l).abs() < 1e-14);
         }
+    }
+
+    /// Each wedge wall's virtual sphere overlaps a penetrating sphere by exactly its
+    /// penetration depth R - d (d: distance of the centre from that wall), along the wall's
+    /// normal, and none appears for a sphere clear of the walls.
+    #[test]
+    fn wedge_virtual_particles_mirror_the_penetration() {
+        let alpha = 25f64.to_radians();
+        let w = Container::Wedge {
+            length: 10.0,
+            angle_rad: alpha,
+        };
+        let r = 0.5;
+        let mut out = Vec::new();
+        // Clear of the walls (inside triangle centre).
+        let inside = w.trial_centre(&Vector3::new(0.3, 0.3, 0.5), 4.0, r);
+        assert!(w.sphere_inside(&inside, r));
+        w.wall_virtuals(&inside, &Vector3::z(), 0.0, r, &mut out);
+        assert!(out.is_empty());
+        let (sin, cos) = alpha.sin_cos();
+        let x_mid = 8.0;
+        for (x, normal_in, d) in [
+            // back wall, 0.2 from it
+            (
+                Vector3::new(9.8, 1.0, 0.3),
+                Vector3::new(-1.0, 0.0, 0.0),
+                0.2,
+            ),
+            // bottom, 0.1 above it
+            (
+                Vector3::new(x_mid, 0.1, 0.3),
+                Vector3::new(0.0, 1.0, 0.0),
+                0.1,
+            ),
+            // slope, 0.35 below it
+            (
+                Vector3::new(x_mid, x_mid * alpha.tan(), 0.3) + 0.35 * Vector3::new(sin, -cos, 0.0),
+                Vector3::new(sin, -cos, 0.0),
+                0.35,
+            ),
+        ] {
+            w.wall_virtuals(&x, &Vector3::z(), 0.0, r, &mut out);
+            assert_eq!(out.len(), 1, "{x:?}");
+            let (c, axis) = out[0];
+            let overlap = 2.0 * r - c.norm();
+            assert!(
+                (overlap - (r - d)).abs() < 1e-14,
+                "overlap {overlap} vs {}",
+                r - d
+            );
+            assert!((c.normalize() + normal_in).norm() < 1e-14);
+            assert!(
+                axis.dot(&normal_in).abs() < 1e-15,
+                "virtual rod lies along its wall"
+            );
+        }
+    }
+
+    #[test]
+    fn wedge_minimum_length_and_packing_fraction() {
+        // Spheres (L = 0) at alpha = 90 deg would be a square corner: l_min = R / tan 45 + R
+        // = 2R; at 60 deg, R / tan 30 + R. Eq. 2.13 for a sphere row: V / (R l^2 tan(alpha)).
+        let r = 0.5;
+        let a = 60f64.to_radians();
+        let l = wedge_min_length(r, 0.0, a);
+        assert!((l - (r / 30f64.to_radians().tan() + r)).abs() < 1e-15);
+        let phi = wedge_min_packing_fraction(r, 0.0, a);
+        let want = std::f64::consts::PI / 6.0 / (r * l * l * a.tan());
+        assert!((phi - want).abs() < 1e-15);
+        // The centre allowed in the minimal wedge is one point: the inner triangle collapses.
+        let w = Container::Wedge {
+            length: l,
+            angle_rad: a,
+        };
+        let c0 = w.trial_centre(&Vector3::new(0.0, 0.0, 0.0), 1.0, r);
+        let c1 = w.trial_centre(&Vector3::new(0.9, 0.05, 0.0), 1.0, r);
+        assert!((c0 - c1).norm() < 1e-12);
     }
 }

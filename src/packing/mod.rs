@@ -24,7 +24,7 @@
 use crate::contact::closest_points_segments;
 use crate::error::invalid;
 use crate::Result;
-pub use container::Container;
+pub use container::{wedge_min_length, wedge_min_packing_fraction, Container};
 use nalgebra::{Matrix3, Unit, UnitQuaternion, Vector3};
 use neighbours::Neighbours;
 use rand::{Rng, SeedableRng};
@@ -242,6 +242,11 @@ impl Packing {
             wall_diameter: match self.container {
                 Container::Periodic => None,
                 Container::Cylinder { diameter } => Some(diameter),
+                Container::Wedge { .. } => None,
+            },
+            wedge: match self.container {
+                Container::Wedge { length, angle_rad } => Some((length, angle_rad)),
+                _ => None,
             },
             radius: RADIUS,
             length: self.length,
@@ -578,7 +583,7 @@ struct DirtySet {
 impl DirtySet {
     fn full(n: usize) -> DirtySet {
         let mut words = vec![u64::MAX; n.div_ceil(64)];
-        if n % 64 != 0 {
+        if !n.is_multiple_of(64) {
             *words.last_mut().expect("n > 0") = (1u64 << (n % 64)) - 1;
         }
         DirtySet { words, count: n }
@@ -655,7 +660,7 @@ pub fn random_start_in(
             ));
         }
         let u = Vector3::new(rng.gen::<f64>(), rng.gen::<f64>(), rng.gen::<f64>());
-        let x = container.point_in_bounding_box(&u, box_length);
+        let x = container.trial_centre(&u, box_length, RADIUS);
         // Uniform random rotation (Shoemake's method).
         let (u1, u2, u3): (f64, f64, f64) = (rng.gen(), rng.gen(), rng.gen());
         let tau = std::f64::consts::TAU;

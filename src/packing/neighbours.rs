@@ -251,6 +251,13 @@ mod tests {
             (Container::Periodic, 1.5),
             (Container::Cylinder { diameter: 6.0 }, 0.0),
             (Container::Cylinder { diameter: 5.0 }, 1.0),
+            (
+                Container::Wedge {
+                    length: 12.0,
+                    angle_rad: 30f64.to_radians(),
+                },
+                0.0,
+            ),
         ] {
             let mut p = random_start_in(container, 300, length, 0.1, 3).unwrap();
             let cutoff = length + 1.0;
@@ -260,8 +267,9 @@ mod tests {
                 let i = rng.gen_range(0..p.n());
                 let step = Vector3::new(rng.gen(), rng.gen(), rng.gen()).map(|u: f64| u - 0.5);
                 let x = p.positions[i] + 0.05 * step;
+                // Wedge: moves may leave it (the grid's edge cells take such centres).
                 let x = match container {
-                    Container::Periodic => x,
+                    Container::Periodic | Container::Wedge { .. } => x,
                     Container::Cylinder { diameter } => {
                         let rho = (x.x * x.x + x.y * x.y).sqrt();
                         let s = (0.5 * diameter / rho).min(1.0);

@@ -133,6 +133,12 @@ struct ContainerSpec {
     shape: String,
     #[serde(default)]
     diameter: Option<f64>,
+    /// Wedge: length l_w along x (particle diameters).
+    #[serde(default)]
+    length: Option<f64>,
+    /// Wedge: angle alpha in degrees (h_w = l_w tan(alpha)).
+    #[serde(default)]
+    angle_deg: Option<f64>,
 }
 fn default_container() -> String {
     "periodic".into()
@@ -142,6 +148,8 @@ impl Default for ContainerSpec {
         ContainerSpec {
             shape: default_container(),
             diameter: None,
+            length: None,
+            angle_deg: None,
         }
     }
 }
@@ -261,28 +269,52 @@ pub fn parse_scene(text: &str, origin: &str) -> Result<PackingScene> {
             ))
         }
     };
-    let container = match (f.container.shape.as_str(), f.container.diameter) {
-        ("periodic", None) => Container::Periodic,
-        ("periodic", Some(d)) => {
-            return bad(format!(
-                "container.diameter = {d}: only a cylinder has a diameter"
-            ))
+    let cs = &f.container;
+    let only = |key: &str, value: Option<f64>, shapes: &str| -> Result<()> {
+        match value {
+            Some(v) => crate::error::invalid(format!(
+                "{origin}: container.{key} = {v}: only a {shapes} has it"
+            )),
+            None => Ok(()),
         }
-        ("cylinder", Some(d)) if d.is_finite() && d > 1.0 => Container::Cylinder { diameter: d },
-        ("cylinder", Some(d)) => {
-            return bad(format!(
-                "container.diameter = {d}: must be finite and larger than the particle diameter 1"
-            ))
+    };
+    let container = match cs.shape.as_str() {
+        "periodic" => {
+            only("diameter", cs.diameter, "cylinder")?;
+            only("length", cs.length, "wedge")?;
+            only("angle_deg", cs.angle_deg, "wedge")?;
+            Container::Periodic
         }
-        ("cylinder", None) => {
-            return bad("container.diameter: required for shape = \"cylinder\"".into())
+        "cylinder" => {
+            only("length", cs.length, "wedge")?;
+            only("angle_deg", cs.angle_deg, "wedge")?;
+            let Some(diameter) = cs.diameter else {
+                return bad("container.diameter: required for shape = \"cylinder\"".into());
+            };
+            Container::Cylinder { diameter }
         }
-        (other, _) => {
+        "wedge" => {
+            only("diameter", cs.diameter, "cylinder")?;
+            let (Some(length), Some(angle)) = (cs.length, cs.angle_deg) else {
+                return bad(
+                    "container.length and container.angle_deg: both required for shape = \"wedge\""
+                        .into(),
+                );
+            };
+            Container::Wedge {
+                length,
+                angle_rad: angle.to_radians(),
+            }
+        }
+        other => {
             return bad(format!(
-                "container.shape = \"{other}\": must be \"periodic\" or \"cylinder\""
+                "container.shape = \"{other}\": must be \"periodic\", \"cylinder\" or \"wedge\""
             ))
         }
     };
+    container
+        .check(2.0 * packing::RADIUS)
+        .map_err(|e| Error::InvalidInput(format!("{origin}: container: {e}")))?;
     let m = &f.mcm;
     let scheme_of = |name: &str, key: &str| match name {
         "original" => Ok(Scheme::Original),
@@ -433,6 +465,10 @@ fn run_scene_limited(
                 Container::Cylinder { diameter } => format!(
                     "cylinder D_cyl = {diameter} (virtual-particle wall, sec. 2.2.4), periodic along z"
                 ),
+                Container::Wedge { length, angle_rad } => format!(
+                    "wedge l_w = {length}, alpha = {} deg (virtual-particle walls, sec. 2.2.4), periodic along z",
+                    angle_rad.to_degrees()
+                ),
             },
             prm.seed,
             prm.stages()
@@ -528,7 +564,7 @@ pub fn measure(
     let dmin = cutoffs.iter().cloned().fold(f64::INFINITY, f64::min);
     let (_, rattlers) = analysis::mean_contacts(v.n(), &gaps, dmin, Some(min_contacts));
     let wall = match p.container {
-        Container::Periodic => None,
+        Container::Periodic | Container::Wedge { .. } => None,
         Container::Cylinder { .. } => Some(analysis::wall_aligned_fraction(
             &v,
             2.0 * packing::RADIUS,
@@ -602,6 +638,11 @@ fn write_outputs(
         Container::Cylinder { diameter } => xyz::Cell {
             lengths: [diameter, diameter, p.box_length],
             origin: [-0.5 * diameter, -0.5 * diameter, 0.0],
+            pbc: [false, false, true],
+        },
+        Container::Wedge { length, angle_rad } => xyz::Cell {
+            lengths: [length, length * angle_rad.tan(), p.box_length],
+            origin: [0.0, 0.0, 0.0],
             pbc: [false, false, true],
         },
     };
@@ -878,6 +919,7 @@ s4_trials = 50
         let v = analysis::Rods {
             box_length: l,
             wall_diameter: None,
+            wedge: None,
             radius: 0.5,
             length: 0.5,
             positions: &pos,

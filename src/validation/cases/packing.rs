@@ -20,6 +20,10 @@
 //! * 507 (slow): 300 particles at L/D = 0, 0.4, 1, same schedule: phi rises from the sphere
 //!   value to a maximum of 0.69-0.72 at L/D 0.3-0.6, then falls (thesis Fig. 2.8, 3.3).
 //! * 508 (slow): rods L/D = 2 in cylinders D_cyl = 2 and 6: S >= 0.8 and <= 0.2 (Fig. 2.10c).
+//! * 520 (fast): 40 spheres in the minimal wedge (eq. 2.12) at 9-45 degrees reach the one-row
+//!   packing fraction of eq. 2.13, inside the walls (checked here, not by the engine).
+//! * 521 (slow): spheres in wedges of 2, 4, 8 l_w,min at 30 degrees: phi* rises towards the
+//!   periodic value (Fig. 2.12).
 
 use super::common::band_rows;
 use crate::analysis;
@@ -253,6 +257,98 @@ pub fn case_508(ctx: &CaseContext) -> Result<Vec<Row>> {
         deepest = deepest.max(deepest_overlap(&r)?).max(wall);
         got.insert(key, analysis::nematic_order(&r.packing.axes())?);
     }
+    got.insert("deepest_overlap", deepest);
+    band_rows(ctx, &got)
+}
+
+/// Wedge angles of case 520 (degrees; the thesis' range is 9-45).
+const WEDGE_ANGLES_520: [f64; 4] = [9.0, 15.0, 30.0, 45.0];
+
+/// Depth by which a sphere of radius `r` at `x` penetrates the wedge 0 <= y <= x tan(alpha),
+/// x <= l_w (0 when inside): R minus its distance to the nearest of the three planes, written
+/// out here so the check does not use the engine's wall code.
+fn wedge_penetration(x: &nalgebra::Vector3<f64>, l_w: f64, alpha: f64, r: f64) -> f64 {
+    let back = l_w - x.x;
+    let bottom = x.y;
+    let slope = (x.x * alpha.tan() - x.y) * alpha.cos();
+    (r - back.min(bottom).min(slope)).max(0.0)
+}
+
+/// Eq. 2.12 and 2.13 for spheres (L = 0), written out: (l_w,min, phi of the single row).
+fn wedge_row_spheres(alpha: f64) -> (f64, f64) {
+    let r = packing::RADIUS;
+    let l_min = r / (0.5 * alpha).tan() + r;
+    let phi_row =
+        std::f64::consts::PI * r * r * (4.0 / 3.0 * r) / (r * l_min * l_min * alpha.tan());
+    (l_min, phi_row)
+}
+
+/// One MCM run of N spheres in the wedge (l_w, alpha) with the parameters of case 501:
+/// (phi from the wedge volume written out, deepest pair overlap, deepest wall penetration).
+fn wedge_run(n: usize, l_w: f64, alpha: f64, seed: u64) -> Result<(f64, f64, f64)> {
+    let mut prm = params(n, 0.0, seed);
+    prm.container = packing::Container::Wedge {
+        length: l_w,
+        angle_rad: alpha,
+    };
+    let res = packing::run(&prm)?;
+    let wall = res
+        .packing
+        .positions
+        .iter()
+        .map(|x| wedge_penetration(x, l_w, alpha, packing::RADIUS))
+        .fold(0.0, f64::max);
+    // N V_sphere / (l_w^2 tan(alpha) / 2 * width).
+    let volume = 0.5 * l_w * l_w * alpha.tan() * res.packing.box_length;
+    let phi = n as f64 * std::f64::consts::PI / 6.0 / volume;
+    Ok((phi, deepest_overlap(&res)?, wall))
+}
+
+pub fn case_520(ctx: &CaseContext) -> Result<Vec<Row>> {
+    let s = seed(ctx)?;
+    let mut got = BTreeMap::new();
+    let (mut deepest, mut wall) = (0.0f64, 0.0f64);
+    let keys = [
+        "phi_over_eq2_13_alpha9",
+        "phi_over_eq2_13_alpha15",
+        "phi_over_eq2_13_alpha30",
+        "phi_over_eq2_13_alpha45",
+    ];
+    for (k, &deg) in WEDGE_ANGLES_520.iter().enumerate() {
+        let alpha = deg.to_radians();
+        let (l_min, phi_row) = wedge_row_spheres(alpha);
+        let (phi, d, w) = wedge_run(40, l_min + 1e-6, alpha, s + k as u64)?;
+        deepest = deepest.max(d);
+        wall = wall.max(w);
+        got.insert(keys[k], phi / phi_row);
+    }
+    got.insert("deepest_wall_penetration", wall);
+    got.insert("deepest_overlap", deepest);
+    band_rows(ctx, &got)
+}
+
+pub fn case_521(ctx: &CaseContext) -> Result<Vec<Row>> {
+    let s = seed(ctx)?;
+    let alpha = 30f64.to_radians();
+    let (l_min, phi_row) = wedge_row_spheres(alpha);
+    let bulk = packing::run(&params(500, 0.0, s))?;
+    let phi_periodic = bulk.packing.packing_fraction();
+    let (mut deepest, mut wall) = (deepest_overlap(&bulk)?, 0.0f64);
+    let mut star = Vec::new();
+    for (k, (factor, n)) in [(2.0, 300), (4.0, 500), (8.0, 1000)]
+        .into_iter()
+        .enumerate()
+    {
+        let (phi, d, w) = wedge_run(n, factor * l_min, alpha, s + 1 + k as u64)?;
+        deepest = deepest.max(d);
+        wall = wall.max(w);
+        star.push((phi - phi_row) / (phi_periodic - phi_row));
+    }
+    let mut got = BTreeMap::new();
+    got.insert("phi_star_rise_2_to_4", star[1] - star[0]);
+    got.insert("phi_star_rise_4_to_8", star[2] - star[1]);
+    got.insert("phi_star_longest", star[2]);
+    got.insert("deepest_wall_penetration", wall);
     got.insert("deepest_overlap", deepest);
     band_rows(ctx, &got)
 }
