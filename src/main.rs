@@ -79,6 +79,9 @@ enum BenchWhat {
     /// Brownian dynamics: particle-steps per second against N and method, field-evaluation
     /// share, and work-precision against the time step.
     Brownian(porelab::brownian::bench::BenchArgs),
+    /// Packing (MCM): seconds to jam against N, density and contacts, one and two threads,
+    /// and the reached packing fraction against the try budget.
+    Packing(porelab::packing::bench::BenchArgs),
 }
 
 fn main() -> ExitCode {
@@ -119,6 +122,9 @@ fn main() -> ExitCode {
             }
             BenchWhat::Brownian(args) => {
                 porelab::brownian::bench::run(&args).map(|_| ExitCode::SUCCESS)
+            }
+            BenchWhat::Packing(args) => {
+                porelab::packing::bench::run_bench(&args).map(|_| ExitCode::SUCCESS)
             }
         },
     };

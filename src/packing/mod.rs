@@ -867,6 +867,7 @@ impl McmState {
     }
 }
 
+pub mod bench;
 mod container;
 mod neighbours;
 

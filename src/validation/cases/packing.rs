@@ -162,22 +162,10 @@ pub fn case_505(ctx: &CaseContext) -> Result<Vec<Row>> {
     band_rows(ctx, &got)
 }
 
-/// The two-stage schedule of cases 506-507 and the built-in scene `packing-spheres`: a compacting
-/// stage (original scheme, beta = 1.3 in eq. 2.10, 3000 N tries) and a settling stage (revised
-/// scheme, dt = 0.1, Delta V = 0.001 N halved 6 times, 1000 N tries).
+/// The two-stage schedule of cases 506-507 and the built-in scene `packing-spheres`
+/// ([`packing::bench::two_stage_spheres`]).
 pub fn two_stage_spheres(n: usize, seed: u64) -> McmParams {
-    let mut p = params(n, 0.0, seed);
-    p.beta = 1.3;
-    p.tries_per_particle = 3000.0;
-    p.final_stage = Some(packing::Stage {
-        scheme: Scheme::Revised,
-        delta_v_per_particle: 0.001,
-        halvings: 6,
-        tries_per_particle: 1000.0,
-        beta: 0.5,
-        dt: 0.1,
-    });
-    p
+    packing::bench::two_stage_spheres(n, seed)
 }
 
 pub fn case_506(ctx: &CaseContext) -> Result<Vec<Row>> {
