@@ -484,17 +484,19 @@ pub fn radial_distribution(c: &Rods, r_max: f64, bins: usize) -> Result<Vec<(f64
         .collect())
 }
 
-/// Fraction of wall-aligned particles in a cylinder (thesis sec. 2.2.5, Fig. 2.6): among the
-/// particles whose centre lies within `layer` of the wall (radial position > R_cyl - `layer`;
-/// the thesis takes `layer` = D), the fraction whose axis is tangential to the wall within
-/// `max_angle` radians, i.e. |u . r_hat| <= sin(max_angle) with r_hat the radial unit vector
-/// (thesis: 4 degrees). Returns (fraction, particles in the layer); the fraction is 0 for an
-/// empty layer. Errors without a wall.
+/// Fraction of wall-aligned particles (thesis sec. 2.2.5, Fig. 2.6, 2.14): among the particles
+/// whose centre lies within `layer` of a wall (the thesis takes `layer` = D), the fraction
+/// whose axis is tangential to that wall within `max_angle` radians, i.e. |u . n| <=
+/// sin(max_angle) with n the wall normal (thesis: 4 degrees). Cylinder: radial position
+/// > R_cyl - `layer`, n the radial unit vector. Wedge: within `layer` of the back, bottom or
+/// slope plane; a particle near two planes (a corner) counts as aligned when it is tangential
+/// to either. Returns (fraction, particles in the layer); the fraction is 0 for an empty
+/// layer. Errors without a wall.
 pub fn wall_aligned_fraction(c: &Rods, layer: f64, max_angle: f64) -> Result<(f64, usize)> {
     c.check()?;
-    let Some(d) = c.wall_diameter else {
-        return invalid("wall alignment: needs a cylinder (wall_diameter)");
-    };
+    if c.wall_diameter.is_none() && c.wedge.is_none() {
+        return invalid("wall alignment: needs a cylinder or a wedge");
+    }
     if !(layer.is_finite() && layer > 0.0) {
         return invalid(format!("layer = {layer}: must be positive and finite"));
     }
@@ -504,15 +506,33 @@ pub fn wall_aligned_fraction(c: &Rods, layer: f64, max_angle: f64) -> Result<(f6
         ));
     }
     let (mut near, mut aligned) = (0usize, 0usize);
+    let mut normals = Vec::with_capacity(3);
     for (x, q) in c.positions.iter().zip(c.orientations) {
-        let rho = x.x.hypot(x.y);
-        if rho <= 0.5 * d - layer || rho == 0.0 {
+        normals.clear();
+        if let Some(d) = c.wall_diameter {
+            let rho = x.x.hypot(x.y);
+            if rho > 0.5 * d - layer && rho > 0.0 {
+                normals.push(Vector3::new(x.x / rho, x.y / rho, 0.0));
+            }
+        }
+        if let Some((l, a)) = c.wedge {
+            let (sin, cos) = a.sin_cos();
+            if l - x.x < layer {
+                normals.push(Vector3::x());
+            }
+            if x.y < layer {
+                normals.push(Vector3::y());
+            }
+            if x.x * sin - x.y * cos < layer {
+                normals.push(Vector3::new(-sin, cos, 0.0));
+            }
+        }
+        if normals.is_empty() {
             continue;
         }
         near += 1;
         let u = q * Vector3::z();
-        let rhat = Vector3::new(x.x / rho, x.y / rho, 0.0);
-        if u.dot(&rhat).abs() <= max_angle.sin() {
+        if normals.iter().any(|n| u.dot(n).abs() <= max_angle.sin()) {
             aligned += 1;
         }
     }
@@ -835,6 +855,43 @@ mod tests {
             ..r
         };
         assert!(wall_aligned_fraction(&periodic, 1.0, 0.1).is_err());
+    }
+
+    #[test]
+    fn wedge_alignment_uses_the_nearest_walls() {
+        // Wedge l_w = 10, alpha = 30 deg. Near the back (x = 9.5): along y is tangential; near
+        // the bottom (y = 0.5): along x is tangential, along y is not; near the slope: along
+        // the slope direction is tangential; one rod deep inside is ignored.
+        let a = 30f64.to_radians();
+        let slope_dir = Vector3::new(a.cos(), a.sin(), 0.0);
+        let on_slope = 6.0 * slope_dir + 0.5 * Vector3::new(a.sin(), -a.cos(), 0.0);
+        let pos = vec![
+            Vector3::new(9.5, 2.0, 1.0),
+            Vector3::new(5.0, 0.5, 2.0),
+            Vector3::new(6.0, 0.5, 3.0),
+            on_slope + Vector3::new(0.0, 0.0, 4.0),
+            Vector3::new(8.0, 2.0, 5.0),
+        ];
+        let to = |v: Vector3<f64>| UnitQuaternion::rotation_between(&Vector3::z(), &v).unwrap();
+        let ori = vec![
+            to(Vector3::y()),
+            to(Vector3::x()),
+            to(Vector3::y()),
+            to(slope_dir),
+            to(Vector3::x()),
+        ];
+        let r = Rods {
+            box_length: 20.0,
+            wall_diameter: None,
+            wedge: Some((10.0, a)),
+            radius: 0.5,
+            length: 1.0,
+            positions: &pos,
+            orientations: &ori,
+        };
+        let (f, near) = wall_aligned_fraction(&r, 1.0, 4f64.to_radians()).unwrap();
+        assert_eq!(near, 4);
+        assert!((f - 0.75).abs() < 1e-15, "{f}");
     }
 
     #[test]

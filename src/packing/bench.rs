@@ -114,7 +114,10 @@ fn log_slope(x: &[f64], y: &[f64]) -> f64 {
 
 pub fn run_bench(args: &BenchArgs) -> Result<()> {
     if args.max_n < SIZES[0] {
-        return invalid(format!("--max-n {}: must be at least {}", args.max_n, SIZES[0]));
+        return invalid(format!(
+            "--max-n {}: must be at least {}",
+            args.max_n, SIZES[0]
+        ));
     }
     let out = std::path::Path::new("target/porelab");
     std::fs::create_dir_all(out)?;

@@ -66,13 +66,18 @@ pub fn builtins() -> Vec<Builtin> {
     vec![
         Builtin {
             name: "packing-spheres",
-            about: "MCM: 1000 spheres in a periodic box (compacting + settling stage; ~2-3 min)",
+            about: "MCM: 1000 spheres in a periodic box (compacting + settling stage; ~1 min)",
             toml: include_str!("builtin/packing-spheres.toml"),
         },
         Builtin {
             name: "packing-cylinder",
             about: "MCM: 500 spheres in a hard cylinder D_cyl = 6 (virtual-particle wall)",
             toml: include_str!("builtin/packing-cylinder.toml"),
+        },
+        Builtin {
+            name: "packing-wedge",
+            about: "MCM: 300 spherocylinders L/D = 1 in a hard 30-degree wedge (virtual-particle walls)",
+            toml: include_str!("builtin/packing-wedge.toml"),
         },
         Builtin {
             name: "packing-spherocylinders",
@@ -536,8 +541,9 @@ pub struct Measures {
     pub rattlers: usize,
     pub nematic_s: f64,
     pub cubatic_s4: f64,
-    /// Cylinder only: fraction of the particles within D of the wall whose axis is tangential
-    /// to it within 4 degrees (thesis sec. 2.2.5, Fig. 2.6), and how many are in that layer.
+    /// Cylinder and wedge: fraction of the particles within D of a wall whose axis is
+    /// tangential to it within 4 degrees (thesis sec. 2.2.5, Fig. 2.6, 2.14), and how many are
+    /// in that layer.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub wall_aligned_fraction: Option<f64>,
     #[serde(skip_serializing_if = "Option::is_none")]
@@ -564,12 +570,10 @@ pub fn measure(
     let dmin = cutoffs.iter().cloned().fold(f64::INFINITY, f64::min);
     let (_, rattlers) = analysis::mean_contacts(v.n(), &gaps, dmin, Some(min_contacts));
     let wall = match p.container {
-        Container::Periodic | Container::Wedge { .. } => None,
-        Container::Cylinder { .. } => Some(analysis::wall_aligned_fraction(
-            &v,
-            2.0 * packing::RADIUS,
-            4f64.to_radians(),
-        )?),
+        Container::Periodic => None,
+        Container::Cylinder { .. } | Container::Wedge { .. } => Some(
+            analysis::wall_aligned_fraction(&v, 2.0 * packing::RADIUS, 4f64.to_radians())?,
+        ),
     };
     Ok(Measures {
         packing_fraction: p.packing_fraction(),
