@@ -7,16 +7,18 @@
 //! and all 27 periodic images** (no cell list, no minimum image), so they check an engine's
 //! neighbour search rather than repeat it.
 
-use crate::contact::closest_points_segments;
+use crate::contact::{closest_points_segments, contact, ContactShape, Pose};
 use crate::error::invalid;
 use crate::Result;
 use nalgebra::{Matrix3, SymmetricEigen, UnitQuaternion, Vector3};
 use rayon::prelude::*;
 
-/// Monodisperse spherocylinders (length 0: spheres) in the periodic box [0, L)^3, or, with
-/// `wall_diameter`, inside a hard cylinder of that diameter about the z axis (x = y = 0),
-/// periodic along z over [0, L), or, with `wedge` = (l_w, alpha in radians), inside the hard
-/// wedge 0 <= y <= x tan(alpha), x <= l_w, periodic along z over [0, L) (thesis sec. 2.2.4).
+/// Particles of per-particle shape (a species table of contact-module shapes: spheres,
+/// spherocylinders, ellipsoids, superquadrics, and each particle's species) in the periodic
+/// box [0, L)^3, or, with `wall_diameter`, inside a hard cylinder of that diameter about the z
+/// axis (x = y = 0), periodic along z over [0, L), or, with `wedge` = (l_w, alpha in radians), inside the hard
+/// wedge 0 <= y <= x tan(alpha), x <= l_w, periodic along z over [0, L) (thesis sec. 2.2.4)
+/// (walls: spheres and spherocylinders only).
 #[derive(Debug, Clone, Copy)]
 pub struct Rods<'a> {
     pub box_length: f64,
@@ -24,21 +26,54 @@ pub struct Rods<'a> {
     pub wall_diameter: Option<f64>,
     /// Hard wedge (length l_w, angle alpha in radians); excludes `wall_diameter`.
     pub wedge: Option<(f64, f64)>,
-    pub radius: f64,
-    /// Cylinder length between hemisphere centres (0 = spheres).
-    pub length: f64,
+    /// Species table (body frame; a spherocylinder's axis is the body z axis).
+    pub shapes: &'a [ContactShape],
+    /// Species of each particle (index into `shapes`).
+    pub species: &'a [usize],
     pub positions: &'a [Vector3<f64>],
-    /// Body -> world; the particle axis is the body z axis.
+    /// Body -> world.
     pub orientations: &'a [UnitQuaternion<f64>],
+}
+
+/// Radius and half cylinder length of a sphere (0) or spherocylinder; None for other shapes.
+pub fn rod_parameters(s: &ContactShape) -> Option<(f64, f64)> {
+    match *s {
+        ContactShape::Sphere { radius } => Some((radius, 0.0)),
+        ContactShape::Spherocylinder { radius, length } => Some((radius, 0.5 * length)),
+        _ => None,
+    }
+}
+
+/// Total volume of particles with the given species: sum over species of count x volume
+/// (exactly N V_p for one species).
+pub fn total_volume(shapes: &[ContactShape], species: &[usize]) -> Result<f64> {
+    let mut counts = vec![0usize; shapes.len()];
+    for &s in species {
+        if s >= shapes.len() {
+            return invalid(format!(
+                "species {s}: not in the table of {} shapes",
+                shapes.len()
+            ));
+        }
+        counts[s] += 1;
+    }
+    let mut v = 0.0;
+    for (s, c) in shapes.iter().zip(counts) {
+        v += c as f64 * crate::shape::volume_of(s)?;
+    }
+    Ok(v)
 }
 
 impl Rods<'_> {
     pub fn n(&self) -> usize {
         self.positions.len()
     }
-    /// Particle volume pi R^2 (4R/3 + L) (thesis eq. 2.2).
-    pub fn particle_volume(&self) -> f64 {
-        std::f64::consts::PI * self.radius * self.radius * (4.0 / 3.0 * self.radius + self.length)
+    pub fn shape(&self, i: usize) -> &ContactShape {
+        &self.shapes[self.species[i]]
+    }
+    /// Total particle volume (thesis eq. 2.2 for rods, eq. 4.26-4.28 for superquadrics).
+    pub fn total_volume(&self) -> Result<f64> {
+        total_volume(self.shapes, self.species)
     }
     fn check(&self) -> Result<()> {
         if !(self.box_length.is_finite() && self.box_length > 0.0) {
@@ -47,24 +82,41 @@ impl Rods<'_> {
                 self.box_length
             ));
         }
-        if !(self.radius.is_finite() && self.radius > 0.0) {
-            return invalid(format!(
-                "radius = {}: must be positive and finite",
-                self.radius
-            ));
+        for (k, s) in self.shapes.iter().enumerate() {
+            s.validate()
+                .map_err(|e| crate::Error::InvalidInput(format!("species {k}: {e}")))?;
         }
-        if !(self.length.is_finite() && self.length >= 0.0) {
-            return invalid(format!("length = {}: must be finite and >= 0", self.length));
-        }
-        if self.positions.len() != self.orientations.len() {
+        if self.positions.len() != self.orientations.len()
+            || self.positions.len() != self.species.len()
+        {
             return invalid(format!(
-                "{} positions but {} orientations: must be equal",
+                "{} positions, {} orientations and {} species: must be equal",
                 self.positions.len(),
-                self.orientations.len()
+                self.orientations.len(),
+                self.species.len()
             ));
+        }
+        if let Some(i) = self.species.iter().position(|&s| s >= self.shapes.len()) {
+            return invalid(format!(
+                "particle {i}: species {} not in the table of {} shapes",
+                self.species[i],
+                self.shapes.len()
+            ));
+        }
+        let mut dmax: f64 = 0.0;
+        if self.wall_diameter.is_some() || self.wedge.is_some() {
+            for s in self.shapes {
+                let Some((r, _)) = rod_parameters(s) else {
+                    return invalid(format!(
+                        "walls (cylinder, wedge) hold spheres and spherocylinders only, not {}",
+                        s.name()
+                    ));
+                };
+                dmax = dmax.max(2.0 * r);
+            }
         }
         if let Some(d) = self.wall_diameter {
-            if !(d.is_finite() && d > 2.0 * self.radius) {
+            if !(d.is_finite() && d > dmax) {
                 return invalid(format!(
                     "wall_diameter = {d}: must be finite and larger than the particle diameter"
                 ));
@@ -92,13 +144,13 @@ impl Rods<'_> {
 }
 
 /// Packing fraction: total particle volume over container volume (thesis eq. 3.1).
-pub fn packing_fraction(c: &Rods) -> f64 {
+pub fn packing_fraction(c: &Rods) -> Result<f64> {
     let v = match (c.wall_diameter, c.wedge) {
         (Some(d), _) => 0.25 * std::f64::consts::PI * d * d * c.box_length,
         (None, Some((l, a))) => 0.5 * l * l * a.tan() * c.box_length,
         (None, None) => c.box_length.powi(3),
     };
-    c.n() as f64 * c.particle_volume() / v
+    Ok(c.total_volume()? / v)
 }
 
 /// Deepest penetration (> 0) of any particle into the wall: over the end points p (centres
@@ -110,21 +162,21 @@ pub fn wall_penetration(c: &Rods) -> Result<Option<(usize, f64)>> {
     if c.wall_diameter.is_none() && c.wedge.is_none() {
         return Ok(None);
     }
-    let depth = |e: &Vector3<f64>| match (c.wall_diameter, c.wedge) {
-        (Some(d), _) => e.x.hypot(e.y) + c.radius - 0.5 * d,
+    let depth = |e: &Vector3<f64>, r: f64| match (c.wall_diameter, c.wedge) {
+        (Some(d), _) => e.x.hypot(e.y) + r - 0.5 * d,
         (None, Some((l, a))) => {
             let slope = (e.x * a.tan() - e.y) * a.cos();
-            c.radius - (l - e.x).min(e.y).min(slope)
+            r - (l - e.x).min(e.y).min(slope)
         }
         (None, None) => f64::NEG_INFINITY,
     };
-    let h = 0.5 * c.length;
     let mut worst: Option<(usize, f64)> = None;
     for (i, (x, q)) in c.positions.iter().zip(c.orientations).enumerate() {
+        let (r, h) = rod_parameters(c.shape(i)).expect("checked: rods only behind walls");
         let a = q * Vector3::z();
         for s in [-h, h] {
             let e = x + s * a;
-            let pen = depth(&e);
+            let pen = depth(&e, r);
             if pen > 0.0 && worst.is_none_or(|w| pen > w.1) {
                 worst = Some((i, pen));
             }
@@ -142,29 +194,42 @@ pub struct PairGap {
 }
 
 /// All pairs whose gap (minimum over the 27 periodic images) is below `max_gap`, by brute
-/// force over every pair. Errors if the box is shorter than a particle (L + 2R), where images
-/// of one particle would touch themselves.
+/// force over every pair. Spheres and spherocylinders: closest points of the axis segments
+/// (Vega & Lago); pairs with an ellipsoid or superquadric: the contact module's certified
+/// solver (an unconverged query is an error naming the pair; see also the solver-free
+/// [`sampled_overlap`]). Errors if the box is not longer than the largest particle (twice its
+/// bounding radius), where images of one particle would touch themselves.
 pub fn pair_gaps(c: &Rods, max_gap: f64) -> Result<Vec<PairGap>> {
     c.check()?;
-    let reach = c.length + 2.0 * c.radius;
+    let bounds: Vec<f64> = c
+        .shapes
+        .iter()
+        .map(crate::shape::bounding_radius_of)
+        .collect::<Result<_>>()?;
+    let reach = 2.0 * bounds.iter().cloned().fold(0.0, f64::max);
     if c.box_length <= reach {
         return invalid(format!(
-            "box_length = {}: must exceed the particle length L + 2R = {reach}",
+            "box_length = {}: must exceed the largest particle length {reach}",
             c.box_length
         ));
     }
     let n = c.n();
-    let h = 0.5 * c.length;
     let axes: Vec<Vector3<f64>> = c.orientations.iter().map(|q| q * Vector3::z()).collect();
     let bl = c.box_length;
-    let cut = reach + max_gap.max(0.0);
     // Rows i in parallel (rayon), concatenated in order: the result does not depend on the
     // thread count.
-    let rows: Vec<Vec<PairGap>> = (0..n)
+    let rows: Vec<Result<Vec<PairGap>>> = (0..n)
         .into_par_iter()
         .map(|i| {
             let mut row = Vec::new();
+            let si = c.shape(i);
             for j in i + 1..n {
+                let sj = c.shape(j);
+                let rods = rod_parameters(si).zip(rod_parameters(sj));
+                let cut = match rods {
+                    Some(((ri, hi), (rj, hj))) => (hi + hj) + (ri + rj),
+                    None => bounds[c.species[i]] + bounds[c.species[j]],
+                } + max_gap.max(0.0);
                 let mut best = f64::INFINITY;
                 // Images along the periodic directions only (z alone in the cylinder).
                 let lat = if c.wall_diameter.is_some() || c.wedge.is_some() {
@@ -180,18 +245,32 @@ pub fn pair_gaps(c: &Rods, max_gap: f64) -> Result<Vec<PairGap>> {
                             if d.norm() >= cut {
                                 continue;
                             }
-                            let dist = if c.length == 0.0 {
-                                d.norm()
-                            } else {
-                                let (_, _, p, q) = closest_points_segments(
-                                    &(-h * axes[i]),
-                                    &(h * axes[i]),
-                                    &(d - h * axes[j]),
-                                    &(d + h * axes[j]),
-                                );
-                                (q - p).norm()
+                            let gap = match rods {
+                                Some(((ri, hi), (rj, hj))) if hi == 0.0 && hj == 0.0 => {
+                                    d.norm() - (ri + rj)
+                                }
+                                Some(((ri, hi), (rj, hj))) => {
+                                    let (_, _, p, q) = closest_points_segments(
+                                        &(-hi * axes[i]),
+                                        &(hi * axes[i]),
+                                        &(d - hj * axes[j]),
+                                        &(d + hj * axes[j]),
+                                    );
+                                    (q - p).norm() - (ri + rj)
+                                }
+                                None => {
+                                    let pa = Pose::new(Vector3::zeros(), c.orientations[i]);
+                                    let pb = Pose::new(d, c.orientations[j]);
+                                    contact(si, &pa, sj, &pb)
+                                        .map_err(|e| {
+                                            crate::Error::InvalidInput(format!(
+                                                "pair ({i}, {j}): {e}"
+                                            ))
+                                        })?
+                                        .gap
+                                }
                             };
-                            best = best.min(dist - 2.0 * c.radius);
+                            best = best.min(gap);
                         }
                     }
                 }
@@ -199,10 +278,14 @@ pub fn pair_gaps(c: &Rods, max_gap: f64) -> Result<Vec<PairGap>> {
                     row.push(PairGap { i, j, gap: best });
                 }
             }
-            row
+            Ok(row)
         })
         .collect();
-    Ok(rows.concat())
+    let mut out = Vec::new();
+    for r in rows {
+        out.extend(r?);
+    }
+    Ok(out)
 }
 
 /// The deepest overlap found by the brute-force check: the most negative gap (or +inf when
@@ -587,6 +670,14 @@ mod tests {
         (pos.to_vec(), vec![UnitQuaternion::identity(); pos.len()])
     }
 
+    /// The species table of equal rods of radius 1/2 (leaked: test data only).
+    fn mono_shape(length: f64) -> &'static [ContactShape] {
+        Vec::leak(crate::packing::Particles::monodisperse(1, length).shapes)
+    }
+    fn zeros(n: usize) -> &'static [usize] {
+        Vec::leak(vec![0; n])
+    }
+
     fn sphere_rods<'a>(
         box_length: f64,
         pos: &'a [Vector3<f64>],
@@ -596,8 +687,8 @@ mod tests {
             box_length,
             wall_diameter: None,
             wedge: None,
-            radius: 0.5,
-            length: 0.0,
+            shapes: mono_shape(0.0),
+            species: zeros(pos.len()),
             positions: pos,
             orientations: ori,
         }
@@ -630,12 +721,12 @@ mod tests {
             box_length: m as f64,
             wall_diameter: None,
             wedge: None,
-            radius: 0.5,
-            length: 0.0,
+            shapes: mono_shape(0.0),
+            species: zeros(pos.len()),
             positions: &pos,
             orientations: &ori,
         };
-        assert!((packing_fraction(&r) - std::f64::consts::PI / 6.0).abs() < 1e-15);
+        assert!((packing_fraction(&r).unwrap() - std::f64::consts::PI / 6.0).abs() < 1e-15);
         let g = pair_gaps(&r, 1e-3).unwrap();
         let (c, rattlers) = mean_contacts(r.n(), &g, 1e-6, Some(4));
         assert_eq!(c, 6.0);
@@ -653,8 +744,8 @@ mod tests {
             box_length: 10.0,
             wall_diameter: None,
             wedge: None,
-            radius: 0.5,
-            length: 0.0,
+            shapes: mono_shape(0.0),
+            species: zeros(pos.len()),
             positions: &pos,
             orientations: &ori,
         };
@@ -675,8 +766,8 @@ mod tests {
             box_length: 10.0,
             wall_diameter: None,
             wedge: None,
-            radius: 0.5,
-            length: 3.0,
+            shapes: mono_shape(3.0),
+            species: zeros(pos.len()),
             positions: &pos,
             orientations: &ori,
         };
@@ -841,8 +932,8 @@ mod tests {
             box_length: 20.0,
             wall_diameter: Some(10.0),
             wedge: None,
-            radius: 0.5,
-            length: 1.0,
+            shapes: mono_shape(1.0),
+            species: zeros(pos.len()),
             positions: &pos,
             orientations: &ori,
         };
@@ -884,8 +975,8 @@ mod tests {
             box_length: 20.0,
             wall_diameter: None,
             wedge: Some((10.0, a)),
-            radius: 0.5,
-            length: 1.0,
+            shapes: mono_shape(1.0),
+            species: zeros(pos.len()),
             positions: &pos,
             orientations: &ori,
         };
@@ -901,8 +992,8 @@ mod tests {
             box_length: -1.0,
             wall_diameter: None,
             wedge: None,
-            radius: 0.5,
-            length: 0.0,
+            shapes: mono_shape(0.0),
+            species: zeros(pos.len()),
             positions: &pos,
             orientations: &ori,
         };

@@ -4,7 +4,7 @@
 //!
 //! Header line 2 (README, "Packing scenes and outputs", lists every column):
 //! `Lattice="Lx 0 0 0 Ly 0 0 0 Lz" Origin="x0 y0 z0" pbc="T T T"
-//! Properties=species:S:1:pos:R:3:orientation:R:4:aspherical_shape:R:3:radius:R:1:cylinder_length:R:1`
+//! Properties=species:S:1:pos:R:3:orientation:R:4:aspherical_shape:R:3:radius:R:1:cylinder_length:R:1:roundness:R:2`
 //! plus any `key=value` pairs the caller adds. Orientation is the body-to-world unit quaternion
 //! as X, Y, Z, W (OVITO's order); the particle axis is the body z axis. Numbers are written
 //! in Rust's shortest round-trip form, so reading the file back gives the same f64 values.
@@ -48,11 +48,15 @@ pub struct XyzParticle {
     pub radius: f64,
     /// Cylinder length between the hemisphere centres (0 for spheres).
     pub cylinder_length: f64,
+    /// OVITO's Superquadric Roundness (e, n) = (2 / g_xy, 2 / g_z) for a superquadric with
+    /// exponents g (1, 1 for every other shape).
+    pub roundness: [f64; 2],
 }
 
 /// The `Properties=` value written by [`to_string`].
 pub const PROPERTIES: &str =
-    "species:S:1:pos:R:3:orientation:R:4:aspherical_shape:R:3:radius:R:1:cylinder_length:R:1";
+    "species:S:1:pos:R:3:orientation:R:4:aspherical_shape:R:3:radius:R:1:cylinder_length:R:1:\
+     roundness:R:2";
 
 /// The extended XYZ text of one frame. `extra` holds further `key=value` header pairs
 /// (keys without whitespace; values are quoted when they contain spaces).
@@ -108,7 +112,7 @@ pub fn to_string(
         let a = &p.aspherical_shape;
         let _ = writeln!(
             s,
-            "{} {} {} {} {} {} {} {} {} {} {} {} {}",
+            "{} {} {} {} {} {} {} {} {} {} {} {} {} {} {}",
             p.species,
             x.x,
             x.y,
@@ -121,7 +125,9 @@ pub fn to_string(
             a[1],
             a[2],
             p.radius,
-            p.cylinder_length
+            p.cylinder_length,
+            p.roundness[0],
+            p.roundness[1]
         );
     }
     Ok(s)
@@ -201,8 +207,8 @@ pub fn parse(text: &str, origin: &str) -> Result<(Cell, Vec<XyzParticle>)> {
     let mut out = Vec::with_capacity(n);
     for (k, line) in lines.enumerate().take(n) {
         let t: Vec<&str> = line.split_whitespace().collect();
-        if t.len() != 13 {
-            return Err(err(k + 3, format!("{} columns, expected 13", t.len())));
+        if t.len() != 15 {
+            return Err(err(k + 3, format!("{} columns, expected 15", t.len())));
         }
         let v: Vec<f64> = t[1..]
             .iter()
@@ -216,6 +222,7 @@ pub fn parse(text: &str, origin: &str) -> Result<(Cell, Vec<XyzParticle>)> {
             aspherical_shape: [v[7], v[8], v[9]],
             radius: v[10],
             cylinder_length: v[11],
+            roundness: [v[12], v[13]],
         });
     }
     if out.len() != n {
@@ -241,6 +248,7 @@ mod tests {
                 aspherical_shape: [0.5, 0.5, 1.5],
                 radius: 0.5,
                 cylinder_length: 1.5,
+                roundness: [1.0, 1.0],
             },
             XyzParticle {
                 species: "S".into(),
@@ -249,6 +257,7 @@ mod tests {
                 aspherical_shape: [0.5; 3],
                 radius: 0.5,
                 cylinder_length: 0.0,
+                roundness: [0.5, 0.5],
             },
         ]
     }

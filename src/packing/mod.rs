@@ -21,7 +21,7 @@
 //! particle is rechecked only when it or a neighbour moved. Each move counts as one try. Runs
 //! are deterministic for a given seed.
 
-use crate::contact::closest_points_segments;
+use crate::contact::{closest_points_segments, ContactShape};
 use crate::error::invalid;
 use crate::Result;
 pub use container::{wedge_min_length, wedge_min_packing_fraction, Container};
@@ -50,8 +50,12 @@ pub enum Scheme {
 pub struct McmParams {
     /// Number of particles (>= 2).
     pub n: usize,
-    /// Cylinder length L between the hemisphere centres in diameters (0 = spheres).
+    /// Cylinder length L between the hemisphere centres in diameters (0 = spheres); used
+    /// when `particles` is None.
     pub length: f64,
+    /// Per-particle shapes (mixtures, polydispersity, superquadrics); None: `n` equal
+    /// particles of radius 1/2 and cylinder length `length` ([`Particles::monodisperse`]).
+    pub particles: Option<Particles>,
     /// Packing fraction of the random start (0 < phi0 <= 0.2; thesis: 0.05).
     pub phi0: f64,
     /// Initial volume step per particle: Delta V = `delta_v_per_particle` * N (D^3).
@@ -101,6 +105,7 @@ impl McmParams {
         McmParams {
             n,
             length,
+            particles: None,
             phi0: 0.05,
             delta_v_per_particle: 0.01,
             halvings: 6,
@@ -155,6 +160,29 @@ impl McmParams {
         if self.halvings > 60 {
             return invalid(format!("halvings = {}: at most 60", self.halvings));
         }
+        if let Some(p) = &self.particles {
+            p.validate()?;
+            if p.n() != self.n {
+                return invalid(format!(
+                    "n = {} but the particle table has {} particles: must be equal",
+                    self.n,
+                    p.n()
+                ));
+            }
+            if p.has_superquadrics() {
+                let stages = [Some(self.scheme), self.final_stage.map(|s| s.scheme)];
+                if stages.contains(&Some(Scheme::Original)) {
+                    return invalid(
+                        "scheme = original: ellipsoids and superquadrics need the revised scheme                          (the original one, eq. 2.4-2.10, moves rods by their axis segment; thesis                          ch. 4 packs superquadrics with the revised MCM)",
+                    );
+                }
+                if self.container != Container::Periodic {
+                    return invalid(
+                        "container: ellipsoids and superquadrics are packed in the periodic box                          only (the wall's virtual particles are defined for spheres and rods)",
+                    );
+                }
+            }
+        }
         if self.final_stage.is_some() {
             self.stage_params(1)
                 .validate()
@@ -180,6 +208,13 @@ impl McmParams {
         }
     }
 
+    /// The particles of the run: `particles`, or `n` equal ones of cylinder length `length`.
+    pub fn particles(&self) -> Particles {
+        self.particles
+            .clone()
+            .unwrap_or_else(|| Particles::monodisperse(self.n, self.length))
+    }
+
     /// Number of stages (1 or 2).
     pub fn stages(&self) -> u32 {
         1 + self.final_stage.is_some() as u32
@@ -188,13 +223,19 @@ impl McmParams {
 
 /// Volume of one particle (R = 1/2, cylinder length L; thesis eq. 2.2).
 pub fn particle_volume(length: f64) -> f64 {
-    std::f64::consts::PI * RADIUS * RADIUS * (4.0 / 3.0 * RADIUS + length)
+    let s = Particles::monodisperse(1, length).shapes[0];
+    crate::shape::volume_of(&s).unwrap_or(f64::NAN)
 }
 
-/// Principal moments of inertia (I_xy, I_z) of a z-aligned spherocylinder of mass m
-/// (thesis eq. 2.3).
+/// Principal moments of inertia (I_xy, I_z) of a z-aligned spherocylinder of radius 1/2 and
+/// mass m (thesis eq. 2.3).
 pub fn principal_inertia(length: f64, mass: f64) -> (f64, f64) {
-    let (l, r) = (length, RADIUS);
+    rod_inertia(RADIUS, length, mass)
+}
+
+/// Principal moments of inertia (I_xy, I_z) of a z-aligned spherocylinder of radius r, cylinder
+/// length l and mass m (thesis eq. 2.3).
+pub fn rod_inertia(r: f64, l: f64, mass: f64) -> (f64, f64) {
     let den = 3.0 * l + 4.0 * r;
     let ixy = mass / 20.0
         * (5.0 * l.powi(3) + 20.0 * l * l * r + 45.0 * l * r * r + 32.0 * r.powi(3))
@@ -203,17 +244,17 @@ pub fn principal_inertia(length: f64, mass: f64) -> (f64, f64) {
     (ixy, iz)
 }
 
-/// A configuration: monodisperse spherocylinders (or spheres) in a [`Container`]: a periodic
-/// cubic box [0, L)^3, or a cylinder about the z axis, periodic in z over [0, L).
+/// A configuration: particles of per-particle shape ([`Particles`]) in a [`Container`]: a
+/// periodic cubic box [0, L)^3, or a cylinder about the z axis, periodic in z over [0, L).
 #[derive(Debug, Clone)]
 pub struct Packing {
     pub container: Container,
     /// Side of the periodic box, or period along the cylinder axis.
     pub box_length: f64,
-    /// Cylinder length L between hemisphere centres (0 = spheres).
-    pub length: f64,
+    /// The shape of every particle.
+    pub particles: Particles,
     pub positions: Vec<Vector3<f64>>,
-    /// Orientation (body -> world); the particle axis is the body z axis.
+    /// Orientation (body -> world); a rod's axis is the body z axis.
     pub orientations: Vec<UnitQuaternion<f64>>,
 }
 
@@ -221,19 +262,25 @@ impl Packing {
     pub fn n(&self) -> usize {
         self.positions.len()
     }
-    pub fn is_sphere(&self) -> bool {
-        self.length == 0.0
+    /// The common cylinder length when every particle is the same sphere (0) or spherocylinder
+    /// of radius 1/2; None for mixtures, other radii and superquadrics.
+    pub fn monodisperse_length(&self) -> Option<f64> {
+        match self.particles.shapes.as_slice() {
+            [ContactShape::Sphere { radius }] if *radius == RADIUS => Some(0.0),
+            [ContactShape::Spherocylinder { radius, length }] if *radius == RADIUS => Some(*length),
+            _ => None,
+        }
     }
-    /// Unit axis of particle i (world).
+    /// Unit axis (body z) of particle i (world).
     pub fn axis(&self, i: usize) -> Vector3<f64> {
         self.orientations[i] * Vector3::z()
     }
     pub fn axes(&self) -> Vec<Vector3<f64>> {
         (0..self.n()).map(|i| self.axis(i)).collect()
     }
-    /// Packing fraction N V_p / V_container (thesis eq. 3.1).
+    /// Packing fraction: total particle volume over the container volume (thesis eq. 3.1).
     pub fn packing_fraction(&self) -> f64 {
-        self.n() as f64 * particle_volume(self.length) / self.container.volume(self.box_length)
+        self.particles.total_volume().unwrap_or(f64::NAN) / self.container.volume(self.box_length)
     }
     /// The configuration as the plain data the analysis functions take.
     pub fn view(&self) -> crate::analysis::Rods<'_> {
@@ -248,8 +295,8 @@ impl Packing {
                 Container::Wedge { length, angle_rad } => Some((length, angle_rad)),
                 _ => None,
             },
-            radius: RADIUS,
-            length: self.length,
+            shapes: &self.particles.shapes,
+            species: &self.particles.species,
             positions: &self.positions,
             orientations: &self.orientations,
         }
@@ -297,11 +344,13 @@ struct Overlap {
     l: f64,
 }
 
-/// Gap and contact geometry of i (at the origin) and j at separation `d` (minimum image).
+/// Gap and contact geometry of rod i (radius ri, half cylinder length hi, at the origin) and
+/// rod j (rj, hj) at separation `d` (minimum image); spheres have h = 0.
 /// Returns (gap, normal i->j, k, rc_i, l_i, rc_j, l_j).
-#[allow(clippy::type_complexity)]
+#[allow(clippy::type_complexity, clippy::too_many_arguments)]
 fn pair_geometry(
-    length: f64,
+    (ri, hi): (f64, f64),
+    (rj, hj): (f64, f64),
     ai: &Vector3<f64>,
     aj: &Vector3<f64>,
     d: &Vector3<f64>,
@@ -314,22 +363,13 @@ fn pair_geometry(
     Vector3<f64>,
     f64,
 ) {
-    if length == 0.0 {
+    if hi == 0.0 && hj == 0.0 {
         let dist = d.norm();
         let n = if dist > 0.0 { d / dist } else { Vector3::x() };
-        return (
-            dist - 2.0 * RADIUS,
-            n,
-            *d,
-            RADIUS * n,
-            0.0,
-            -RADIUS * n,
-            0.0,
-        );
+        return (dist - (ri + rj), n, *d, ri * n, 0.0, -rj * n, 0.0);
     }
-    let h = 0.5 * length;
-    let (p0, p1) = (-h * ai, h * ai);
-    let (q0, q1) = (d - h * aj, d + h * aj);
+    let (p0, p1) = (-hi * ai, hi * ai);
+    let (q0, q1) = (d - hj * aj, d + hj * aj);
     let (s, t, p, q) = closest_points_segments(&p0, &p1, &q0, &q1);
     let k = q - p;
     let dist = k.norm();
@@ -352,23 +392,23 @@ fn pair_geometry(
         }
         n
     };
-    let rc_i = p + RADIUS * n;
-    let rc_j = (q - d) - RADIUS * n;
+    let rc_i = p + ri * n;
+    let rc_j = (q - d) - rj * n;
     (
-        dist - 2.0 * RADIUS,
+        dist - (ri + rj),
         n,
         k,
         rc_i,
-        (s - 0.5) * length,
+        (s - 0.5) * (hi + hi),
         rc_j,
-        (t - 0.5) * length,
+        (t - 0.5) * (hj + hj),
     )
 }
 
 /// Body-to-world inverse inertia tensor of particle i (mass = volume).
-fn inverse_inertia_world(q: &UnitQuaternion<f64>, ixy: f64, iz: f64) -> Matrix3<f64> {
+fn inverse_inertia_world(q: &UnitQuaternion<f64>, inertia: &Vector3<f64>) -> Matrix3<f64> {
     let r = q.to_rotation_matrix();
-    let inv_body = Matrix3::from_diagonal(&Vector3::new(1.0 / ixy, 1.0 / ixy, 1.0 / iz));
+    let inv_body = Matrix3::from_diagonal(&inertia.map(|i| 1.0 / i));
     r.matrix() * inv_body * r.matrix().transpose()
 }
 
@@ -376,12 +416,10 @@ fn inverse_inertia_world(q: &UnitQuaternion<f64>, ixy: f64, iz: f64) -> Matrix3<
 fn move_revised(
     ov: &[Overlap],
     q: &UnitQuaternion<f64>,
-    sphere: bool,
-    mass: f64,
-    ixy: f64,
-    iz: f64,
+    body: &species::Props,
     prm: &McmParams,
 ) -> (Vector3<f64>, Option<UnitQuaternion<f64>>) {
+    let (sphere, mass) = (body.sphere, body.mass);
     let sum_n: Vector3<f64> = ov.iter().map(|o| o.normal).sum();
     let dmin = ov.iter().map(|o| o.depth).fold(f64::INFINITY, f64::min);
     // Torque-like sum of eq. 3.7 (zero for spheres: r_c is parallel to n).
@@ -390,7 +428,7 @@ fn move_revised(
     } else {
         ov.iter().map(|o| o.normal.cross(&o.rc)).sum()
     };
-    let inv_i = inverse_inertia_world(q, ixy, iz);
+    let inv_i = inverse_inertia_world(q, &body.inertia);
     let lam2 = (sum_n.norm_squared() / mass + tau.dot(&(inv_i * tau))) / (2.0 * prm.energy); // eq. 3.8
     if !(lam2 > 0.0) {
         return (Vector3::zeros(), None);
@@ -458,37 +496,117 @@ fn move_original(
     (dx, Some(rot * q))
 }
 
-/// Centre-distance cutoff for any contact (plus a margin for the contact tolerance).
-fn pair_cutoff(length: f64) -> f64 {
-    length + 2.0 * RADIUS + 1e-6
+/// Centre-distance cutoff for any contact of two species (sum of the bounding radii, plus a
+/// margin for the contact tolerance). For two rods (L_i + L_j)/2 + R_i + R_j, written so that
+/// equal rods of radius 1/2 give exactly L + D + 1e-6 as before mixtures existed.
+fn pair_cutoff(a: &species::Props, b: &species::Props) -> f64 {
+    if a.sq.is_none() && b.sq.is_none() {
+        (a.h + b.h) + (a.r + b.r) + 1e-6
+    } else {
+        a.bound + b.bound + 1e-6
+    }
 }
 
-/// Checks that the periodic length is at least twice the pair cutoff (unique minimum image)
-/// and, for a cylinder, that a particle fits in it.
-fn check_box(container: &Container, box_length: f64, length: f64) -> Result<()> {
-    let rc = pair_cutoff(length);
+/// The largest pair cutoff over all pairs of species (the neighbour lists use it).
+fn max_pair_cutoff(props: &[species::Props]) -> f64 {
+    let big = props
+        .iter()
+        .max_by(|a, b| a.bound.total_cmp(&b.bound))
+        .expect("at least one species");
+    pair_cutoff(big, big)
+}
+
+/// Checks that the periodic length is at least twice the largest pair cutoff (unique minimum
+/// image) and, for a cylinder, that every particle fits in it.
+fn check_box(container: &Container, box_length: f64, props: &[species::Props]) -> Result<()> {
+    let rc = max_pair_cutoff(props);
     if box_length.is_nan() || box_length < 2.0 * rc {
         return invalid(format!(
-            "box length {box_length:.4} is below twice the pair cutoff {rc:.4} (L + D): the \
-             minimum image would miss contacts; use more particles"
+            "box length {box_length:.4} is below twice the largest pair cutoff {rc:.4} (sum of \
+             bounding radii): the minimum image would miss contacts; use more particles"
         ));
     }
-    container.check(2.0 * RADIUS)
+    let dmax = props.iter().map(|s| 2.0 * s.r).fold(0.0, f64::max);
+    container.check(dmax)
+}
+
+/// Overlap of particle i (species props `a`, orientation `qi`, at the origin) with j (`b`,
+/// `qj`, at separation `d`) by the contact solver (ellipsoids, superquadrics; spheres among
+/// them as exponent-2 superquadrics), bounding spheres first. None when apart or not deeper
+/// than `tol`; a solver that did not converge is an error naming the pair.
+#[allow(clippy::too_many_arguments)]
+fn sq_overlap(
+    (i, a, qi): (usize, &species::Props, &UnitQuaternion<f64>),
+    (j, b, qj): (usize, &species::Props, &UnitQuaternion<f64>),
+    d: &Vector3<f64>,
+    tol: f64,
+) -> Result<Option<Overlap>> {
+    use crate::contact::{contact_superquadric_superquadric, NrOptions, Pose, SqBody};
+    if d.norm() >= a.bound + b.bound {
+        return Ok(None);
+    }
+    let (sa, sb) = (a.sq.clone(), b.sq.clone());
+    let (Some(sa), Some(sb)) = (sa, sb) else {
+        return invalid("superquadric pair without superquadric shapes (internal)");
+    };
+    let ba = SqBody::new(sa, Pose::new(Vector3::zeros(), *qi));
+    let bb = SqBody::new(sb, Pose::new(*d, *qj));
+    let c = contact_superquadric_superquadric(&ba, &bb, &NrOptions::default()).map_err(|e| {
+        crate::Error::InvalidInput(format!(
+            "MCM overlap of particles {i} and {j} (centre distance {:.6}): {e}",
+            d.norm()
+        ))
+    })?;
+    if c.gap >= -tol {
+        return Ok(None);
+    }
+    // Contact point of i: its common-normal surface point (r_c,ij of eq. 3.2).
+    Ok(Some(Overlap {
+        depth: -c.gap,
+        normal: c.normal,
+        k: c.point_b - c.point_a,
+        rc: c.point_a,
+        l: 0.0,
+    }))
 }
 
 /// Overlaps deeper than `tol` of particle i with the particles in `nb` and with the virtual
 /// wall particles (cylinder).
-fn overlaps_of(p: &Packing, i: usize, nb: &[usize], tol: f64, out: &mut Vec<Overlap>) {
+fn overlaps_of(
+    p: &Packing,
+    props: &[species::Props],
+    i: usize,
+    nb: &[usize],
+    tol: f64,
+    out: &mut Vec<Overlap>,
+) -> Result<()> {
     out.clear();
-    let sphere = p.is_sphere();
-    // Spheres need no axes (pair_geometry ignores them).
-    let axis = |j: usize| if sphere { Vector3::z() } else { p.axis(j) };
-    let ai = axis(i);
+    let spc = &p.particles.species;
+    let si = &props[spc[i]];
     let xi = p.positions[i];
+    if si.sq.is_some() {
+        for &j in nb {
+            let sj = &props[spc[j]];
+            let d = p.container.separation(&xi, &p.positions[j], p.box_length);
+            let (qi, qj) = (&p.orientations[i], &p.orientations[j]);
+            if let Some(o) = sq_overlap((i, si, qi), (j, sj, qj), &d, tol)? {
+                out.push(o);
+            }
+        }
+        return Ok(());
+    }
+    // Spheres need no axes (pair_geometry ignores them).
+    let axis = |j: usize| {
+        if props[spc[j]].sphere {
+            Vector3::z()
+        } else {
+            p.axis(j)
+        }
+    };
+    let ai = axis(i);
     let mut virt = Vec::new();
     p.container
-        .wall_virtuals(&xi, &p.axis(i), 0.5 * p.length, RADIUS, &mut virt);
-    let reach2 = pair_cutoff(p.length).powi(2);
+        .wall_virtuals(&xi, &p.axis(i), si.h, si.r, &mut virt);
     let others = nb
         .iter()
         .map(|&j| {
@@ -499,12 +617,21 @@ fn overlaps_of(p: &Packing, i: usize, nb: &[usize], tol: f64, out: &mut Vec<Over
         })
         .chain(virt.iter().map(|(d, a)| (*d, Err(*a))));
     for (d, j) in others {
-        if d.norm_squared() >= reach2 {
+        // Virtual wall particles are identical to i and come with their own axis (sec. 2.2.4).
+        let sj = j.map_or(si, |j| &props[spc[j]]);
+        if d.norm_squared() >= pair_cutoff(si, sj).powi(2) {
             continue;
         }
-        // Virtual wall particles come with their own axis (sec. 2.2.4).
+        if let (Ok(jj), Some(_)) = (j, &sj.sq) {
+            // A sphere among superquadrics meets a superquadric: the contact solver.
+            let (qi, qj) = (&p.orientations[i], &p.orientations[jj]);
+            if let Some(o) = sq_overlap((i, si, qi), (jj, sj, qj), &d, tol)? {
+                out.push(o);
+            }
+            continue;
+        }
         let aj = j.map_or_else(|a| a, axis);
-        let (gap, n, k, rci, li, _, _) = pair_geometry(p.length, &ai, &aj, &d);
+        let (gap, n, k, rci, li, _, _) = pair_geometry((si.r, si.h), (sj.r, sj.h), &ai, &aj, &d);
         if gap < -tol {
             out.push(Overlap {
                 depth: -gap,
@@ -515,6 +642,7 @@ fn overlaps_of(p: &Packing, i: usize, nb: &[usize], tol: f64, out: &mut Vec<Over
             });
         }
     }
+    Ok(())
 }
 
 /// Removes overlaps deeper than the tolerance; returns Ok(tries) when the configuration is
@@ -529,14 +657,22 @@ fn remove_overlaps(
     prm: &McmParams,
     budget: u64,
 ) -> Result<std::result::Result<u64, u64>> {
-    check_box(&p.container, p.box_length, p.length)?;
+    let props = species::props_of(&p.particles)?;
+    remove_overlaps_with(p, &props, prm, budget)
+}
+
+/// [`remove_overlaps`] with the species props already computed.
+fn remove_overlaps_with(
+    p: &mut Packing,
+    props: &[species::Props],
+    prm: &McmParams,
+    budget: u64,
+) -> Result<std::result::Result<u64, u64>> {
+    check_box(&p.container, p.box_length, props)?;
     let n = p.n();
-    let skin = (0.5 * p.box_length - pair_cutoff(p.length)).min(0.3);
-    let sphere = p.is_sphere();
-    let mass = particle_volume(p.length);
-    let (ixy, iz) = principal_inertia(p.length, mass);
-    let xi = principal_inertia(p.length, 1.0).0;
-    let mut nb = Neighbours::new(p, pair_cutoff(p.length), skin)?;
+    let cutoff = max_pair_cutoff(props);
+    let skin = (0.5 * p.box_length - cutoff).min(0.3);
+    let mut nb = Neighbours::new(p, cutoff, skin)?;
     let mut dirty = DirtySet::full(n);
     let mut ov = Vec::new();
     let mut tries = 0u64;
@@ -545,7 +681,7 @@ fn remove_overlaps(
         let mut from = 0;
         while let Some(i) = dirty.take_next(from) {
             from = i + 1;
-            overlaps_of(p, i, &nb.lists[i], prm.overlap_tol, &mut ov);
+            overlaps_of(p, props, i, &nb.lists[i], prm.overlap_tol, &mut ov)?;
             if ov.is_empty() {
                 continue;
             }
@@ -553,11 +689,12 @@ fn remove_overlaps(
                 return Ok(Err(tries));
             }
             tries += 1;
+            let body = &props[p.particles.species[i]];
             let (dx, q) = match prm.scheme {
-                Scheme::Revised => {
-                    move_revised(&ov, &p.orientations[i], sphere, mass, ixy, iz, prm)
+                Scheme::Revised => move_revised(&ov, &p.orientations[i], body, prm),
+                Scheme::Original => {
+                    move_original(&ov, &p.orientations[i], body.sphere, body.xi, prm)
                 }
-                Scheme::Original => move_original(&ov, &p.orientations[i], sphere, xi, prm),
             };
             p.positions[i] = p.container.wrap(&(p.positions[i] + dx), p.box_length);
             if let Some(q) = q {
@@ -626,9 +763,8 @@ pub fn random_start(n: usize, length: f64, phi0: f64, seed: u64) -> Result<Packi
     random_start_in(Container::Periodic, n, length, phi0, seed)
 }
 
-/// A random overlap-free start: random sequential addition of N particles at packing
-/// fraction phi0, uniform positions (in the cylinder: uniform over the disk, rejected when an
-/// end point penetrates the wall) and orientations (ChaCha8 seeded with `seed`).
+/// A random overlap-free start of `n` equal particles of cylinder length `length` (see
+/// [`random_start_of`]).
 pub fn random_start_in(
     container: Container,
     n: usize,
@@ -636,31 +772,54 @@ pub fn random_start_in(
     phi0: f64,
     seed: u64,
 ) -> Result<Packing> {
-    let vp = particle_volume(length);
-    let box_length = container.length_for_volume(n as f64 * vp / phi0);
-    check_box(&container, box_length, length)?;
+    random_start_of(container, Particles::monodisperse(n, length), phi0, seed)
+}
+
+/// A random overlap-free start: random sequential addition of the particles at packing
+/// fraction phi0, uniform positions (in the cylinder: uniform over the disk, rejected when an
+/// end point penetrates the wall) and orientations (ChaCha8 seeded with `seed`). Particles are
+/// placed in order of decreasing bounding radius (index order among equals), so the large
+/// ones of a mixture find room first.
+pub fn random_start_of(
+    container: Container,
+    particles: Particles,
+    phi0: f64,
+    seed: u64,
+) -> Result<Packing> {
+    particles.validate()?;
+    let n = particles.n();
+    let props = species::props_of(&particles)?;
+    let box_length = container.length_for_volume(particles.total_volume()? / phi0);
+    check_box(&container, box_length, &props)?;
+    let mut order: Vec<usize> = (0..n).collect();
+    let bound = |i: usize| props[particles.species[i]].bound;
+    order.sort_by(|&a, &b| bound(b).total_cmp(&bound(a)));
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
     let mut p = Packing {
         container,
         box_length,
-        length,
-        positions: Vec::with_capacity(n),
-        orientations: Vec::with_capacity(n),
+        particles,
+        positions: vec![Vector3::zeros(); n],
+        orientations: vec![UnitQuaternion::identity(); n],
     };
-    let rc2 = pair_cutoff(length).powi(2);
     let max_attempts = 1000 * n as u64 + 1000;
     let mut attempts = 0u64;
-    while p.n() < n {
+    let mut placed: Vec<usize> = Vec::with_capacity(n);
+    while placed.len() < n {
         attempts += 1;
         if attempts > max_attempts {
             return invalid(format!(
                 "phi0 = {phi0}: random sequential addition placed only {} of {n} particles in \
                  {max_attempts} attempts; lower phi0",
-                p.n()
+                placed.len()
             ));
         }
+        let i = order[placed.len()];
+        let si = &props[p.particles.species[i]];
         let u = Vector3::new(rng.gen::<f64>(), rng.gen::<f64>(), rng.gen::<f64>());
-        let x = container.trial_centre(&u, box_length, RADIUS);
+        // Rods: both end spheres inside; superquadrics: the bounding sphere.
+        let rad = if si.sq.is_some() { si.bound } else { si.r };
+        let x = container.trial_centre(&u, box_length, rad);
         // Uniform random rotation (Shoemake's method).
         let (u1, u2, u3): (f64, f64, f64) = (rng.gen(), rng.gen(), rng.gen());
         let tau = std::f64::consts::TAU;
@@ -671,22 +830,34 @@ pub fn random_start_in(
             u1.sqrt() * (tau * u3).cos(),
         ));
         let a = q * Vector3::z();
-        let inside = [-0.5 * length, 0.5 * length]
+        let inside = [-si.h, si.h]
             .iter()
-            .all(|s| container.sphere_inside(&(x + *s * a), RADIUS));
+            .all(|s| container.sphere_inside(&(x + *s * a), rad));
         if !inside {
             continue;
         }
-        let ok = (0..p.n()).all(|j| {
+        let mut ok = true;
+        for &j in &placed {
+            let sj = &props[p.particles.species[j]];
             let d = container.separation(&x, &p.positions[j], box_length);
-            if d.norm_squared() >= rc2 {
-                return true;
+            if d.norm_squared() >= pair_cutoff(si, sj).powi(2) {
+                continue;
             }
-            pair_geometry(length, &a, &p.axis(j), &d).0 > 0.0
-        });
+            let free = if si.sq.is_some() || sj.sq.is_some() {
+                // Any overlap (tolerance 0) rejects the trial.
+                sq_overlap((i, si, &q), (j, sj, &p.orientations[j]), &d, 0.0)?.is_none()
+            } else {
+                pair_geometry((si.r, si.h), (sj.r, sj.h), &a, &p.axis(j), &d).0 > 0.0
+            };
+            if !free {
+                ok = false;
+                break;
+            }
+        }
         if ok {
-            p.positions.push(x);
-            p.orientations.push(q);
+            p.positions[i] = x;
+            p.orientations[i] = q;
+            placed.push(i);
         }
     }
     Ok(p)
@@ -712,7 +883,7 @@ fn compress(p: &Packing, dv: f64) -> Option<Packing> {
 /// Runs the mechanical contraction method from a random start (see the module docs).
 pub fn run(prm: &McmParams) -> Result<McmResult> {
     prm.validate()?;
-    let start = random_start_in(prm.container, prm.n, prm.length, prm.phi0, prm.seed)?;
+    let start = random_start_of(prm.container, prm.particles(), prm.phi0, prm.seed)?;
     run_from(start, prm)
 }
 
@@ -764,15 +935,14 @@ impl McmState {
     /// A run starting from an overlap-free configuration (checked against `prm`).
     pub fn new(start: Packing, prm: &McmParams) -> Result<McmState> {
         prm.validate()?;
-        if start.n() != prm.n || start.length != prm.length || start.container != prm.container {
+        if start.particles != prm.particles() || start.container != prm.container {
             return invalid(format!(
-                "start configuration: {} particles of length {} in {:?} do not match n = {}, \
-                 length = {}, container {:?}",
+                "start configuration: {} particles ({} species) in {:?} do not match the {} \
+                 particles and container {:?} of the parameters",
                 start.n(),
-                start.length,
+                start.particles.shapes.len(),
                 start.container,
                 prm.n,
-                prm.length,
                 prm.container
             ));
         }
@@ -810,14 +980,15 @@ impl McmState {
             return Ok(StepOutcome::Finished);
         }
         let budget = (prm.tries_per_particle * self.packing.n() as f64).ceil() as u64;
-        let vp = particle_volume(self.packing.length);
-        let trial = compress(&self.packing, self.delta_v)
-            .filter(|t| t.n() as f64 * vp < t.container.volume(t.box_length));
+        let vp = self.packing.particles.total_volume()?;
+        let props = species::props_of(&self.packing.particles)?;
+        let trial =
+            compress(&self.packing, self.delta_v).filter(|t| vp < t.container.volume(t.box_length));
         let outcome = match trial {
             None => None,
             Some(mut t) => {
-                check_box(&t.container, t.box_length, t.length)?;
-                let r = remove_overlaps(&mut t, prm, budget)?;
+                check_box(&t.container, t.box_length, &props)?;
+                let r = remove_overlaps_with(&mut t, &props, prm, budget)?;
                 Some((t, r))
             }
         };
@@ -870,6 +1041,8 @@ impl McmState {
 pub mod bench;
 mod container;
 mod neighbours;
+mod species;
+pub use species::Particles;
 
 #[cfg(test)]
 mod tests;

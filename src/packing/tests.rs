@@ -60,7 +60,7 @@ fn two_overlapping_spheres_are_separated() {
         let mut p = Packing {
             container: Container::Periodic,
             box_length: 10.0,
-            length: 0.0,
+            particles: Particles::monodisperse(2, 0.0),
             positions: vec![Vector3::new(5.0, 5.0, 5.0), Vector3::new(5.9, 5.0, 5.0)],
             orientations: vec![UnitQuaternion::identity(); 2],
         };
@@ -88,7 +88,7 @@ fn crossed_rods_are_separated_with_rotation() {
         let mut p = Packing {
             container: Container::Periodic,
             box_length: 12.0,
-            length: 3.0,
+            particles: Particles::monodisperse(2, 3.0),
             positions: vec![Vector3::new(6.0, 6.0, 6.0), Vector3::new(6.8, 6.5, 6.6)],
             orientations: vec![q0, q1],
         };
@@ -156,7 +156,7 @@ fn wall_overlaps_are_removed_by_virtual_particles() {
             let mut p = Packing {
                 container: Container::Cylinder { diameter: 3.0 },
                 box_length: 10.0,
-                length,
+                particles: Particles::monodisperse(1, length),
                 positions: vec![x],
                 orientations: vec![q],
             };
@@ -189,11 +189,91 @@ fn cylinder_run_is_overlap_free_and_inside() {
         analysis::check_no_overlap(&a.packing.view(), prm.overlap_tol * (1.0 + 1e-6)).unwrap();
         let phi = a.packing.packing_fraction();
         assert!(phi > 0.35 && phi < 0.7405, "L = {length}: phi = {phi}");
-        assert_eq!(phi, analysis::packing_fraction(&a.packing.view()));
+        assert_eq!(phi, analysis::packing_fraction(&a.packing.view()).unwrap());
     }
     // A cylinder narrower than a particle is refused, naming the rule.
     let mut prm = McmParams::new(10, 0.0, 1);
     prm.container = Container::Cylinder { diameter: 0.9 };
     let e = run(&prm).unwrap_err().to_string();
     assert!(e.contains("cylinder diameter 0.9"), "{e}");
+}
+
+/// A binary sphere mixture (d = 1 and 1.4) and a sphere + rod mixture pack overlap-free with
+/// both schemes; the packing fraction is the closed form sum n_k V_k / L^3 (V = pi d^3 / 6 for
+/// spheres, pi R^2 (4R/3 + L) for rods, thesis eq. 2.2), computed here from the parameters.
+#[test]
+fn mixtures_pack_overlap_free_with_both_schemes() {
+    use crate::contact::ContactShape as C;
+    let pi = std::f64::consts::PI;
+    let cases = [
+        (
+            vec![
+                (C::Sphere { radius: 0.5 }, 60),
+                (C::Sphere { radius: 0.7 }, 40),
+            ],
+            60.0 * pi / 6.0 + 40.0 * pi * 1.4f64.powi(3) / 6.0,
+        ),
+        (
+            vec![
+                (C::Sphere { radius: 0.5 }, 50),
+                (
+                    C::Spherocylinder {
+                        radius: 0.4,
+                        length: 1.2,
+                    },
+                    50,
+                ),
+            ],
+            50.0 * pi / 6.0 + 50.0 * pi * 0.16 * (4.0 / 3.0 * 0.4 + 1.2),
+        ),
+    ];
+    for (parts, vol) in cases {
+        for scheme in [Scheme::Revised, Scheme::Original] {
+            let n = parts.iter().map(|(_, c)| c).sum();
+            let mut prm = quick(n, 0.0, 5, scheme, 0.02, 3, 100.0);
+            prm.dt = 0.5;
+            prm.particles = Some(Particles::mixture(&parts));
+            let r = run(&prm).unwrap();
+            let p = &r.packing;
+            analysis::check_no_overlap(&p.view(), prm.overlap_tol).unwrap();
+            let phi = vol / p.box_length.powi(3);
+            assert!(
+                (p.packing_fraction() - phi).abs() < 1e-12 * phi,
+                "{scheme:?}: {} vs {phi}",
+                p.packing_fraction()
+            );
+            assert!(phi > 0.4, "{scheme:?}: compressed only to {phi}");
+            // The large particles were placed first and every particle kept its species.
+            assert_eq!(p.particles, Particles::mixture(&parts));
+        }
+    }
+}
+
+/// Monodisperse parameters given as a one-species table reproduce the classic run bitwise.
+#[test]
+fn one_species_table_is_the_monodisperse_run() {
+    let a = quick(40, 0.6, 8, Scheme::Original, 0.02, 2, 50.0);
+    let mut b = a.clone();
+    b.particles = Some(Particles::monodisperse(40, 0.6));
+    let (ra, rb) = (run(&a).unwrap(), run(&b).unwrap());
+    assert_eq!(ra.packing.positions, rb.packing.positions);
+    assert_eq!(ra.packing.orientations, rb.packing.orientations);
+}
+
+/// Bad particle tables are errors naming the rule.
+#[test]
+fn bad_particle_tables_are_errors() {
+    use crate::contact::ContactShape as C;
+    let mut p = McmParams::new(3, 0.0, 1);
+    p.particles = Some(Particles::mixture(&[(C::Sphere { radius: 0.5 }, 2)]));
+    assert!(p.validate().unwrap_err().to_string().contains("n = 3"));
+    p.particles = Some(Particles::mixture(&[(C::Sphere { radius: -0.5 }, 3)]));
+    assert!(p.validate().unwrap_err().to_string().contains("radius"));
+    let sb = C::Superquadric {
+        semi_axes: [0.5; 3],
+        exponents: [3.0; 3],
+    };
+    p.particles = Some(Particles::mixture(&[(sb, 3)]));
+    p.scheme = Scheme::Original;
+    assert!(p.validate().unwrap_err().to_string().contains("revised"));
 }

@@ -50,10 +50,12 @@
 
 use super::{Builtin, RunOptions};
 use crate::analysis;
+use crate::contact::ContactShape;
 use crate::error::{invalid, Error};
 use crate::io::{write_atomic, xyz};
 use crate::packing::{
-    self, Container, McmParams, McmState, Packing, Scheme, Stage, StepOutcome, StepRecord,
+    self, Container, McmParams, McmState, Packing, Particles, Scheme, Stage, StepOutcome,
+    StepRecord,
 };
 use crate::Result;
 use nalgebra::{Quaternion, UnitQuaternion, Vector3};
@@ -105,30 +107,55 @@ struct SceneFile {
     analysis: AnalysisSpec,
 }
 
-#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+#[derive(Debug, Clone, Default, Serialize, Deserialize, PartialEq)]
 #[serde(deny_unknown_fields)]
 struct ParticlesSpec {
-    #[serde(default = "default_shape")]
-    shape: String,
-    #[serde(default = "default_n")]
-    n: usize,
+    #[serde(default)]
+    shape: Option<String>,
+    #[serde(default)]
+    n: Option<usize>,
     #[serde(default)]
     length_over_diameter: Option<f64>,
+    /// Mixture / polydisperse / superquadric species (instead of the three keys above).
+    #[serde(default)]
+    species: Vec<SpeciesSpec>,
 }
-fn default_shape() -> String {
-    "sphere".into()
+
+/// One `[[particles.species]]` entry.
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+struct SpeciesSpec {
+    shape: String,
+    n: usize,
+    #[serde(default)]
+    diameter: Option<f64>,
+    #[serde(default)]
+    length: Option<f64>,
+    #[serde(default)]
+    semi_axes: Option<[f64; 3]>,
+    #[serde(default)]
+    exponents: Option<[f64; 3]>,
+    #[serde(default)]
+    half_width: Option<f64>,
+    #[serde(default)]
+    exponent: Option<f64>,
+    #[serde(default)]
+    polydisperse: Option<PolySpec>,
 }
-fn default_n() -> usize {
-    1000
-}
-impl Default for ParticlesSpec {
-    fn default() -> Self {
-        ParticlesSpec {
-            shape: default_shape(),
-            n: default_n(),
-            length_over_diameter: None,
-        }
-    }
+
+/// `[particles.species.polydisperse]`: per-particle diameters of a sphere or spherocylinder
+/// species.
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+struct PolySpec {
+    distribution: String,
+    #[serde(default)]
+    min: Option<f64>,
+    #[serde(default)]
+    max: Option<f64>,
+    #[serde(default)]
+    sigma: Option<f64>,
+    seed: u64,
 }
 
 #[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
@@ -252,28 +279,7 @@ pub fn parse_scene(text: &str, origin: &str) -> Result<PackingScene> {
             f.kind
         ));
     }
-    let length = match (f.particles.shape.as_str(), f.particles.length_over_diameter) {
-        ("sphere", l) if l.unwrap_or(0.0) == 0.0 => 0.0,
-        ("sphere", Some(l)) => {
-            return bad(format!(
-                "particles.length_over_diameter = {l}: a sphere has none (use shape = \"spherocylinder\")"
-            ))
-        }
-        ("spherocylinder", Some(l)) if l.is_finite() && l > 0.0 => l,
-        ("spherocylinder", Some(l)) => {
-            return bad(format!(
-                "particles.length_over_diameter = {l}: must be positive and finite for a spherocylinder"
-            ))
-        }
-        ("spherocylinder", None) => {
-            return bad("particles.length_over_diameter: required for shape = \"spherocylinder\"".into())
-        }
-        (other, _) => {
-            return bad(format!(
-                "particles.shape = \"{other}\": must be \"sphere\" or \"spherocylinder\""
-            ))
-        }
-    };
+    let (n, length, particles) = parse_particles(&f.particles).or_else(bad_particles(origin))?;
     let cs = &f.container;
     let only = |key: &str, value: Option<f64>, shapes: &str| -> Result<()> {
         match value {
@@ -317,9 +323,6 @@ pub fn parse_scene(text: &str, origin: &str) -> Result<PackingScene> {
             ))
         }
     };
-    container
-        .check(2.0 * packing::RADIUS)
-        .map_err(|e| Error::InvalidInput(format!("{origin}: container: {e}")))?;
     let m = &f.mcm;
     let scheme_of = |name: &str, key: &str| match name {
         "original" => Ok(Scheme::Original),
@@ -333,7 +336,8 @@ pub fn parse_scene(text: &str, origin: &str) -> Result<PackingScene> {
         Some(name) => scheme_of(name, "final_stage.scheme")?,
         None => scheme,
     };
-    let mut p = McmParams::new(f.particles.n, length, m.seed);
+    let mut p = McmParams::new(n, length, m.seed);
+    p.particles = particles;
     p.container = container;
     p.scheme = scheme;
     p.phi0 = m.phi0;
@@ -387,19 +391,211 @@ pub fn parse_scene(text: &str, origin: &str) -> Result<PackingScene> {
             a.s4_trials
         ));
     }
+    let rattlers = a
+        .rattler_min_contacts
+        .unwrap_or(if all_spheres(&p) { 4 } else { 5 });
     let fingerprint = serde_json::to_string(&f).map_err(|e| Error::InvalidInput(e.to_string()))?;
     Ok(PackingScene {
         title: f.title.clone(),
         params: p,
         cutoffs: a.contact_cutoffs.clone(),
-        rattler_min_contacts: a
-            .rattler_min_contacts
-            .unwrap_or(if length == 0.0 { 4 } else { 5 }),
+        rattler_min_contacts: rattlers,
         gr_r_max: a.gr_r_max,
         gr_bins: a.gr_bins,
         s4_trials: a.s4_trials,
         fingerprint,
     })
+}
+
+fn bad_particles(origin: &str) -> impl Fn(String) -> Result<(usize, f64, Option<Particles>)> + '_ {
+    move |msg| invalid(format!("{origin}: {msg}"))
+}
+
+/// True when every particle is a sphere (rattlers have fewer than 4 contacts, else 5).
+fn all_spheres(p: &McmParams) -> bool {
+    p.particles()
+        .shapes
+        .iter()
+        .all(|s| matches!(s, ContactShape::Sphere { .. }))
+}
+
+/// The particles of a scene: (n, cylinder length, None) for the single-shape keys
+/// `shape`/`n`/`length_over_diameter`, (n, 0, Some(table)) for `[[particles.species]]`.
+fn parse_particles(
+    s: &ParticlesSpec,
+) -> std::result::Result<(usize, f64, Option<Particles>), String> {
+    if s.species.is_empty() {
+        let shape = s.shape.as_deref().unwrap_or("sphere");
+        let length = match (shape, s.length_over_diameter) {
+            ("sphere", l) if l.unwrap_or(0.0) == 0.0 => 0.0,
+            ("sphere", Some(l)) => {
+                return Err(format!(
+                    "particles.length_over_diameter = {l}: a sphere has none (use shape = \"spherocylinder\")"
+                ))
+            }
+            ("spherocylinder", Some(l)) if l.is_finite() && l > 0.0 => l,
+            ("spherocylinder", Some(l)) => {
+                return Err(format!(
+                    "particles.length_over_diameter = {l}: must be positive and finite for a spherocylinder"
+                ))
+            }
+            ("spherocylinder", None) => {
+                return Err(
+                    "particles.length_over_diameter: required for shape = \"spherocylinder\"".into(),
+                )
+            }
+            (other, _) => {
+                return Err(format!(
+                    "particles.shape = \"{other}\": must be \"sphere\" or \"spherocylinder\" (other \
+                     shapes and mixtures: [[particles.species]])"
+                ))
+            }
+        };
+        return Ok((s.n.unwrap_or(1000), length, None));
+    }
+    for (key, set) in [
+        ("shape", s.shape.is_some()),
+        ("n", s.n.is_some()),
+        ("length_over_diameter", s.length_over_diameter.is_some()),
+    ] {
+        if set {
+            return Err(format!(
+                "particles.{key}: not allowed together with [[particles.species]] (give it per \
+                 species)"
+            ));
+        }
+    }
+    let mut shapes = Vec::new();
+    let mut species = Vec::new();
+    for (k, sp) in s.species.iter().enumerate() {
+        let at = |msg: String| format!("particles.species[{k}] ({}): {msg}", sp.shape);
+        if sp.n == 0 {
+            return Err(at("n = 0: need at least one particle".into()));
+        }
+        let allowed: &[&str] = match sp.shape.as_str() {
+            "sphere" => &["diameter", "polydisperse"],
+            "spherocylinder" => &["diameter", "length", "polydisperse"],
+            "ellipsoid" => &["semi_axes"],
+            "superball" => &["half_width", "exponent"],
+            "superquadric" => &["semi_axes", "exponents"],
+            other => {
+                return Err(at(format!(
+                    "shape = \"{other}\": must be \"sphere\", \"spherocylinder\", \"ellipsoid\", \
+                     \"superball\" or \"superquadric\""
+                )))
+            }
+        };
+        for (key, set) in [
+            ("diameter", sp.diameter.is_some()),
+            ("length", sp.length.is_some()),
+            ("semi_axes", sp.semi_axes.is_some()),
+            ("exponents", sp.exponents.is_some()),
+            ("half_width", sp.half_width.is_some()),
+            ("exponent", sp.exponent.is_some()),
+            ("polydisperse", sp.polydisperse.is_some()),
+        ] {
+            if set && !allowed.contains(&key) {
+                return Err(at(format!(
+                    "key `{key}` does not apply to this shape (allowed: {})",
+                    allowed.join(", ")
+                )));
+            }
+        }
+        let need = |v: Option<f64>, key: &str| v.ok_or_else(|| at(format!("`{key}` is required")));
+        let d = sp.diameter.unwrap_or(1.0);
+        let make = |d: f64| -> std::result::Result<ContactShape, String> {
+            Ok(match sp.shape.as_str() {
+                "sphere" => ContactShape::Sphere { radius: 0.5 * d },
+                "spherocylinder" => ContactShape::Spherocylinder {
+                    radius: 0.5 * d,
+                    length: need(sp.length, "length")?,
+                },
+                "ellipsoid" => ContactShape::Ellipsoid {
+                    semi_axes: sp
+                        .semi_axes
+                        .ok_or_else(|| at("`semi_axes` is required".into()))?,
+                },
+                "superball" => {
+                    let a = sp.half_width.unwrap_or(0.5);
+                    let g = need(sp.exponent, "exponent")?;
+                    ContactShape::Superquadric {
+                        semi_axes: [a; 3],
+                        exponents: [g; 3],
+                    }
+                }
+                _ => ContactShape::Superquadric {
+                    semi_axes: sp
+                        .semi_axes
+                        .ok_or_else(|| at("`semi_axes` is required".into()))?,
+                    exponents: sp
+                        .exponents
+                        .ok_or_else(|| at("`exponents` is required".into()))?,
+                },
+            })
+        };
+        match &sp.polydisperse {
+            None => {
+                let shape = make(d)?;
+                shape.validate().map_err(|e| at(e.to_string()))?;
+                species.extend(std::iter::repeat_n(shapes.len(), sp.n));
+                shapes.push(shape);
+            }
+            Some(pd) => {
+                for dk in polydisperse_diameters(pd, d, sp.n).map_err(&at)? {
+                    let shape = make(dk)?;
+                    shape.validate().map_err(|e| at(e.to_string()))?;
+                    species.push(shapes.len());
+                    shapes.push(shape);
+                }
+            }
+        }
+    }
+    let n = species.len();
+    Ok((n, 0.0, Some(Particles { shapes, species })))
+}
+
+/// Per-particle diameters of a polydisperse species (ChaCha8 seeded with `seed`): uniform in
+/// [min, max], or lognormal with median `median` and log-standard deviation sigma (0, 0.5],
+/// redrawn outside median exp(+-3 sigma) so no particle outgrows the box.
+fn polydisperse_diameters(
+    pd: &PolySpec,
+    median: f64,
+    n: usize,
+) -> std::result::Result<Vec<f64>, String> {
+    use rand::{Rng, SeedableRng};
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(pd.seed);
+    match (pd.distribution.as_str(), pd.min, pd.max, pd.sigma) {
+        ("uniform", Some(lo), Some(hi), None) => {
+            if !(lo.is_finite() && hi.is_finite() && lo > 0.0 && lo <= hi) {
+                return Err(format!(
+                    "polydisperse min = {lo}, max = {hi}: need 0 < min <= max, finite"
+                ));
+            }
+            Ok((0..n).map(|_| lo + (hi - lo) * rng.gen::<f64>()).collect())
+        }
+        ("lognormal", None, None, Some(sigma)) => {
+            if !(sigma > 0.0 && sigma <= 0.5) {
+                return Err(format!("polydisperse sigma = {sigma}: must be in (0, 0.5]"));
+            }
+            let mut out = Vec::with_capacity(n);
+            while out.len() < n {
+                // Box-Muller: z standard normal.
+                let (u1, u2): (f64, f64) = (rng.gen(), rng.gen());
+                let z = (-2.0 * (1.0 - u1).ln()).sqrt() * (std::f64::consts::TAU * u2).cos();
+                if z.abs() <= 3.0 {
+                    out.push(median * (sigma * z).exp());
+                }
+            }
+            Ok(out)
+        }
+        (d @ ("uniform" | "lognormal"), ..) => Err(format!(
+            "polydisperse distribution = \"{d}\": uniform needs `min` and `max` (no `sigma`), \
+             lognormal needs `sigma` (no `min`/`max`; the median is `diameter`)"
+        )),
+        (other, ..) => Err(format!(
+            "polydisperse distribution = \"{other}\": must be \"uniform\" or \"lognormal\""
+        )),
+    }
 }
 
 /// `porelab run` entry point for `kind = "packing"`.
@@ -443,23 +639,14 @@ fn run_scene_limited(
         }
         c
     } else {
-        let start = packing::random_start_in(prm.container, prm.n, prm.length, prm.phi0, prm.seed)?;
+        let start = packing::random_start_of(prm.container, prm.particles(), prm.phi0, prm.seed)?;
         (McmState::new(start, prm)?, 0.0)
     };
     if !opts.quiet {
         eprintln!(
-            "packing: {} {}{}, {:?} scheme (eq. {}), {}, seed {}; stages: {}",
+            "packing: {} particles ({}), {:?} scheme (eq. {}), {}, seed {}; stages: {}",
             prm.n,
-            if prm.length == 0.0 {
-                "spheres"
-            } else {
-                "spherocylinders"
-            },
-            if prm.length == 0.0 {
-                String::new()
-            } else {
-                format!(" L/D = {}", prm.length)
-            },
+            describe_particles(&prm.particles()),
             prm.scheme,
             match prm.scheme {
                 Scheme::Original => "2.4-2.10",
@@ -521,6 +708,71 @@ fn run_scene_limited(
         eprintln!("outputs in {}", out.display());
     }
     Ok(())
+}
+
+/// One line per species kind: "1000 sphere d = 1", "750 superquadric a = [..] g = [..]"; a
+/// polydisperse species (one particle per table entry) is summarised by its diameter range.
+fn describe_particles(p: &Particles) -> String {
+    let counts = p.counts();
+    if p.shapes.len() > 8 {
+        let d: Vec<f64> = p
+            .shapes
+            .iter()
+            .filter_map(analysis::rod_parameters)
+            .map(|(r, _)| 2.0 * r)
+            .collect();
+        let (lo, hi) = d
+            .iter()
+            .fold((f64::INFINITY, 0.0f64), |(a, b), &x| (a.min(x), b.max(x)));
+        return format!(
+            "{} species, polydisperse, diameters {lo:.4}..{hi:.4}",
+            p.shapes.len()
+        );
+    }
+    p.shapes
+        .iter()
+        .zip(counts)
+        .map(|(s, c)| match *s {
+            ContactShape::Sphere { radius } => format!("{c} sphere d = {}", 2.0 * radius),
+            ContactShape::Spherocylinder { radius, length } => {
+                format!("{c} spherocylinder d = {} L = {length}", 2.0 * radius)
+            }
+            ContactShape::Ellipsoid { semi_axes } => format!("{c} ellipsoid a = {semi_axes:?}"),
+            ContactShape::Superquadric {
+                semi_axes,
+                exponents,
+            } => format!("{c} superquadric a = {semi_axes:?} g = {exponents:?}"),
+        })
+        .collect::<Vec<_>>()
+        .join(", ")
+}
+
+/// The XYZ columns of one particle shape: type name, OVITO Aspherical Shape, radius (bounding
+/// radius for non-rods), cylinder length and Superquadric Roundness (README lists them).
+fn xyz_columns(s: &ContactShape) -> (&'static str, [f64; 3], f64, f64, [f64; 2]) {
+    match *s {
+        ContactShape::Sphere { radius } => ("S", [radius; 3], radius, 0.0, [1.0, 1.0]),
+        ContactShape::Spherocylinder { radius, length } => {
+            ("SC", [radius, radius, length], radius, length, [1.0, 1.0])
+        }
+        ContactShape::Ellipsoid { semi_axes } => {
+            let r = semi_axes.iter().cloned().fold(0.0, f64::max);
+            ("E", semi_axes, r, 0.0, [1.0, 1.0])
+        }
+        ContactShape::Superquadric {
+            semi_axes,
+            exponents,
+        } => {
+            let r = crate::shape::bounding_radius_of(s).unwrap_or(f64::NAN);
+            (
+                "SQ",
+                semi_axes,
+                r,
+                0.0,
+                [2.0 / exponents[0], 2.0 / exponents[2]],
+            )
+        }
+    }
 }
 
 /// Observables of a final configuration (thesis sec. 2.2.5, 3.3, eq. 2.11, 4.17).
@@ -597,7 +849,9 @@ struct Summary<'a> {
     title: &'a str,
     shape: &'static str,
     n: usize,
-    length_over_diameter: f64,
+    /// Equal spheres / spherocylinders of diameter 1 only.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    length_over_diameter: Option<f64>,
     seed: u64,
     scheme: String,
     box_length: f64,
@@ -625,16 +879,19 @@ fn write_outputs(
         scene.rattler_min_contacts,
         scene.s4_trials,
     )?;
-    let sphere = p.is_sphere();
-    let r = packing::RADIUS;
     let parts: Vec<xyz::XyzParticle> = (0..p.n())
-        .map(|i| xyz::XyzParticle {
-            species: if sphere { "S" } else { "SC" }.to_string(),
-            position: p.positions[i],
-            orientation: p.orientations[i],
-            aspherical_shape: if sphere { [r; 3] } else { [r, r, p.length] },
-            radius: r,
-            cylinder_length: p.length,
+        .map(|i| {
+            let (name, shape, radius, cylinder_length, roundness) =
+                xyz_columns(p.particles.shape(i));
+            xyz::XyzParticle {
+                species: name.to_string(),
+                position: p.positions[i],
+                orientation: p.orientations[i],
+                aspherical_shape: shape,
+                radius,
+                cylinder_length,
+                roundness,
+            }
         })
         .collect();
     let cell = match p.container {
@@ -693,9 +950,12 @@ fn write_outputs(
     let s = Summary {
         scene: origin,
         title: &scene.title,
-        shape: if sphere { "sphere" } else { "spherocylinder" },
+        shape: match p.particles.shapes.as_slice() {
+            [one] => one.name(),
+            _ => "mixture",
+        },
         n: p.n(),
-        length_over_diameter: p.length,
+        length_over_diameter: p.monodisperse_length(),
         seed: prm.seed,
         scheme: format!("{:?}", prm.scheme).to_lowercase(),
         box_length: p.box_length,
@@ -719,7 +979,6 @@ struct Checkpoint {
     scene: String,
     seconds: f64,
     box_length: u64,
-    length: u64,
     positions: Vec<[u64; 3]>,
     /// Quaternion (w, i, j, k) bits.
     orientations: Vec<[u64; 4]>,
@@ -736,11 +995,10 @@ struct Checkpoint {
 fn write_checkpoint(path: &Path, scene: &PackingScene, s: &McmState, seconds: f64) -> Result<()> {
     let p = &s.packing;
     let c = Checkpoint {
-        format: 1,
+        format: 2,
         scene: scene.fingerprint.clone(),
         seconds,
         box_length: p.box_length.to_bits(),
-        length: p.length.to_bits(),
         positions: p
             .positions
             .iter()
@@ -785,9 +1043,9 @@ fn read_checkpoint(path: &Path, scene: &PackingScene) -> Result<(McmState, f64)>
     let text = std::fs::read(path)?;
     let c: Checkpoint = serde_json::from_slice(&text)
         .map_err(|e| file_err(format!("not a packing checkpoint: {e}")))?;
-    if c.format != 1 {
+    if c.format != 2 {
         return Err(file_err(format!(
-            "checkpoint format {}: this porelab reads format 1",
+            "checkpoint format {}: this porelab reads format 2",
             c.format
         )));
     }
@@ -810,7 +1068,7 @@ fn read_checkpoint(path: &Path, scene: &PackingScene) -> Result<(McmState, f64)>
     let packing = Packing {
         container: scene.params.container,
         box_length: f(c.box_length),
-        length: f(c.length),
+        particles: scene.params.particles(),
         positions: c
             .positions
             .iter()
@@ -920,19 +1178,20 @@ s4_trials = 50
         let l = cell.lengths[0];
         let pos: Vec<_> = parts.iter().map(|p| p.position).collect();
         let ori: Vec<_> = parts.iter().map(|p| p.orientation).collect();
+        let mono = Particles::monodisperse(pos.len(), 0.5);
         let v = analysis::Rods {
             box_length: l,
             wall_diameter: None,
             wedge: None,
-            radius: 0.5,
-            length: 0.5,
+            shapes: &mono.shapes,
+            species: &mono.species,
             positions: &pos,
             orientations: &ori,
         };
         analysis::check_no_overlap(&v, 1e-4 * (1.0 + 1e-6)).unwrap();
         assert_eq!(
             sa["packing_fraction"].as_f64().unwrap(),
-            analysis::packing_fraction(&v)
+            analysis::packing_fraction(&v).unwrap()
         );
         // The history has one row per accepted step, increasing packing fraction.
         let hist = std::fs::read_to_string(a.join("phi_history.csv")).unwrap();
@@ -995,6 +1254,67 @@ s4_trials = 50
         );
         let e = parse_scene(&format!("{SMALL}\n[box]\nx = 1\n"), "t").unwrap_err();
         assert!(e.to_string().contains("box"), "{e}");
+    }
+
+    const MIXTURE: &str = r#"
+kind = "packing"
+[[particles.species]]
+shape = "sphere"
+n = 30
+diameter = 1.4
+[[particles.species]]
+shape = "sphere"
+n = 50
+[particles.species.polydisperse]
+distribution = "uniform"
+min = 0.8
+max = 1.2
+seed = 3
+[mcm]
+seed = 2
+"#;
+
+    /// Species tables: a monodisperse block and a polydisperse one (one table entry per
+    /// particle, diameters inside [min, max]); misspelt or misplaced keys are named.
+    #[test]
+    fn species_tables_parse_and_bad_keys_are_named() {
+        let sc = parse_scene(MIXTURE, "t").unwrap();
+        let p = sc.params.particles();
+        assert_eq!((sc.params.n, p.n(), p.shapes.len()), (80, 80, 51));
+        assert_eq!(p.counts()[0], 30);
+        for s in &p.shapes[1..] {
+            let (r, _) = analysis::rod_parameters(s).unwrap();
+            assert!((0.4..=0.6).contains(&r), "{r}");
+        }
+        assert_eq!(sc.rattler_min_contacts, 4);
+        let bad = |from: &str, to: &str, want: &str| {
+            let e = parse_scene(&MIXTURE.replacen(from, to, 1), "t").unwrap_err();
+            assert!(e.to_string().contains(want), "{e}");
+        };
+        bad("diameter = 1.4", "diametre = 1.4", "diametre");
+        bad("diameter = 1.4", "exponent = 3.0", "exponent");
+        bad(r#""uniform""#, r#""gaussian""#, "gaussian");
+        bad("min = 0.8", "sigma = 0.2", "uniform needs");
+        bad(
+            "[[particles.species]]",
+            "[particles]\nn = 5\n[[particles.species]]",
+            "particles.n",
+        );
+        bad(r#"shape = "sphere""#, r#"shape = "cube""#, "cube");
+        let sb = parse_scene(
+            r#"
+kind = "packing"
+[[particles.species]]
+shape = "superball"
+n = 50
+exponent = 3.0
+[mcm]
+scheme = "original"
+"#,
+            "t",
+        )
+        .unwrap_err();
+        assert!(sb.to_string().contains("revised"), "{sb}");
     }
 
     #[test]

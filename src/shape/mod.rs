@@ -127,3 +127,36 @@ where
         m = need.max(2 * m).min(MAX_CANDIDATES);
     }
 }
+
+/// Volume of a shape given by the contact module's plain parameters (the packing species
+/// descriptor). Sphere and spherocylinder: pi R^2 (4R/3 + L) (thesis eq. 2.2, L = 0 for the
+/// sphere, the expression the MCM has always used, so monodisperse packings keep their exact
+/// packing fractions); ellipsoid and superquadric from their shape modules (eq. 4.26-4.28).
+pub fn volume_of(s: &crate::contact::ContactShape) -> Result<f64> {
+    use crate::contact::ContactShape as C;
+    let rod = |r: f64, l: f64| std::f64::consts::PI * r * r * (4.0 / 3.0 * r + l);
+    Ok(match *s {
+        C::Sphere { radius } => rod(radius, 0.0),
+        C::Spherocylinder { radius, length } => rod(radius, length),
+        C::Ellipsoid { semi_axes } => Ellipsoid::new(semi_axes)?.volume(),
+        C::Superquadric {
+            semi_axes,
+            exponents,
+        } => Superquadric::new(semi_axes, exponents)?.volume(),
+    })
+}
+
+/// Bounding radius (smallest centred sphere containing the shape) of a contact-module shape:
+/// L/2 + R for a spherocylinder, eq. 4.38 (or its dual maximisation) for a superquadric.
+pub fn bounding_radius_of(s: &crate::contact::ContactShape) -> Result<f64> {
+    use crate::contact::ContactShape as C;
+    Ok(match *s {
+        C::Sphere { radius } => radius,
+        C::Spherocylinder { radius, length } => 0.5 * length + radius,
+        C::Ellipsoid { semi_axes } => Ellipsoid::new(semi_axes)?.bounding_radius(),
+        C::Superquadric {
+            semi_axes,
+            exponents,
+        } => Superquadric::new(semi_axes, exponents)?.bounding_radius(),
+    })
+}
