@@ -570,8 +570,8 @@ pub fn radial_distribution(c: &Rods, r_max: f64, bins: usize) -> Result<Vec<(f64
 /// Fraction of wall-aligned particles (thesis sec. 2.2.5, Fig. 2.6, 2.14): among the particles
 /// whose centre lies within `layer` of a wall (the thesis takes `layer` = D), the fraction
 /// whose axis is tangential to that wall within `max_angle` radians, i.e. |u . n| <=
-/// sin(max_angle) with n the wall normal (thesis: 4 degrees). Cylinder: radial position
-/// > R_cyl - `layer`, n the radial unit vector. Wedge: within `layer` of the back, bottom or
+/// sin(max_angle) with n the wall normal (thesis: 4 degrees). Cylinder: radial position above
+/// R_cyl - `layer`, n the radial unit vector. Wedge: within `layer` of the back, bottom or
 /// slope plane; a particle near two planes (a corner) counts as aligned when it is tangential
 /// to either. Returns (fraction, particles in the layer); the fraction is 0 for an empty
 /// layer. Errors without a wall.
