@@ -672,7 +672,26 @@ fn remove_overlaps_with(
     let n = p.n();
     let cutoff = max_pair_cutoff(props);
     let skin = (0.5 * p.box_length - cutoff).min(0.3);
-    let mut nb = Neighbours::new(p, cutoff, skin)?;
+    let spc = p.particles.species.clone();
+    let half: Vec<f64> = spc.iter().map(|&k| props[k].h).collect();
+    // Lower bound of the surface gap for the lists: rods by their axis segments, everything
+    // else by centre distance minus the pair cutoff (bounding spheres).
+    let list_gap = |p: &Packing, i: usize, j: usize, d: &Vector3<f64>| -> f64 {
+        let (a, b) = (&props[spc[i]], &props[spc[j]]);
+        if a.sq.is_none() && b.sq.is_none() && (a.h > 0.0 || b.h > 0.0) {
+            let (ai, aj) = (p.axis(i), p.axis(j));
+            let (_, _, pa, pb) = closest_points_segments(
+                &(-a.h * ai),
+                &(a.h * ai),
+                &(d - b.h * aj),
+                &(d + b.h * aj),
+            );
+            (pb - pa).norm() - (a.r + b.r)
+        } else {
+            d.norm() - (pair_cutoff(a, b) - 1e-6)
+        }
+    };
+    let mut nb = Neighbours::new(p, cutoff, skin, half, &list_gap)?;
     let mut dirty = DirtySet::full(n);
     let mut ov = Vec::new();
     let mut tries = 0u64;
@@ -700,7 +719,7 @@ fn remove_overlaps_with(
             if let Some(q) = q {
                 p.orientations[i] = UnitQuaternion::new_normalize(*q.quaternion());
             }
-            nb.moved(p, i);
+            nb.moved(p, i, &list_gap);
             dirty.insert(i);
             for &j in &nb.lists[i] {
                 dirty.insert(j);

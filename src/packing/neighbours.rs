@@ -11,9 +11,16 @@
 //! Why skin/4: a pair (i, j) is last decided at the later of the two particles' rebuilds,
 //! t* (both lists are updated then), with both positions current. After t* each particle stays
 //! within skin/4 of its reference, and its position at t* was too, so each has moved less than
-//! skin/2 since t*; a pair not listed at t* was at least cutoff + skin apart then and is still
-//! farther than the cutoff now. The lists are by centre distance (the pair cutoff L + D bounds
-//! any contact of two rods), so rotations do not count.
+//! skin/2 since t*; a pair not listed at t* was apart by more than the skin then and still does
+//! not touch now.
+//!
+//! Which pairs are listed is decided by a caller-given lower bound on the surface gap of a pair
+//! (`ListGap`): for rods the distance of the axis segments minus both radii, otherwise the
+//! centre distance minus both bounding radii. A point of a rod's axis moves by at most
+//! |dx| + (L/2) |da| (centre shift plus end-point swing), which is the displacement compared
+//! with skin/4 (for spheres and bounding spheres, |dx|). For long rods this lists only the
+//! rods that can meet (about rho (pi/2) L^2 D of them, 13 at L/D = 25 and phi = 0.2) instead of
+//! every centre within L + D (about 770 there).
 
 use super::{Container, Packing};
 use crate::error::invalid;
@@ -131,23 +138,38 @@ impl Grid {
     }
 }
 
+/// A lower bound on the surface gap of particles i and j at centre separation `d` = x_j - x_i
+/// (the list criterion; see the module docs).
+pub(super) type ListGap<'a> = dyn Fn(&Packing, usize, usize, &Vector3<f64>) -> f64 + 'a;
+
 /// Per-particle Verlet lists with per-particle references (see the module docs).
 #[derive(Debug, Clone)]
 pub(super) struct Neighbours {
-    /// Neighbour list of each particle: every j within `list_cutoff` at the later of the two
-    /// particles' last rebuilds.
+    /// Neighbour list of each particle: every j whose gap bound was below the skin at the later
+    /// of the two particles' last rebuilds.
     pub lists: Vec<Vec<usize>>,
+    /// Centre-distance cutoff of the grid search (largest pair cutoff plus skin).
     list_cutoff: f64,
     skin: f64,
     grid: Grid,
     ref_x: Vec<Vector3<f64>>,
+    ref_a: Vec<Vector3<f64>>,
+    /// Half axis length L/2 of each particle (0 for spheres and bounding spheres).
+    half: Vec<f64>,
     /// Rebuilds of single lists since construction (for tests and profiling).
     pub rebuilds: u64,
 }
 
 impl Neighbours {
-    /// Lists for the pair cutoff `cutoff` plus `skin` (both positive).
-    pub fn new(p: &Packing, cutoff: f64, skin: f64) -> Result<Neighbours> {
+    /// Lists for the largest centre-distance pair cutoff `cutoff`, the skin `skin` (both
+    /// positive), the half axis lengths `half` and the gap bound `gap`.
+    pub fn new(
+        p: &Packing,
+        cutoff: f64,
+        skin: f64,
+        half: Vec<f64>,
+        gap: &ListGap,
+    ) -> Result<Neighbours> {
         if !(skin > 0.0 && cutoff > 0.0 && (cutoff + skin) <= 0.5 * p.box_length) {
             return invalid(format!(
                 "neighbour lists: cutoff {cutoff} + skin {skin} must be positive and at most \
@@ -163,19 +185,15 @@ impl Neighbours {
             skin,
             grid,
             ref_x: p.positions.clone(),
+            ref_a: p.axes(),
+            half,
             rebuilds: 0,
         };
-        let c2 = list_cutoff * list_cutoff;
         for i in 0..p.n() {
             let xi = p.positions[i];
             let mut found = Vec::new();
             nb.grid.for_each_near(&xi, |j| {
-                if j > i
-                    && p.container
-                        .separation(&xi, &p.positions[j], p.box_length)
-                        .norm_squared()
-                        < c2
-                {
+                if j > i && nb.listed(p, i, j, gap) {
                     found.push(j);
                 }
             });
@@ -190,16 +208,33 @@ impl Neighbours {
         Ok(nb)
     }
 
+    /// True when the pair (i, j) belongs in the lists now: centres within the grid cutoff and
+    /// the gap bound below the skin (plus the 1e-6 margin of the pair cutoffs).
+    fn listed(&self, p: &Packing, i: usize, j: usize, gap: &ListGap) -> bool {
+        let d = p
+            .container
+            .separation(&p.positions[i], &p.positions[j], p.box_length);
+        d.norm_squared() < self.list_cutoff * self.list_cutoff
+            && gap(p, i, j, &d) < self.skin + 1e-6
+    }
+
     /// To be called after particle i moved: follows it in the grid and, when it has drifted
     /// more than skin/4 from its reference, rebuilds its list.
-    pub fn moved(&mut self, p: &Packing, i: usize) {
+    pub fn moved(&mut self, p: &Packing, i: usize, gap: &ListGap) {
         let xi = p.positions[i];
         self.grid.update(i, &xi);
-        let disp2 = p
+        let mut disp = p
             .container
             .separation(&self.ref_x[i], &xi, p.box_length)
-            .norm_squared();
-        if disp2 <= (0.25 * self.skin).powi(2) {
+            .norm();
+        let ai = if self.half[i] > 0.0 {
+            let ai = p.axis(i);
+            disp += self.half[i] * (ai - self.ref_a[i]).norm();
+            ai
+        } else {
+            self.ref_a[i]
+        };
+        if disp <= 0.25 * self.skin {
             return;
         }
         self.rebuilds += 1;
@@ -210,16 +245,10 @@ impl Neighbours {
                 v.remove(at);
             }
         }
-        let c2 = self.list_cutoff * self.list_cutoff;
         let mut fresh = old;
         fresh.clear();
         self.grid.for_each_near(&xi, |j| {
-            if j != i
-                && p.container
-                    .separation(&xi, &p.positions[j], p.box_length)
-                    .norm_squared()
-                    < c2
-            {
+            if j != i && self.listed(p, i, j, gap) {
                 fresh.push(j);
             }
         });
@@ -232,23 +261,27 @@ impl Neighbours {
         }
         self.lists[i] = fresh;
         self.ref_x[i] = xi;
+        self.ref_a[i] = ai;
     }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::contact::closest_points_segments;
     use crate::packing::random_start_in;
     use rand::{Rng, SeedableRng};
     use rand_chacha::ChaCha8Rng;
 
-    /// After many random moves, every pair closer than the cutoff is listed both ways (brute
-    /// force over all pairs), in the box and in the cylinder, for spheres and rods.
+    /// After many random moves (shifts and rotations), every pair whose rods touch or overlap
+    /// is listed both ways (brute force over all pairs), in the box, the cylinder and the
+    /// wedge, for spheres and rods.
     #[test]
     fn lists_stay_complete_under_random_moves() {
         for (container, length) in [
             (Container::Periodic, 0.0),
             (Container::Periodic, 1.5),
+            (Container::Periodic, 6.0),
             (Container::Cylinder { diameter: 6.0 }, 0.0),
             (Container::Cylinder { diameter: 5.0 }, 1.0),
             (
@@ -259,9 +292,18 @@ mod tests {
                 0.0,
             ),
         ] {
-            let mut p = random_start_in(container, 300, length, 0.1, 3).unwrap();
+            let n = if length > 3.0 { 400 } else { 300 };
+            let mut p = random_start_in(container, n, length, 0.1, 3).unwrap();
             let cutoff = length + 1.0;
-            let mut nb = Neighbours::new(&p, cutoff, 0.3).unwrap();
+            let h = 0.5 * length;
+            // Surface gap of two rods of radius 1/2: segment distance minus 1.
+            let gap = |p: &Packing, i: usize, j: usize, d: &Vector3<f64>| {
+                let (ai, aj) = (p.axis(i), p.axis(j));
+                let (_, _, a, b) =
+                    closest_points_segments(&(-h * ai), &(h * ai), &(d - h * aj), &(d + h * aj));
+                (b - a).norm() - 1.0
+            };
+            let mut nb = Neighbours::new(&p, cutoff, 0.3, vec![h; p.n()], &gap).unwrap();
             let mut rng = ChaCha8Rng::seed_from_u64(9);
             for _ in 0..20_000 {
                 let i = rng.gen_range(0..p.n());
@@ -281,10 +323,9 @@ mod tests {
                     let rot = nalgebra::UnitQuaternion::from_scaled_axis(0.05 * step);
                     p.orientations[i] = rot * p.orientations[i];
                 }
-                nb.moved(&p, i);
+                nb.moved(&p, i, &gap);
             }
             assert!(nb.rebuilds > 100, "rebuilds {}", nb.rebuilds);
-            let c2 = cutoff * cutoff;
             for i in 0..p.n() {
                 for j in 0..p.n() {
                     if i == j {
@@ -293,7 +334,7 @@ mod tests {
                     let d = p
                         .container
                         .separation(&p.positions[i], &p.positions[j], p.box_length);
-                    if d.norm_squared() < c2 {
+                    if gap(&p, i, j, &d) <= 0.0 {
                         assert!(
                             nb.lists[i].binary_search(&j).is_ok(),
                             "{container:?} L={length}: pair ({i}, {j}) at {} missing",
