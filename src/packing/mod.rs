@@ -549,6 +549,20 @@ fn sq_overlap(
     let (Some(sa), Some(sb)) = (sa, sb) else {
         return invalid("superquadric pair without superquadric shapes (internal)");
     };
+    // Separating-axis prefilter along the line of centres u (support points in closed form):
+    // the extents h_a(u) + h_b(-u) fall short of |d| by the projected gap. The overlap depth
+    // (the shortest separating translation) is at most the projected overlap along any
+    // axis, so a projected gap above -tol means the pair overlaps by less than tol: no
+    // solver call (most neighbour pairs in a packing).
+    let dist = d.norm();
+    if dist > 0.0 {
+        let u = d / dist;
+        let ha = u.dot(&(qi * sa.support(&(qi.inverse() * u))));
+        let hb = -u.dot(&(qj * sb.support(&(qj.inverse() * -u))));
+        if dist - (ha + hb) > -tol {
+            return Ok(None);
+        }
+    }
     let ba = SqBody::new(sa, Pose::new(Vector3::zeros(), *qi));
     let bb = SqBody::new(sb, Pose::new(*d, *qj));
     let c = contact_superquadric_superquadric(&ba, &bb, &NrOptions::default()).map_err(|e| {

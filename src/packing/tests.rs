@@ -277,3 +277,33 @@ fn bad_particle_tables_are_errors() {
     p.scheme = Scheme::Original;
     assert!(p.validate().unwrap_err().to_string().contains("revised"));
 }
+
+/// Smoke test (fast tier): a small superball packing (thesis ch. 4, revised scheme) ends
+/// overlap-free under the solver-free sampled check, compressed far beyond its start.
+#[test]
+fn small_superball_packing_is_overlap_free_by_the_sampled_check() {
+    use crate::contact::ContactShape as C;
+    let sb = C::Superquadric {
+        semi_axes: [0.5; 3],
+        exponents: [3.0; 3],
+    };
+    let mut prm = quick(24, 0.0, 4, Scheme::Revised, 0.05, 1, 50.0);
+    prm.dt = 0.5;
+    prm.particles = Some(Particles::mixture(&[(sb, 24)]));
+    let t = std::time::Instant::now();
+    let r = run(&prm).unwrap();
+    let p = &r.packing;
+    let s = analysis::sampled_overlap(&p.view(), analysis::OVERLAP_SAMPLES).unwrap();
+    let deepest = s.worst.map_or(0.0, |w| w.2);
+    assert!(deepest <= prm.overlap_tol, "{:?}", s.worst);
+    analysis::check_no_overlap(&p.view(), prm.overlap_tol).unwrap();
+    let phi = p.packing_fraction();
+    eprintln!(
+        "24 superballs g = 3: phi = {phi:.4}, deepest sampled {deepest:.2e}, spacing {:.4}, \
+         {} tries, {:.1} s",
+        s.spacing,
+        r.total_tries,
+        t.elapsed().as_secs_f64()
+    );
+    assert!(phi > 0.4, "phi = {phi}");
+}

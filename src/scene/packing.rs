@@ -800,6 +800,13 @@ pub struct Measures {
     pub wall_aligned_fraction: Option<f64>,
     #[serde(skip_serializing_if = "Option::is_none")]
     pub wall_layer_particles: Option<usize>,
+    /// Ellipsoids / superquadrics only: deepest penetration proven by the solver-free sampled
+    /// check ([`analysis::sampled_overlap`], 0 when no sample lies inside another particle)
+    /// and the sample spacing, its resolution.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub sampled_deepest_overlap: Option<f64>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub sample_spacing: Option<f64>,
 }
 
 /// Measures a configuration with [`crate::analysis`].
@@ -827,7 +834,14 @@ pub fn measure(
             analysis::wall_aligned_fraction(&v, 2.0 * packing::RADIUS, 4f64.to_radians())?,
         ),
     };
+    let sampled = if p.particles.has_superquadrics() {
+        Some(analysis::sampled_overlap(&v, analysis::OVERLAP_SAMPLES)?)
+    } else {
+        None
+    };
     Ok(Measures {
+        sampled_deepest_overlap: sampled.map(|s| s.worst.map_or(0.0, |w| w.2)),
+        sample_spacing: sampled.map(|s| s.spacing),
         packing_fraction: p.packing_fraction(),
         deepest_overlap: deepest,
         contact_cutoffs: cutoffs.to_vec(),
