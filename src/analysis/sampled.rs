@@ -106,7 +106,7 @@ fn max_nearest_distance(pts: &[Vector3<f64>], cell: f64) -> f64 {
 /// surface points per particle (module docs).
 pub fn sampled_overlap(c: &Rods, samples: usize) -> Result<SampledOverlap> {
     c.check()?;
-    if c.wall_diameter.is_some() {
+    if c.wall_diameter.is_some() || c.wedge.is_some() {
         return invalid("sampled overlap check: periodic box only");
     }
     if samples < 100 {
@@ -233,6 +233,7 @@ mod tests {
             let r = Rods {
                 box_length: 8.0,
                 wall_diameter: None,
+                wedge: None,
                 shapes: &shapes,
                 species: &species,
                 positions: &pos,
