@@ -152,6 +152,47 @@ fn perpendicular_pair(a: &Vector3<f64>) -> (Vector3<f64>, Vector3<f64>) {
     (e1, a.cross(&e1))
 }
 
+/// Positions for particles of radius `a` in the given `regions` (in that order) around `body`,
+/// uniform in each region's volume, no two closer than 2a (rejection, at most 10^4 tries per
+/// particle, then an error).
+fn place_in_regions(
+    body: &CylinderBody,
+    shape: &RegionShape,
+    a: f64,
+    regions: Vec<Region>,
+    rng: &mut ChaCha8Rng,
+) -> Result<(Vec<Vector3<f64>>, Vec<Region>)> {
+    if shape.gap_m <= a {
+        return invalid(format!(
+            "region gap {} m must exceed the particle radius {a} m (no particle may start in \
+             contact with the cylinder)",
+            shape.gap_m
+        ));
+    }
+    let mut pos: Vec<Vector3<f64>> = Vec::with_capacity(regions.len());
+    for &region in &regions {
+        let mut tries = 0;
+        let p = loop {
+            let p = shape.sample(body, region, rng);
+            if pos.iter().all(|q| (p - q).norm() >= 2.0 * a) {
+                break p;
+            }
+            tries += 1;
+            if tries == 10_000 {
+                let count = regions.iter().filter(|&&r| r == region).count();
+                return invalid(format!(
+                    "could not place particle {} in region {} without overlap in 10^4 tries: \
+                     the region is too small for {count} particles of radius {a:e} m",
+                    pos.len(),
+                    region.name(),
+                ));
+            }
+        };
+        pos.push(p);
+    }
+    Ok((pos, regions))
+}
+
 /// How the cylinder is magnetized by the applied field.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum MagnetizationLaw {
@@ -215,6 +256,12 @@ pub enum Placement {
         n_side: usize,
         shape: RegionShape,
     },
+    /// `n` particles uniform in the union of TOP and SIDE: each particle is in TOP with
+    /// probability V_TOP / (V_TOP + V_SIDE), then uniform in its region. This is the population
+    /// whose captured fraction the thesis' volume-weighted TOP-and-SIDE averages estimate
+    /// (Fig. 6.6, 6.8b, 6.9), and a reading of the cascade's "randomly placed around a
+    /// cylinder" (section 6.4.5).
+    Uniform { n: usize, shape: RegionShape },
     /// `n` particles on a simple cubic lattice of spacing `spacing_m`, the block's face
     /// `distance_m` above the +axis cap and its centre over the rim (section 6.4.6; spacing
     /// d = (rho V_p / c)^(1/3) gives the mass concentration c).
@@ -337,40 +384,27 @@ impl CaptureExperiment {
                 n_side,
                 shape,
             } => {
-                if shape.gap_m <= a {
-                    return invalid(format!(
-                        "region gap {} m must exceed the particle radius {a} m (no particle may \
-                         start in contact with the cylinder)",
-                        shape.gap_m
-                    ));
-                }
-                let mut pos: Vec<Vector3<f64>> = Vec::with_capacity(n_top + n_side);
-                let mut reg = Vec::with_capacity(n_top + n_side);
-                for (region, count) in [(Region::Top, n_top), (Region::Side, n_side)] {
-                    for _ in 0..count {
-                        let mut tries = 0;
-                        let p = loop {
-                            let p = shape.sample(body, region, rng);
-                            if pos.iter().all(|q| (p - q).norm() >= 2.0 * a) {
-                                break p;
-                            }
-                            tries += 1;
-                            if tries == 10_000 {
-                                return invalid(format!(
-                                    "could not place particle {} in region {} without overlap \
-                                     in 10^4 tries: the region is too small for {} particles of \
-                                     radius {a:e} m",
-                                    pos.len(),
-                                    region.name(),
-                                    count
-                                ));
-                            }
-                        };
-                        pos.push(p);
-                        reg.push(region);
-                    }
-                }
-                Ok((pos, reg))
+                let regions: Vec<Region> = std::iter::repeat_n(Region::Top, n_top)
+                    .chain(std::iter::repeat_n(Region::Side, n_side))
+                    .collect();
+                place_in_regions(body, &shape, a, regions, rng)
+            }
+            Placement::Uniform { n, shape } => {
+                let (vt, vs) = (
+                    shape.volume(body, Region::Top),
+                    shape.volume(body, Region::Side),
+                );
+                let p_top = vt / (vt + vs);
+                let regions: Vec<Region> = (0..n)
+                    .map(|_| {
+                        if rng.gen::<f64>() < p_top {
+                            Region::Top
+                        } else {
+                            Region::Side
+                        }
+                    })
+                    .collect();
+                place_in_regions(body, &shape, a, regions, rng)
             }
             Placement::Block {
                 n,
@@ -518,7 +552,7 @@ impl CaptureExperiment {
         let magnet = self.magnet(axis_at_angle(self.alpha))?;
         let body = CylinderBody::from_magnet(&magnet)?;
         Ok(match self.placement {
-            Placement::TopSide { shape, .. } => {
+            Placement::TopSide { shape, .. } | Placement::Uniform { shape, .. } => {
                 regions.iter().map(|r| shape.volume(&body, *r)).collect()
             }
             Placement::Block { n, spacing_m, .. } => {
@@ -645,8 +679,8 @@ pub enum CascadeMode {
 
 /// One cascade run: `stages` stages of `stage_time_s` each; after each stage the free
 /// particles are placed afresh around a new cylinder (TOP and SIDE in the experiment's
-/// proportions). Returns (time (s), cumulative captured fraction) at every sample, starting at
-/// (0, 0). Uses the experiment's physics; its `alpha` and `t_max_s` are not used.
+/// proportions, or uniform over both with [`Placement::Uniform`]). Returns (time (s),
+/// cumulative captured fraction) at every sample, starting at (0, 0). Uses the experiment's physics; its `alpha` and `t_max_s` are not used.
 pub fn run_cascade(
     exp: &CaptureExperiment,
     mode: CascadeMode,
@@ -660,15 +694,35 @@ pub fn run_cascade(
     require_positive(stage_time_s, || {
         format!("cascade stage time {stage_time_s} s")
     })?;
-    let Placement::TopSide {
-        n_top,
-        n_side,
-        shape,
-    } = exp.placement
-    else {
-        return invalid("the cascade needs TOP/SIDE placement");
+    // The free particles of each stage are placed afresh with the experiment's rule: TOP and
+    // SIDE in the proportions of (n_top, n_side), or uniform over both regions.
+    let (n_total, restage): (usize, Box<dyn Fn(usize) -> Placement>) = match exp.placement {
+        Placement::TopSide {
+            n_top,
+            n_side,
+            shape,
+        } => {
+            let n_total = n_top + n_side;
+            (
+                n_total,
+                Box::new(move |free| {
+                    let top = (free * n_top + n_total / 2) / n_total;
+                    Placement::TopSide {
+                        n_top: top,
+                        n_side: free - top,
+                        shape,
+                    }
+                }),
+            )
+        }
+        Placement::Uniform { n, shape } => (
+            n,
+            Box::new(move |free| Placement::Uniform { n: free, shape }),
+        ),
+        Placement::Block { .. } => {
+            return invalid("the cascade needs TOP/SIDE or uniform placement, not a block")
+        }
     };
-    let n_total = n_top + n_side;
     if n_total == 0 {
         return invalid("the cascade needs at least one particle");
     }
@@ -688,13 +742,8 @@ pub fn run_cascade(
         };
         let magnet = exp.magnet(axis)?;
         let body = CylinderBody::from_magnet(&magnet)?;
-        let top = (free * n_top + n_total / 2) / n_total;
         let stage = CaptureExperiment {
-            placement: Placement::TopSide {
-                n_top: top,
-                n_side: free - top,
-                shape,
-            },
+            placement: restage(free),
             ..exp.clone()
         };
         let (pos, _) = stage.place(&body, &mut rng)?;
@@ -887,6 +936,63 @@ mod tests {
         assert!((got - expected).abs() < 5.0 * se, "{got} vs {expected}");
         assert!((shape.volume(&body, Region::Side) - PI * 6.0 * 10.0).abs() < 1e-12);
         assert!((shape.volume(&body, Region::Top) - PI * 4.0).abs() < 1e-12);
+    }
+
+    /// Uniform placement: the share of TOP particles is binomial with p = V_TOP / (V_TOP +
+    /// V_SIDE) (closed-form volumes), and every particle lies in the region it is labelled with.
+    #[test]
+    fn uniform_placement_shares_regions_by_volume() {
+        let body = CylinderBody::new(Vector3::zeros(), Vector3::z(), 2.0, 3.0).unwrap();
+        let shape = RegionShape::new(0.5, 1.0).unwrap();
+        // V_TOP = pi 2^2 1 = 4 pi; V_SIDE = pi (3.5^2 - 2.5^2) 6 = 36 pi: p = 0.1.
+        let p = 0.1;
+        let exp = CaptureExperiment {
+            placement: Placement::Uniform { n: 2000, shape },
+            particle_radius_m: 1e-3,
+            ..test_experiment()
+        };
+        let mut rng = run_rng(4, 0);
+        let (pos, reg) = exp.place(&body, &mut rng).unwrap();
+        let n = pos.len() as f64;
+        let top = reg.iter().filter(|&&r| r == Region::Top).count() as f64;
+        let se = (p * (1.0 - p) / n).sqrt();
+        assert!((top / n - p).abs() < 5.0 * se, "{} vs {p}", top / n);
+        for (q, r) in pos.iter().zip(&reg) {
+            let u = q.z;
+            match r {
+                Region::Top => assert!((3.5 - 1e-12..=4.5 + 1e-12).contains(&u), "{u}"),
+                _ => assert!((-3.0..=3.0).contains(&u) && q.xy().norm() >= 2.5 - 1e-12),
+            }
+        }
+    }
+
+    /// A small experiment whose fields the tests override.
+    fn test_experiment() -> CaptureExperiment {
+        CaptureExperiment {
+            params: Params::new(298.0, 1e-3, 1e-4).unwrap(),
+            particle_radius_m: 1e-7,
+            moment: LangevinMoment::fixed(1e-16).unwrap(),
+            placement: Placement::Uniform {
+                n: 1,
+                shape: RegionShape::new(1e-6, 1e-5).unwrap(),
+            },
+            cylinder: CylinderSetup {
+                diameter_m: 600e-6,
+                aspect_ratio: 20.0,
+                saturation_a_per_m: 985e3,
+                law: MagnetizationLaw::StonerWohlfarth,
+            },
+            alpha: 0.0,
+            h0: Vector3::new(1.0 / MU0, 0.0, 0.0),
+            hydrodynamics: Hydrodynamics::FreeDraining,
+            noise: NoiseMethod::TeaHi,
+            mie: None,
+            dipole_cutoff_m: None,
+            guard: StepGuard::Refuse { max_fraction: 0.1 },
+            t_max_s: 1e-3,
+            sample_every_s: 1e-3,
+            bond_factor: 1.1,
+        }
     }
 
     #[test]

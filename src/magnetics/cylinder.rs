@@ -130,4 +130,41 @@ mod tests {
         }
         assert!(worst < 1e-12, "worst relative difference {worst:e}");
     }
+
+    /// The gradient exactly on the axis beyond r = 4a (the multipole regime, where rho = 0
+    /// once gave 0/0) against the on-axis closed forms (thesis eq. 5.26-5.27, the solenoid
+    /// formula): with S'(z) = R^2 [((z+L)^2 + R^2)^(-3/2) - ((z-L)^2 + R^2)^(-3/2)],
+    /// longitudinal M: dHz/dz = M S'/2, dHx/dx = dHy/dy = -M S'/4 (div H = 0, axial symmetry);
+    /// transverse M along x: dHx/dz = dHz/dx = -M S'/4; every other entry 0.
+    #[test]
+    fn gradient_on_the_axis_in_the_far_regime() {
+        for &(r, l) in &[(1.0, 1.0), (0.3e-3, 0.5e-3), (1.0, 0.01)] {
+            let c = Cylinder::new(r, l).unwrap();
+            let a = r.hypot(l);
+            for &z in &[5.0 * a, 30.0 * a, -7.0 * a] {
+                let p = Vector3::new(0.0, 0.0, z);
+                let s3 = |h: f64| r * r / (h * h + r * r).powf(1.5);
+                let ds = s3(z + l) - s3(z - l);
+                let m = 1e6;
+                let (_, gl) = c.h_and_gradient(&Vector3::new(0.0, 0.0, m), &p);
+                let (_, gt) = c.h_and_gradient(&Vector3::new(m, 0.0, 0.0), &p);
+                let mut want_l = Matrix3::zeros();
+                want_l[(2, 2)] = 0.5 * m * ds;
+                want_l[(0, 0)] = -0.25 * m * ds;
+                want_l[(1, 1)] = -0.25 * m * ds;
+                let mut want_t = Matrix3::zeros();
+                want_t[(0, 2)] = -0.25 * m * ds;
+                want_t[(2, 0)] = -0.25 * m * ds;
+                for (got, want) in [(gl, want_l), (gt, want_t)] {
+                    assert!(
+                        got.iter().all(|v| v.is_finite()),
+                        "r={r} l={l} z={z}: {got}"
+                    );
+                    // S' is a difference of nearly equal terms far out: ~(z/L) eps relative.
+                    let err = (got - want).norm() / want.norm();
+                    assert!(err < 1e-10, "r={r} l={l} z={z}: {got} vs {want} ({err:e})");
+                }
+            }
+        }
+    }
 }

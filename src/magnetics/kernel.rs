@@ -901,11 +901,24 @@ pub fn tensor_with_gradient(g: &KernelGeometry, x: f64, y: f64, z: f64) -> [[Dua
     let (q, q_z) = (hc.q.v, hc.q.d[1]);
     let (zz, z_z) = (hc.z.v, hc.z.d[1]);
     let z_r = rho * q_z;
-    let q_r = (-z_z - p_z - q) / rho;
+    // On the axis itself (rho = 0 exactly; reached here only in the far regime, since
+    // `near_axis` takes the points within 1e-3 R of the axis inside r = 4a) q is even in rho,
+    // so q_r = 0, and the radial unit vector below multiplies rho-derivatives that vanish there:
+    // 0 in place of 0/0. Off the axis the quotient is used; its rounding error ~eps |q| / rho
+    // enters the tensor's gradient only multiplied by x or y (T_xz = x q), so it stays ~eps |q|.
+    let q_r = if rho == 0.0 {
+        0.0
+    } else {
+        (-z_z - p_z - q) / rho
+    };
     let prr_r = -z_r - p_r;
     let prr_z = -z_z - p_z;
     let (d_r, d_z) = (prr_r - p_r, prr_z - p_z);
-    let (ux, uy) = (x / rho, y / rho);
+    let (ux, uy) = if rho == 0.0 {
+        (0.0, 0.0)
+    } else {
+        (x / rho, y / rho)
+    };
     let lift = |v: f64, dr: f64, dz: f64| D3 {
         v,
         d: [ux * dr, uy * dr, dz],

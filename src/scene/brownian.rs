@@ -130,6 +130,7 @@ enum MomentLaw {
 #[serde(rename_all = "kebab-case")]
 enum PlacementKind {
     TopSide,
+    Uniform,
     Block,
 }
 
@@ -222,7 +223,8 @@ struct ParticlesSection {
     n_side: usize,
     region_gap_m: f64,
     region_thickness_m: f64,
-    n: usize,
+    /// Particles of the "uniform" (default 100) and "block" (default 500) placements.
+    n: Option<usize>,
     concentration_g_per_mL: f64,
     density_g_per_cm3: f64,
     block_distance_m: f64,
@@ -241,7 +243,7 @@ impl Default for ParticlesSection {
             n_side: 50,
             region_gap_m: 1e-6,
             region_thickness_m: 300e-6,
-            n: 500,
+            n: None,
             concentration_g_per_mL: 1.0,
             density_g_per_cm3: 5.0,
             block_distance_m: 100e-6,
@@ -437,6 +439,21 @@ impl Scene {
                 n_side: p.n_side,
                 shape: RegionShape::new(p.region_gap_m, p.region_thickness_m)?,
             },
+            PlacementKind::Uniform => {
+                // Capture runs report TOP and SIDE separately and average them by volume; a
+                // uniform population would leave a run's TOP empty at random.
+                if self.experiment != ExperimentKind::Cascade {
+                    return invalid(
+                        "particles.placement = \"uniform\" is for experiment = \"cascade\"; \
+                         capture runs use \"top-side\" (TOP and SIDE reported separately and \
+                         averaged by volume) or \"block\"",
+                    );
+                }
+                Placement::Uniform {
+                    n: p.n.unwrap_or(100),
+                    shape: RegionShape::new(p.region_gap_m, p.region_thickness_m)?,
+                }
+            }
             PlacementKind::Block => {
                 crate::error::require_positive(p.concentration_g_per_mL, || {
                     format!(
@@ -448,7 +465,7 @@ impl Scene {
                 // Spacing d = (rho V_p / c)^(1/3) (section 6.4.6); g/cm^3 and g/mL cancel.
                 let spacing_m = (p.density_g_per_cm3 * vp / p.concentration_g_per_mL).cbrt();
                 Placement::Block {
-                    n: p.n,
+                    n: p.n.unwrap_or(500),
                     spacing_m,
                     distance_m: p.block_distance_m,
                 }
@@ -954,6 +971,13 @@ mod tests {
         .unwrap();
         let e = s.experiment(s.combos()[0]).unwrap_err().to_string();
         assert!(e.contains("Table 6.1"), "{e}");
+        let s = parse(
+            "kind = \"brownian\"\n[particles]\nplacement = \"uniform\"\n",
+            "x.toml",
+        )
+        .unwrap();
+        let e = s.experiment(s.combos()[0]).unwrap_err().to_string();
+        assert!(e.contains("uniform") && e.contains("cascade"), "{e}");
     }
 
     /// The outputs depend only on the seed: one worker thread and two give identical files.

@@ -279,3 +279,43 @@ pub fn case_412(ctx: &CaseContext) -> Result<Vec<Row>> {
     }
     Ok(rows)
 }
+
+/// Case 422 (section 6.4.1, eq. 6.20): the force on a particle aligned with the local field,
+/// F = mu0 |m| (h . grad) H, h = (H0 + H)/|H0 + H| (`aligned_dipole_force`, the force behind the
+/// capture-volume maps), against mpmath's exterior multipole series of the cylinder
+/// (reference/scripts/aligned_force_mpmath.py), at 1.5 to 1000 circumscribed radii, for posed
+/// magnets and three applied fields (1 T, none, and one as strong as the cylinder's field).
+/// Rows: force components, scale mu0 |m| |grad H|_F.
+pub fn case_422(ctx: &CaseContext) -> Result<Vec<Row>> {
+    use super::common::{push_components, v3};
+    use crate::brownian::experiment::aligned_dipole_force;
+    use crate::magnetics::Magnet;
+    let t = ctx.expected_table()?;
+    need_rows(ctx, t.len())?;
+    let mut rows = Vec::with_capacity(3 * t.len());
+    for i in 0..t.len() {
+        let magnet = Magnet::new(
+            Cylinder::new(t.f64(i, "radius_m")?, t.f64(i, "half_length_m")?)?,
+            v3(&t, i, ["cx_m", "cy_m", "cz_m"])?,
+            v3(&t, i, ["ax", "ay", "az"])?,
+            v3(&t, i, ["mx_A_per_m", "my_A_per_m", "mz_A_per_m"])?,
+        )?;
+        let p = v3(&t, i, ["x_m", "y_m", "z_m"])?;
+        let h0 = v3(&t, i, ["h0x_A_per_m", "h0y_A_per_m", "h0z_A_per_m"])?;
+        let f = aligned_dipole_force(&magnet, &h0, t.f64(i, "moment_A_m2")?, &p);
+        let expected = v3(&t, i, ["Fx_N", "Fy_N", "Fz_N"])?;
+        let label = format!(
+            "{} d/a={} H0=({:.3e},{:.3e},{:.3e}) p=({:.4e},{:.4e},{:.4e})",
+            t.str(i, "magnet")?,
+            t.str(i, "d_over_a")?,
+            h0.x,
+            h0.y,
+            h0.z,
+            p.x,
+            p.y,
+            p.z
+        );
+        push_components(&mut rows, "F", &label, &f, &expected, t.f64(i, "scale_N")?);
+    }
+    Ok(rows)
+}

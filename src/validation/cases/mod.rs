@@ -4,6 +4,7 @@ use super::case::Runner;
 
 mod brownian;
 mod brownian_capture;
+mod brownian_chains;
 mod brownian_equilibrium;
 mod brownian_scenes;
 mod common;
@@ -63,6 +64,10 @@ pub fn runner_for(id: &str) -> Option<Runner> {
         "416" => Some(brownian_scenes::case_416),
         "417" => Some(brownian_scenes::case_417),
         "418" => Some(brownian_scenes::case_418),
+        "419" => Some(brownian_scenes::case_419),
+        "420" => Some(brownian_chains::case_420),
+        "421" => Some(brownian_chains::case_421),
+        "422" => Some(brownian_capture::case_422),
         _ => None,
     }
 }
