@@ -43,6 +43,7 @@ pub fn runner_for(id: &str) -> Option<Runner> {
         "506" => Some(packing::case_506),
         "507" => Some(packing::case_507),
         "508" => Some(packing::case_508),
+        "509" => Some(packing::case_509),
         "401" => Some(brownian::case_401),
         "402" => Some(brownian::case_402),
         "403" => Some(brownian::case_403),
