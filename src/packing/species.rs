@@ -116,11 +116,7 @@ impl Particles {
     /// Total particle volume sum_species count V (thesis eq. 3.1 numerator; for one species
     /// exactly N V_p).
     pub fn total_volume(&self) -> Result<f64> {
-        let mut v = 0.0;
-        for (s, c) in self.shapes.iter().zip(self.counts()) {
-            v += c as f64 * crate::shape::volume_of(s)?;
-        }
-        Ok(v)
+        crate::analysis::total_volume(&self.shapes, &self.species)
     }
 
     /// Largest bounding radius over the species.
