@@ -7,7 +7,7 @@
 //! and all 27 periodic images** (no cell list, no minimum image), so they check an engine's
 //! neighbour search rather than repeat it.
 
-use crate::contact::{closest_points_segments, contact, ContactShape, Pose};
+use crate::contact::{closest_points_segments, contact_perturbed, ContactShape, Pose};
 use crate::error::invalid;
 use crate::Result;
 use nalgebra::{Matrix3, SymmetricEigen, UnitQuaternion, Vector3};
@@ -15,6 +15,11 @@ use rayon::prelude::*;
 pub use sampled::{sampled_overlap, SampledOverlap};
 
 mod sampled;
+
+/// Rotation (rad) of the retried contact query of [`pair_gaps`] when the solver does not
+/// converge (`crate::contact::contact_perturbed`): changes a gap by at most 1e-6 x the
+/// bounding radius.
+pub const PERTURB_ANGLE: f64 = 1e-6;
 
 /// Surface samples per particle of the solver-free overlap check of [`check_no_overlap`]
 /// for ellipsoids and superquadrics (measured spacing 0.023 D for superballs of half-width
@@ -204,7 +209,8 @@ pub struct PairGap {
 /// All pairs whose gap (minimum over the 27 periodic images) is below `max_gap`, by brute
 /// force over every pair. Spheres and spherocylinders: closest points of the axis segments
 /// (Vega & Lago); pairs with an ellipsoid or superquadric: the contact module's certified
-/// solver (an unconverged query is an error naming the pair; see also the solver-free
+/// solver, retried from a pose rotated by [`PERTURB_ANGLE`] when it does not converge (a
+/// query that still fails is an error naming the pair; see also the solver-free
 /// [`sampled_overlap`]). Errors if the box is not longer than the largest particle (twice its
 /// bounding radius), where images of one particle would touch themselves.
 pub fn pair_gaps(c: &Rods, max_gap: f64) -> Result<Vec<PairGap>> {
@@ -269,7 +275,7 @@ pub fn pair_gaps(c: &Rods, max_gap: f64) -> Result<Vec<PairGap>> {
                                 None => {
                                     let pa = Pose::new(Vector3::zeros(), c.orientations[i]);
                                     let pb = Pose::new(d, c.orientations[j]);
-                                    contact(si, &pa, sj, &pb)
+                                    contact_perturbed(si, &pa, sj, &pb, PERTURB_ANGLE)
                                         .map_err(|e| {
                                             crate::Error::InvalidInput(format!(
                                                 "pair ({i}, {j}): {e}"

@@ -291,3 +291,35 @@ pub fn contact(a: &ContactShape, pa: &Pose, b: &ContactShape, pb: &Pose) -> Cont
         }
     }
 }
+
+/// [`contact`] retried from perturbed poses when the solver does not converge (nearly
+/// parallel flat faces of superquadrics with large exponents make the common-normal problem
+/// ill-conditioned): b is rotated about its centre by `angle` radians about each body axis
+/// in turn and the query repeated; the first certified result is returned with method
+/// "perturbed-pose". The rotation moves b's surface by at most bounding radius x
+/// `angle`, so the gap changes by no more (callers choose `angle` well below their contact
+/// tolerance). When every retry fails the original error is returned, with the retries named.
+pub fn contact_perturbed(
+    a: &ContactShape,
+    pa: &Pose,
+    b: &ContactShape,
+    pb: &Pose,
+    angle: f64,
+) -> ContactResult<Contact> {
+    match contact(a, pa, b, pb) {
+        Err(ContactError::NotConverged(first)) => {
+            for axis in [Vector3::x_axis(), Vector3::y_axis(), Vector3::z_axis()] {
+                let rot = UnitQuaternion::from_axis_angle(&axis, angle);
+                let q = Pose::new(pb.position, pb.orientation * rot);
+                if let Ok(mut c) = contact(a, pa, b, &q) {
+                    c.method = "perturbed-pose";
+                    return Ok(c);
+                }
+            }
+            Err(ContactError::NotConverged(format!(
+                "{first}; also after rotating b by {angle:e} rad about each body axis"
+            )))
+        }
+        other => other,
+    }
+}

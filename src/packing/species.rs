@@ -116,11 +116,7 @@ impl Particles {
     /// Total particle volume sum_species count V (thesis eq. 3.1 numerator; for one species
     /// exactly N V_p).
     pub fn total_volume(&self) -> Result<f64> {
-        let mut v = 0.0;
-        for (s, c) in self.shapes.iter().zip(self.counts()) {
-            v += c as f64 * crate::shape::volume_of(s)?;
-        }
-        Ok(v)
+        crate::analysis::total_volume(&self.shapes, &self.species)
     }
 
     /// Largest bounding radius over the species.
@@ -143,6 +139,8 @@ fn is_superquadric(s: &ContactShape) -> bool {
 /// What the overlap removal needs of one species, computed once per removal pass.
 #[derive(Debug, Clone)]
 pub(super) struct Props {
+    /// The shape itself (contact queries).
+    pub shape: ContactShape,
     /// Sphere/spherocylinder radius R and half cylinder length L/2 (superquadrics: 0, 0).
     pub r: f64,
     pub h: f64,
@@ -170,6 +168,7 @@ impl Props {
         let rod = |r: f64, l: f64| {
             let (ixy, iz) = super::rod_inertia(r, l, mass);
             Props {
+                shape: *s,
                 r,
                 h: 0.5 * l,
                 sq: None,
@@ -185,23 +184,30 @@ impl Props {
             ContactShape::Spherocylinder { radius, length } => rod(radius, length),
             ContactShape::Ellipsoid { semi_axes } => {
                 let e = crate::shape::Ellipsoid::new(semi_axes)?;
-                sq_props(&e, SqShape::new(semi_axes, [2.0; 3]), mass, bound)
+                sq_props(s, &e, SqShape::new(semi_axes, [2.0; 3]), mass, bound)
             }
             ContactShape::Superquadric {
                 semi_axes,
                 exponents,
             } => {
                 let q = crate::shape::Superquadric::new(semi_axes, exponents)?;
-                sq_props(&q, SqShape::new(semi_axes, exponents), mass, bound)
+                sq_props(s, &q, SqShape::new(semi_axes, exponents), mass, bound)
             }
         })
     }
 }
 
 /// Props of an ellipsoid or superquadric: inertia from the shape module (thesis eq. 4.29-4.31).
-fn sq_props(shape: &dyn crate::shape::ConvexShape, sq: SqShape, mass: f64, bound: f64) -> Props {
+fn sq_props(
+    contact_shape: &ContactShape,
+    shape: &dyn crate::shape::ConvexShape,
+    sq: SqShape,
+    mass: f64,
+    bound: f64,
+) -> Props {
     let inertia = shape.principal_inertia(mass);
     Props {
+        shape: *contact_shape,
         r: 0.0,
         h: 0.0,
         sq: Some(sq),

@@ -307,3 +307,28 @@ fn small_superball_packing_is_overlap_free_by_the_sampled_check() {
     );
     assert!(phi > 0.4, "phi = {phi}");
 }
+
+/// A dense polydisperse packing (diameters 0.5-1.5, one species per particle, original scheme
+/// with beta 1.3 to compact hard) ends overlap-free by the brute-force check (issue 5,
+/// stress: dense polydisperse mixtures).
+#[test]
+fn dense_polydisperse_spheres_end_overlap_free() {
+    use crate::contact::ContactShape as C;
+    let n = 150;
+    // Diameters spread evenly over [0.5, 1.5] in a scrambled order (golden-ratio sequence).
+    let shapes = (0..n)
+        .map(|k| C::Sphere {
+            radius: 0.5 * (0.5 + (k as f64 * 0.618_033_988_749_895).fract()),
+        })
+        .collect();
+    let mut prm = quick(n, 0.0, 6, Scheme::Original, 0.02, 3, 200.0);
+    prm.beta = 1.3;
+    prm.particles = Some(Particles::per_particle(shapes));
+    let r = run(&prm).unwrap();
+    analysis::check_no_overlap(&r.packing.view(), prm.overlap_tol).unwrap();
+    assert!(
+        r.packing.packing_fraction() > 0.55,
+        "{}",
+        r.packing.packing_fraction()
+    );
+}

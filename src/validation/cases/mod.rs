@@ -44,6 +44,7 @@ pub fn runner_for(id: &str) -> Option<Runner> {
         "506" => Some(packing::case_506),
         "507" => Some(packing::case_507),
         "508" => Some(packing::case_508),
+        "509" => Some(packing::case_509),
         "520" => Some(packing::case_520),
         "521" => Some(packing::case_521),
         "401" => Some(brownian::case_401),
