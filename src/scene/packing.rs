@@ -82,6 +82,11 @@ pub fn builtins() -> Vec<Builtin> {
             toml: include_str!("builtin/packing-wedge.toml"),
         },
         Builtin {
+            name: "packing-superballs",
+            about: "MCM: 50 superballs gamma = 3 in a periodic box (revised scheme, contact solver)",
+            toml: include_str!("builtin/packing-superballs.toml"),
+        },
+        Builtin {
             name: "packing-spherocylinders",
             about: "MCM: 500 spherocylinders L/D = 0.4 in a periodic box (original scheme)",
             toml: include_str!("builtin/packing-spherocylinders.toml"),
