@@ -122,7 +122,9 @@ pub fn run_field(args: &FieldArgs) -> Result<ExitCode> {
     for (i, (row, p)) in rows.iter().zip(&points).enumerate() {
         if row.contains("inf") || row.contains("NaN") {
             return invalid(format!(
-                "{}: line {}: point ({}, {}, {}) m lies on a rim circle of the cylinder, where the field is infinite",
+                "{}: line {}: the field or its gradient is not finite at point ({}, {}, {}) m: on a rim \
+                 circle of the cylinder it is infinite; anywhere else this is a porelab defect, \
+                 please report the point",
                 args.points.display(),
                 i + 2,
                 p.x,
