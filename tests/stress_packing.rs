@@ -179,6 +179,48 @@ fn narrow_cylinder_ends_overlap_free_and_inside() {
     eprintln!("D_cyl = 1.2: phi = {phi:.4} (single-file bound {bound:.4})");
 }
 
+/// Tight wedges (thesis sec. 2.2.4), where a sphere wedged between two walls can be pushed
+/// far through one of them: with the thesis' virtual-particle placement such spheres escaped
+/// and the run ended "overlap-free" outside the walls (30 degrees, l_w,min + 1e-3: phi 0.381
+/// against the one-row 0.324). Over 4 angles, 3 lengths just above l_w,min (eq. 2.12) and 3
+/// seeds, every run must end inside the walls and overlap-free (independent brute force and
+/// wall distances in `analysis`), and no denser than one row at spacing 1 - tol allows.
+#[test]
+fn tight_wedges_end_inside_and_overlap_free() {
+    use porelab::packing::{wedge_min_length, Container, RADIUS};
+    let (mut runs, mut failures) = (0, Vec::new());
+    for deg in [9.0f64, 15.0, 30.0, 45.0] {
+        let a = deg.to_radians();
+        for eps in [1e-6, 1e-3, 1e-2] {
+            for seed in 1..=3u64 {
+                let l_w = wedge_min_length(RADIUS, 0.0, a) + eps;
+                let mut p = McmParams::new(40, 0.0, seed);
+                p.scheme = Scheme::Original;
+                p.container = Container::Wedge {
+                    length: l_w,
+                    angle_rad: a,
+                };
+                let r = run(&p).unwrap();
+                runs += 1;
+                let v = r.packing.view();
+                let ok = analysis::check_no_overlap(&v, p.overlap_tol * (1.0 + 1e-6));
+                // One row at spacing >= 1 - tol: phi <= (pi/6) / (A_w (1 - tol)) up to the
+                // sideways freedom, which at these eps changes the spacing by < 2e-4.
+                let area = 0.5 * l_w * l_w * a.tan();
+                let bound = std::f64::consts::PI / 6.0 / (area * (1.0 - p.overlap_tol - 2e-4));
+                let phi = r.packing.packing_fraction();
+                if ok.is_err() || (eps <= 1e-3 && phi > bound) {
+                    failures.push(format!(
+                        "{deg} deg, eps {eps}, seed {seed}: phi {phi}, {ok:?}"
+                    ));
+                }
+            }
+        }
+    }
+    eprintln!("tight wedges: {} of {runs} runs failed", failures.len());
+    assert!(failures.is_empty(), "{failures:#?}");
+}
+
 /// Work-precision of the MCM (issue 5, benchmark): packing fraction reached against the try
 /// budget per compression step, plain schedule (beta 0.5) and over-relaxed (beta 1.3), for
 /// MCM_N spheres (default 500), printing tries, seconds and phi per budget.

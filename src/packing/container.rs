@@ -238,12 +238,22 @@ impl Container {
                     let [back, bottom, slope] = wedge_wall_distances(&e, length, angle_rad);
                     // Back plane x = l_w: p_x > l_w - R; virtual at (l_w + R, p_y, p_z), along y.
                     if back < r {
-                        let c = Vector3::new(length + r.max(ESCAPED * r - back), e.y, e.z);
+                        let x_v = if back >= -ESCAPED * r {
+                            length + r
+                        } else {
+                            e.x + ESCAPED * r
+                        };
+                        let c = Vector3::new(x_v, e.y, e.z);
                         out.push((c - x, Vector3::y()));
                     }
                     // Bottom plane y = 0: p_y < R; virtual at (p_x, -R, p_z), along x.
                     if bottom < r {
-                        let c = Vector3::new(e.x, -r.max(ESCAPED * r - bottom), e.z);
+                        let y_v = if bottom >= -ESCAPED * r {
+                            -r
+                        } else {
+                            e.y - ESCAPED * r
+                        };
+                        let c = Vector3::new(e.x, y_v, e.z);
                         out.push((c - x, Vector3::x()));
                     }
                     // Slope: p_y > p_x tan(alpha) - R / cos(alpha), i.e. closer than R to the
