@@ -21,7 +21,7 @@
 //!
 //! Output: tables on stdout and `target/porelab/bench-packing-{jamming,work-precision}.csv`.
 
-use super::{run, McmParams, Scheme, Stage};
+use super::{run, McmParams, Scheme};
 use crate::error::invalid;
 use crate::scene::packing::measure;
 use crate::Result;
@@ -44,29 +44,6 @@ const SIZES: [usize; 6] = [250, 500, 1000, 2000, 5000, 10000];
 const SEED: u64 = 1;
 /// Contact cut-offs for the extrapolation to zero (thesis sec. 2.2.5: 1e-8 ... 1e-5).
 const CUTOFFS: [f64; 4] = [1e-8, 1e-7, 1e-6, 1e-5];
-
-/// The two-stage sphere schedule of the built-in scene `packing-spheres` and case 506: stage 1
-/// original scheme (eq. 2.7-2.10) with beta = 1.3, Delta V = 0.01 N halved 6 times, 3000 N
-/// tries; stage 2 revised scheme (eq. 3.6-3.13), dt = 0.1, Delta V = 0.001 N halved 6 times,
-/// 1000 N tries; contact tolerance 1e-4.
-pub fn two_stage_spheres(n: usize, seed: u64) -> McmParams {
-    let mut p = McmParams::new(n, 0.0, seed);
-    p.scheme = Scheme::Original;
-    p.delta_v_per_particle = 0.01;
-    p.halvings = 6;
-    p.overlap_tol = 1e-4;
-    p.beta = 1.3;
-    p.tries_per_particle = 3000.0;
-    p.final_stage = Some(Stage {
-        scheme: Scheme::Revised,
-        delta_v_per_particle: 0.001,
-        halvings: 6,
-        tries_per_particle: 1000.0,
-        beta: 0.5,
-        dt: 0.1,
-    });
-    p
-}
 
 /// Spherocylinders L/D = 5 with the schedule of case 504 (original scheme, Delta V = 0.05 N
 /// halved 3 times, 50 N tries).
@@ -139,12 +116,17 @@ pub fn run_bench(args: &BenchArgs) -> Result<()> {
     };
     let (mut ns, mut secs) = (Vec::new(), Vec::new());
     for &n in SIZES.iter().filter(|&&n| n <= args.max_n) {
-        let r = timed(&two_stage_spheres(n, SEED), 1)?;
+        let r = timed(&McmParams::two_stage_spheres(n, SEED), 1)?;
         ns.push(n as f64);
         secs.push(r.3);
         row("spheres", n, 1, r);
         if n == 1000 {
-            row("spheres", n, 2, timed(&two_stage_spheres(n, SEED), 2)?);
+            row(
+                "spheres",
+                n,
+                2,
+                timed(&McmParams::two_stage_spheres(n, SEED), 2)?,
+            );
         }
     }
     if !args.spheres_only {

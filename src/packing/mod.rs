@@ -122,6 +122,29 @@ impl McmParams {
         }
     }
 
+    /// The two-stage sphere schedule of the built-in scene `packing-spheres` and case 506: stage 1
+    /// original scheme (eq. 2.7-2.10) with beta = 1.3, Delta V = 0.01 N halved 6 times, 3000 N
+    /// tries; stage 2 revised scheme (eq. 3.6-3.13), dt = 0.1, Delta V = 0.001 N halved 6 times,
+    /// 1000 N tries; contact tolerance 1e-4.
+    pub fn two_stage_spheres(n: usize, seed: u64) -> McmParams {
+        let mut p = McmParams::new(n, 0.0, seed);
+        p.scheme = Scheme::Original;
+        p.delta_v_per_particle = 0.01;
+        p.halvings = 6;
+        p.overlap_tol = 1e-4;
+        p.beta = 1.3;
+        p.tries_per_particle = 3000.0;
+        p.final_stage = Some(Stage {
+            scheme: Scheme::Revised,
+            delta_v_per_particle: 0.001,
+            halvings: 6,
+            tries_per_particle: 1000.0,
+            beta: 0.5,
+            dt: 0.1,
+        });
+        p
+    }
+
     /// Checks every parameter; the message names the value and the rule.
     pub fn validate(&self) -> Result<()> {
         if self.n < 2 {

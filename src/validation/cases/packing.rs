@@ -16,7 +16,7 @@
 //! * 504 (slow): 300 spherocylinders L/D = 5: nematic order below 0.1, overlap-free.
 //! * 505 (slow): 500 spheres in hard cylinders D_cyl = 4..10: phi extrapolated linearly to
 //!   1/D_cyl -> 0 within 2% of the bulk value (thesis Fig. 2.10d), overlap-free and inside.
-//! * 506 (slow): 1000 spheres, two-stage schedule ([`two_stage_spheres`]): phi in 0.64 +- 0.01.
+//! * 506 (slow): 1000 spheres, two-stage schedule ([`McmParams::two_stage_spheres`]): phi in 0.64 +- 0.01.
 //! * 507 (slow): 300 particles at L/D = 0, 0.4, 1, same schedule: phi rises from the sphere
 //!   value to a maximum of 0.69-0.72 at L/D 0.3-0.6, then falls (thesis Fig. 2.8, 3.3).
 //! * 508 (slow): rods L/D = 2 in cylinders D_cyl = 2 and 6: S >= 0.8 and <= 0.2 (Fig. 2.10c).
@@ -165,14 +165,8 @@ pub fn case_505(ctx: &CaseContext) -> Result<Vec<Row>> {
     band_rows(ctx, &got)
 }
 
-/// The two-stage schedule of cases 506-507 and the built-in scene `packing-spheres`
-/// ([`packing::bench::two_stage_spheres`]).
-pub fn two_stage_spheres(n: usize, seed: u64) -> McmParams {
-    packing::bench::two_stage_spheres(n, seed)
-}
-
 pub fn case_506(ctx: &CaseContext) -> Result<Vec<Row>> {
-    let r = packing::run(&two_stage_spheres(1000, seed(ctx)?))?;
+    let r = packing::run(&McmParams::two_stage_spheres(1000, seed(ctx)?))?;
     let mut got = BTreeMap::new();
     got.insert("packing_fraction", r.packing.packing_fraction());
     got.insert("deepest_overlap", deepest_overlap(&r)?);
@@ -192,7 +186,7 @@ pub fn case_507(ctx: &CaseContext) -> Result<Vec<Row>> {
         .par_iter()
         .enumerate()
         .map(|(k, &l)| {
-            let mut p = two_stage_spheres(300, s + k as u64);
+            let mut p = McmParams::two_stage_spheres(300, s + k as u64);
             p.length = l;
             packing::run(&p)
         })
