@@ -43,6 +43,12 @@ pub enum Scheme {
     /// divided by xi = I_xy / m (the moment of inertia per unit mass, sec. 2.3), step
     /// beta * min_j delta_ij / (removal rate), axis renormalised.
     Original,
+    /// Collective relaxation ([`relax`]): all particles move at once down the gradient of the
+    /// harmonic overlap energy (FIRE minimiser), as in the molecular-dynamics settling that
+    /// Wouterse, Luding & Philipse (Granular Matter 11, 169, 2009; thesis ref. [15]) combine
+    /// with the MCM; step `dt` is FIRE's initial time step. Same acceptance rule as the
+    /// others: no overlap deeper than `overlap_tol`.
+    Relax,
 }
 
 /// Parameters of an MCM run (reduced units, see the module docs).
@@ -122,26 +128,57 @@ impl McmParams {
         }
     }
 
-    /// The two-stage sphere schedule of the built-in scene `packing-spheres` and case 506: stage 1
-    /// original scheme (eq. 2.7-2.10) with beta = 1.3, Delta V = 0.01 N halved 6 times, 3000 N
-    /// tries; stage 2 revised scheme (eq. 3.6-3.13), dt = 0.1, Delta V = 0.001 N halved 6 times,
-    /// 1000 N tries; contact tolerance 1e-4.
+    /// The Gauss-Seidel-only two-stage sphere schedule of case 506 (`porelab bench packing`
+    /// baseline `spheres_gs`): stage 1 as in [`McmParams::compacting_spheres`] with Delta V
+    /// halved 6 times and 3000 N tries; stage 2 revised scheme (eq. 3.6-3.13), dt = 0.1,
+    /// Delta V = 0.001 N halved 6 times, 1000 N tries.
     pub fn two_stage_spheres(n: usize, seed: u64) -> McmParams {
-        let mut p = McmParams::new(n, 0.0, seed);
-        p.scheme = Scheme::Original;
-        p.delta_v_per_particle = 0.01;
-        p.halvings = 6;
-        p.overlap_tol = 1e-4;
-        p.beta = 1.3;
-        p.tries_per_particle = 3000.0;
-        p.final_stage = Some(Stage {
+        let settle = Stage {
             scheme: Scheme::Revised,
             delta_v_per_particle: 0.001,
             halvings: 6,
             tries_per_particle: 1000.0,
             beta: 0.5,
             dt: 0.1,
-        });
+        };
+        McmParams::compacting_spheres(n, seed, 6, 3000.0, settle)
+    }
+
+    /// The jamming schedule for spheres (built-in scene `packing-spheres`, case 512, `porelab
+    /// bench packing`): stage 1 as in [`McmParams::compacting_spheres`] without halving and
+    /// with 1000 N tries, which compacts until its first failed step; stage 2 the collective
+    /// relaxation ([`Scheme::Relax`], FIRE initial step 0.1) from Delta V = 0.001 N halved 4
+    /// times with 2000 N tries settles the contact network.
+    pub fn jammed_spheres(n: usize, seed: u64) -> McmParams {
+        let relax = Stage {
+            scheme: Scheme::Relax,
+            delta_v_per_particle: 0.001,
+            halvings: 4,
+            tries_per_particle: 2000.0,
+            beta: 1.3, // unused by the relaxation; as stage 1 (what a scene file inherits)
+            dt: 0.1,
+        };
+        McmParams::compacting_spheres(n, seed, 0, 1000.0, relax)
+    }
+
+    /// Spheres with a compacting first stage (original scheme, eq. 2.7-2.10, beta = 1.3:
+    /// over-relaxation; Delta V = 0.01 N halved `halvings` times, `tries` N tries per step;
+    /// contact tolerance 1e-4) followed by `last`.
+    fn compacting_spheres(
+        n: usize,
+        seed: u64,
+        halvings: u32,
+        tries: f64,
+        last: Stage,
+    ) -> McmParams {
+        let mut p = McmParams::new(n, 0.0, seed);
+        p.scheme = Scheme::Original;
+        p.delta_v_per_particle = 0.01;
+        p.halvings = halvings;
+        p.overlap_tol = 1e-4;
+        p.beta = 1.3;
+        p.tries_per_particle = tries;
+        p.final_stage = Some(last);
         p
     }
 
@@ -687,6 +724,41 @@ fn overlaps_of(
     Ok(())
 }
 
+/// Lower bound of the surface gap of particles i and j at separation `d` for the neighbour
+/// lists: rods by their axis segments, everything else by centre distance minus the pair
+/// cutoff (bounding spheres).
+fn list_gap_bound(
+    props: &[species::Props],
+    spc: &[usize],
+    p: &Packing,
+    i: usize,
+    j: usize,
+    d: &Vector3<f64>,
+) -> f64 {
+    let (a, b) = (&props[spc[i]], &props[spc[j]]);
+    if a.sq.is_none() && b.sq.is_none() && (a.h > 0.0 || b.h > 0.0) {
+        let (ai, aj) = (p.axis(i), p.axis(j));
+        let (_, _, pa, pb) =
+            closest_points_segments(&(-a.h * ai), &(a.h * ai), &(d - b.h * aj), &(d + b.h * aj));
+        (pb - pa).norm() - (a.r + b.r)
+    } else {
+        d.norm() - (pair_cutoff(a, b) - 1e-6)
+    }
+}
+
+/// Checks the box and builds the neighbour lists of `p` (skin 0.3 D, less in a small box).
+fn neighbour_lists(
+    p: &Packing,
+    props: &[species::Props],
+    list_gap: &neighbours::ListGap,
+) -> Result<Neighbours> {
+    check_box(&p.container, p.box_length, props)?;
+    let cutoff = max_pair_cutoff(props);
+    let skin = (0.5 * p.box_length - cutoff).min(0.3);
+    let half: Vec<f64> = p.particles.species.iter().map(|&k| props[k].h).collect();
+    Neighbours::new(p, cutoff, skin, half, list_gap)
+}
+
 /// Removes overlaps deeper than the tolerance; returns Ok(tries) when the configuration is
 /// overlap-free, Err(tries) when the try budget ran out.
 ///
@@ -710,30 +782,14 @@ fn remove_overlaps_with(
     prm: &McmParams,
     budget: u64,
 ) -> Result<std::result::Result<u64, u64>> {
-    check_box(&p.container, p.box_length, props)?;
+    if prm.scheme == Scheme::Relax {
+        return relax::relax_overlaps(p, props, prm, budget);
+    }
     let n = p.n();
-    let cutoff = max_pair_cutoff(props);
-    let skin = (0.5 * p.box_length - cutoff).min(0.3);
     let spc = p.particles.species.clone();
-    let half: Vec<f64> = spc.iter().map(|&k| props[k].h).collect();
-    // Lower bound of the surface gap for the lists: rods by their axis segments, everything
-    // else by centre distance minus the pair cutoff (bounding spheres).
-    let list_gap = |p: &Packing, i: usize, j: usize, d: &Vector3<f64>| -> f64 {
-        let (a, b) = (&props[spc[i]], &props[spc[j]]);
-        if a.sq.is_none() && b.sq.is_none() && (a.h > 0.0 || b.h > 0.0) {
-            let (ai, aj) = (p.axis(i), p.axis(j));
-            let (_, _, pa, pb) = closest_points_segments(
-                &(-a.h * ai),
-                &(a.h * ai),
-                &(d - b.h * aj),
-                &(d + b.h * aj),
-            );
-            (pb - pa).norm() - (a.r + b.r)
-        } else {
-            d.norm() - (pair_cutoff(a, b) - 1e-6)
-        }
-    };
-    let mut nb = Neighbours::new(p, cutoff, skin, half, &list_gap)?;
+    let list_gap =
+        |p: &Packing, i: usize, j: usize, d: &Vector3<f64>| list_gap_bound(props, &spc, p, i, j, d);
+    let mut nb = neighbour_lists(p, props, &list_gap)?;
     let mut dirty = DirtySet::full(n);
     let mut ov = Vec::new();
     let mut tries = 0u64;
@@ -756,6 +812,7 @@ fn remove_overlaps_with(
                 Scheme::Original => {
                     move_original(&ov, &p.orientations[i], body.sphere, body.xi, prm)
                 }
+                Scheme::Relax => unreachable!("the relax scheme moves all particles at once"),
             };
             p.positions[i] = p.container.wrap(&(p.positions[i] + dx), p.box_length);
             if let Some(q) = q {
@@ -1102,6 +1159,7 @@ impl McmState {
 pub mod bench;
 mod container;
 mod neighbours;
+mod relax;
 mod species;
 pub use species::Particles;
 

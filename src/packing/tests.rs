@@ -332,3 +332,103 @@ fn dense_polydisperse_spheres_end_overlap_free() {
         r.packing.packing_fraction()
     );
 }
+
+/// Two equal spheres overlapping by 0.19 D: the collective relaxation separates them to within
+/// the tolerance, moving them symmetrically (the pair forces are equal and opposite, so the
+/// centre of mass stays put), and a rerun gives bitwise the same positions.
+#[test]
+fn relax_separates_a_pair_and_keeps_the_centre_of_mass() {
+    let mut prm = quick(2, 0.0, 1, Scheme::Relax, 0.01, 0, 1000.0);
+    prm.dt = 0.1;
+    let mk = || Packing {
+        container: Container::Periodic,
+        box_length: 6.0,
+        particles: Particles::monodisperse(2, 0.0),
+        positions: vec![Vector3::new(2.6, 3.0, 3.0), Vector3::new(3.4, 3.1, 2.9)],
+        orientations: vec![UnitQuaternion::identity(); 2],
+    };
+    let com0 = (mk().positions[0] + mk().positions[1]) / 2.0;
+    let (mut a, mut b) = (mk(), mk());
+    let tries = remove_overlaps(&mut a, &prm, 2000).unwrap().unwrap();
+    remove_overlaps(&mut b, &prm, 2000).unwrap().unwrap();
+    assert_eq!(a.positions, b.positions);
+    let d = (a.positions[1] - a.positions[0]).norm();
+    // FIRE carries momentum: the last iteration may overshoot contact, by at most one step of
+    // each particle (relax::MAX_STEP = 0.02 D).
+    assert!(
+        d >= 1.0 - prm.overlap_tol && d < 1.04,
+        "distance {d}, {tries} tries"
+    );
+    let com = (a.positions[0] + a.positions[1]) / 2.0;
+    assert!(
+        (com - com0).norm() < 1e-14,
+        "centre of mass moved {:e}",
+        (com - com0).norm()
+    );
+}
+
+/// A force-balanced jammed configuration is recognised as such: four spheres on a line
+/// around a periodic box of length 3.9 (each overlaps both neighbours by 0.025 D, the forces
+/// cancel exactly); the relaxation gives up before its first move instead of spending its
+/// budget, and leaves the configuration unchanged.
+#[test]
+fn relax_detects_a_balanced_jammed_configuration() {
+    let prm = quick(4, 0.0, 1, Scheme::Relax, 0.01, 0, 1000.0);
+    let l = 3.9;
+    let mut p = Packing {
+        container: Container::Periodic,
+        box_length: l,
+        particles: Particles::monodisperse(4, 0.0),
+        positions: (0..4)
+            .map(|k| Vector3::new(k as f64 * l / 4.0, 0.5, 0.5))
+            .collect(),
+        orientations: vec![UnitQuaternion::identity(); 4],
+    };
+    let before = p.positions.clone();
+    assert_eq!(remove_overlaps(&mut p, &prm, 4000).unwrap(), Err(0));
+    assert_eq!(p.positions, before);
+}
+
+/// Spherocylinders (L/D = 2) packed with the relaxation as final stage: overlap-free by the
+/// brute-force check, denser than the start, orientations changed (torques act), and the run
+/// is reproducible.
+#[test]
+fn relax_stage_packs_spherocylinders_overlap_free() {
+    let mut prm = quick(150, 2.0, 5, Scheme::Original, 0.05, 0, 200.0);
+    prm.final_stage = Some(Stage {
+        scheme: Scheme::Relax,
+        delta_v_per_particle: 0.01,
+        halvings: 2,
+        tries_per_particle: 500.0,
+        beta: 0.5,
+        dt: 0.2,
+    });
+    let a = run(&prm).unwrap();
+    let b = run(&prm).unwrap();
+    assert_eq!(a.packing.orientations, b.packing.orientations);
+    analysis::check_no_overlap(&a.packing.view(), prm.overlap_tol).unwrap();
+    assert!(
+        a.packing.packing_fraction() > 0.4,
+        "{}",
+        a.packing.packing_fraction()
+    );
+}
+
+/// The sphere jamming schedule on 200 spheres: overlap-free, dense, and a contact network
+/// with at least 5.5 contacts per non-rattler (extrapolated to zero cut-off, sec. 2.2.5).
+#[test]
+fn jammed_spheres_schedule_settles_contacts() {
+    let prm = McmParams::jammed_spheres(200, 3);
+    let r = run(&prm).unwrap();
+    let v = r.packing.view();
+    analysis::check_no_overlap(&v, prm.overlap_tol).unwrap();
+    let gaps = analysis::pair_gaps(&v, 1e-5).unwrap();
+    let (c0, _) =
+        analysis::extrapolated_contacts(200, &gaps, &[1e-8, 1e-7, 1e-6, 1e-5], Some(4)).unwrap();
+    let phi = r.packing.packing_fraction();
+    eprintln!(
+        "200 spheres, jammed schedule: phi {phi:.4}, C0 {c0:.3}, {} tries",
+        r.total_tries
+    );
+    assert!(phi > 0.62 && c0 > 5.5, "phi {phi}, contacts {c0}");
+}

@@ -332,8 +332,9 @@ pub fn parse_scene(text: &str, origin: &str) -> Result<PackingScene> {
     let scheme_of = |name: &str, key: &str| match name {
         "original" => Ok(Scheme::Original),
         "revised" => Ok(Scheme::Revised),
+        "relax" => Ok(Scheme::Relax),
         other => invalid(format!(
-            "{origin}: {key} = \"{other}\": must be \"original\" or \"revised\""
+            "{origin}: {key} = \"{other}\": must be \"original\", \"revised\" or \"relax\""
         )),
     };
     let scheme = scheme_of(&m.scheme, "mcm.scheme")?;
@@ -656,6 +657,7 @@ fn run_scene_limited(
             match prm.scheme {
                 Scheme::Original => "2.4-2.10",
                 Scheme::Revised => "3.2-3.13",
+                Scheme::Relax => "FIRE descent of the overlap energy, packing::relax",
             },
             match prm.container {
                 Container::Periodic => "periodic cubic box".to_string(),
@@ -1334,6 +1336,18 @@ scheme = "original"
         )
         .unwrap_err();
         assert!(sb.to_string().contains("revised"), "{sb}");
+    }
+
+    /// The built-in `packing-spheres` is the schedule of case 512 and the benchmark.
+    #[test]
+    fn builtin_spheres_is_the_jamming_schedule() {
+        let b = builtins()
+            .into_iter()
+            .find(|b| b.name == "packing-spheres")
+            .unwrap();
+        let got = parse_scene(b.toml, b.name).unwrap().params;
+        let want = McmParams::jammed_spheres(1000, 1);
+        assert_eq!(format!("{got:?}"), format!("{want:?}"));
     }
 
     #[test]
