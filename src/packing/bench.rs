@@ -58,14 +58,38 @@ fn rods_aspect5(n: usize, seed: u64) -> McmParams {
     p
 }
 
-/// One timed run: (phi, C(1e-8), extrapolated contacts without rattlers, seconds, moves).
-fn timed(prm: &McmParams, threads: usize) -> Result<(f64, f64, f64, f64, u64)> {
+/// CPU seconds (user + system, all threads) of this process so far, from /proc/self/stat
+/// (fields 14-15, in clock ticks of 1/100 s, the Linux USER_HZ); NaN where it cannot be read.
+/// On a shared machine the wall time of a run includes the time other processes held the
+/// cores; the CPU time does not.
+fn process_cpu_seconds() -> f64 {
+    let Ok(stat) = std::fs::read_to_string("/proc/self/stat") else {
+        return f64::NAN;
+    };
+    // The command name (field 2) is in parentheses and may contain spaces.
+    let Some(rest) = stat.rfind(')').map(|k| &stat[k + 1..]) else {
+        return f64::NAN;
+    };
+    let f: Vec<&str> = rest.split_whitespace().collect();
+    // rest starts at field 3 (state): utime is field 14, stime field 15.
+    match (
+        f.get(11).map(|s| s.parse::<f64>()),
+        f.get(12).map(|s| s.parse::<f64>()),
+    ) {
+        (Some(Ok(u)), Some(Ok(s))) => (u + s) / 100.0,
+        _ => f64::NAN,
+    }
+}
+
+/// One timed run: (phi, C(1e-8), extrapolated contacts without rattlers, wall seconds, moves,
+/// CPU seconds).
+fn timed(prm: &McmParams, threads: usize) -> Result<(f64, f64, f64, f64, u64, f64)> {
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(threads)
         .build()
         .map_err(|e| crate::Error::InvalidInput(format!("thread pool: {e}")))?;
     pool.install(|| {
-        let t = Instant::now();
+        let (t, cpu) = (Instant::now(), process_cpu_seconds());
         let r = run(prm)?;
         let min_contacts = if prm.length == 0.0 { 4 } else { 5 };
         let m = measure(&r.packing, &CUTOFFS, min_contacts, 200)?;
@@ -76,6 +100,7 @@ fn timed(prm: &McmParams, threads: usize) -> Result<(f64, f64, f64, f64, u64)> {
             m.contacts_extrapolated_no_rattlers,
             secs,
             r.total_tries,
+            process_cpu_seconds() - cpu,
         ))
     })
 }
@@ -101,18 +126,18 @@ pub fn run_bench(args: &BenchArgs) -> Result<()> {
     let out = std::path::Path::new("target/porelab");
     std::fs::create_dir_all(out)?;
     let mut csv = String::from(
-        "particles,n,threads,packing_fraction,contacts_raw_1e-8,contacts_extrapolated_no_rattlers,seconds,moves,moves_per_second\n",
+        "particles,n,threads,packing_fraction,contacts_raw_1e-8,contacts_extrapolated_no_rattlers,seconds,cpu_seconds,moves,moves_per_second\n",
     );
     println!("# 1. jamming (seed {SEED}; engine on one thread, analysis on the pool)");
-    println!("particles        N  threads    phi   C(1e-8)  C0(no rattlers)  seconds      moves  moves/s");
-    let mut row = |what: &str, n: usize, threads: usize, r: (f64, f64, f64, f64, u64)| {
-        let (phi, c, c0, s, m) = r;
+    println!("particles        N  threads    phi   C(1e-8)  C0(no rattlers)  seconds  cpu_s      moves  moves/s");
+    let mut row = |what: &str, n: usize, threads: usize, r: (f64, f64, f64, f64, u64, f64)| {
+        let (phi, c, c0, s, m, cpu) = r;
         println!(
-            "{what:<14} {n:>6} {threads:>4}  {phi:.4}  {c:>7.3}  {c0:>14.3}  {s:>8.2}  {m:>9.3e}  {:.2e}",
+            "{what:<14} {n:>6} {threads:>4}  {phi:.4}  {c:>7.3}  {c0:>14.3}  {s:>8.2}  {cpu:>7.2}  {m:>9.3e}  {:.2e}",
             m as f64 / s
         );
         csv.push_str(&format!(
-            "{what},{n},{threads},{phi},{c},{c0},{s},{m},{}\n",
+            "{what},{n},{threads},{phi},{c},{c0},{s},{cpu},{m},{}\n",
             m as f64 / s
         ));
     };
@@ -120,7 +145,7 @@ pub fn run_bench(args: &BenchArgs) -> Result<()> {
     for &n in SIZES.iter().filter(|&&n| n <= args.max_n) {
         let r = timed(&McmParams::jammed_spheres(n, SEED), 1)?;
         ns.push(n as f64);
-        secs.push(r.3);
+        secs.push(r.5);
         row("spheres", n, 1, r);
         if n == 1000 {
             row(
@@ -143,7 +168,7 @@ pub fn run_bench(args: &BenchArgs) -> Result<()> {
     }
     if ns.len() >= 2 {
         println!(
-            "seconds ~ N^b over the spheres: b = {:.2} (1 = linear)",
+            "CPU seconds ~ N^b over the spheres: b = {:.2} (1 = linear)",
             log_slope(&ns, &secs)
         );
     }

@@ -683,42 +683,48 @@ fn overlaps_of(
         }
     };
     let ai = axis(i);
-    let mut virt = Vec::new();
-    p.container
-        .wall_virtuals(&xi, &p.axis(i), si.h, si.r, &mut virt);
-    let others = nb
-        .iter()
-        .map(|&j| {
-            (
-                p.container.separation(&xi, &p.positions[j], p.box_length),
-                Ok(j),
-            )
-        })
-        .chain(virt.iter().map(|(d, a)| (*d, Err(*a))));
-    for (d, j) in others {
-        // Virtual wall particles are identical to i and come with their own axis (sec. 2.2.4).
-        let sj = j.map_or(si, |j| &props[spc[j]]);
-        if d.norm_squared() >= pair_cutoff(si, sj).powi(2) {
-            continue;
-        }
-        if let (Ok(jj), Some(_)) = (j, &sj.sq) {
-            // A sphere among superquadrics meets a superquadric: the contact solver.
-            let (qi, qj) = (&p.orientations[i], &p.orientations[jj]);
-            if let Some(o) = sq_overlap((i, si, qi), (jj, sj, qj), &d, tol)? {
-                out.push(o);
+    // One pair: j's props, axis and separation; `jj` is j's index, None for a virtual wall
+    // particle (identical to i, with its own axis, sec. 2.2.4).
+    let mut check =
+        |d: Vector3<f64>, sj: &species::Props, aj: Vector3<f64>, jj: Option<usize>| -> Result<()> {
+            if d.norm_squared() >= pair_cutoff(si, sj).powi(2) {
+                return Ok(());
             }
-            continue;
+            if let (Some(jj), Some(_)) = (jj, &sj.sq) {
+                // A sphere among superquadrics meets a superquadric: the contact solver.
+                let (qi, qj) = (&p.orientations[i], &p.orientations[jj]);
+                if let Some(o) = sq_overlap((i, si, qi), (jj, sj, qj), &d, tol)? {
+                    out.push(o);
+                }
+                return Ok(());
+            }
+            let (gap, n, k, rci, li, _, _) =
+                pair_geometry((si.r, si.h), (sj.r, sj.h), &ai, &aj, &d);
+            if gap < -tol {
+                out.push(Overlap {
+                    depth: -gap,
+                    normal: n,
+                    k,
+                    rc: rci,
+                    l: li,
+                });
+            }
+            Ok(())
+        };
+    for &j in nb {
+        let d = p.container.separation(&xi, &p.positions[j], p.box_length);
+        let sj = &props[spc[j]];
+        // The axis is needed only within the cutoff (checked again in `check`).
+        if d.norm_squared() < pair_cutoff(si, sj).powi(2) {
+            check(d, sj, axis(j), Some(j))?;
         }
-        let aj = j.map_or_else(|a| a, axis);
-        let (gap, n, k, rci, li, _, _) = pair_geometry((si.r, si.h), (sj.r, sj.h), &ai, &aj, &d);
-        if gap < -tol {
-            out.push(Overlap {
-                depth: -gap,
-                normal: n,
-                k,
-                rc: rci,
-                l: li,
-            });
+    }
+    if p.container != Container::Periodic {
+        let mut virt = Vec::new();
+        p.container
+            .wall_virtuals(&xi, &p.axis(i), si.h, si.r, &mut virt);
+        for (d, a) in virt {
+            check(d, si, a, None)?;
         }
     }
     Ok(())

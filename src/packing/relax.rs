@@ -34,7 +34,8 @@ const F_INC: f64 = 1.1;
 const F_DEC: f64 = 0.5;
 const ALPHA_START: f64 = 0.1;
 const F_ALPHA: f64 = 0.99;
-/// Largest time step, in units of the initial one.
+/// Largest time step, in units of the initial one (1000 spheres, seed 1, initial step 0.1:
+/// 2, 3, 4, 6, 10 took 8.9, 7.7, 7.2, 16.4, 14.4 CPU s to the same density; 4 is the default).
 const DT_MAX_FACTOR: f64 = 4.0;
 /// Largest displacement of any particle point in one iteration (D): the overlaps of one
 /// compression step are far smaller, and the neighbour lists follow each move.
@@ -43,6 +44,7 @@ const MAX_STEP: f64 = 0.02;
 const PARALLEL_CHUNK: usize = 256;
 /// A configuration is a force-balanced (jammed) minimum when the largest residual force is
 /// below this fraction of the deepest overlap (an isolated overlap has force = depth).
+/// (1e-2 gave up too early: one seed of 1000 spheres ended with 5.50 contacts instead of 5.76.)
 const BALANCED: f64 = 1e-3;
 
 /// Removes the overlaps of `p` by collective relaxation; Ok(tries) when no overlap is deeper
@@ -59,6 +61,9 @@ pub(super) fn relax_overlaps(
     let list_gap =
         |p: &Packing, i: usize, j: usize, d: &Vector3<f64>| list_gap_bound(props, &spc, p, i, j, d);
     let mut nb = neighbour_lists(p, props, &list_gap)?;
+    // Spheres in the periodic box (no wall particles): the pair forces in closed form.
+    let spheres_in_box = p.container == super::Container::Periodic
+        && props.iter().all(|s| s.sphere && s.sq.is_none());
     let zero = Vector3::zeros();
     let (mut v, mut w) = (vec![zero; n], vec![zero; n]);
     let (mut force, mut torque) = (vec![zero; n], vec![zero; n]);
@@ -72,6 +77,9 @@ pub(super) fn relax_overlaps(
             .into_par_iter()
             .with_min_len(PARALLEL_CHUNK)
             .map_init(Vec::new, |ov, i| {
+                if spheres_in_box {
+                    return Ok(sphere_force(p, props, &spc, i, &nb.lists[i]));
+                }
                 overlaps_of(p, props, i, &nb.lists[i], 0.0, ov)?;
                 let body = &props[spc[i]];
                 let (mut f, mut t, mut deepest) = (zero, zero, 0.0f64);
@@ -163,6 +171,37 @@ pub(super) fn relax_overlaps(
             nb.moved(p, i, &list_gap);
         }
     }
+}
+
+/// Force on sphere i from its overlapping list neighbours, as the generic loop over
+/// [`overlaps_of`] computes it (same operations, so bitwise the same result): for gap =
+/// |d| - (r_i + r_j) < 0, F_i += gap n with n = d / |d|. Returns (force, zero torque, deepest
+/// overlap, |force|).
+fn sphere_force(
+    p: &Packing,
+    props: &[species::Props],
+    spc: &[usize],
+    i: usize,
+    list: &[usize],
+) -> (Vector3<f64>, Vector3<f64>, f64, f64) {
+    let (xi, ri) = (p.positions[i], props[spc[i]].r);
+    let (mut f, mut deepest) = (Vector3::zeros(), 0.0f64);
+    for &j in list {
+        let d = p.container.separation(&xi, &p.positions[j], p.box_length);
+        let contact = ri + props[spc[j]].r;
+        let r2 = d.norm_squared();
+        if r2 >= contact * contact {
+            continue;
+        }
+        let dist = r2.sqrt();
+        let gap = dist - contact;
+        if gap < 0.0 {
+            let n = if dist > 0.0 { d / dist } else { Vector3::x() };
+            deepest = deepest.max(-gap);
+            f += -(-gap) * n;
+        }
+    }
+    (f, Vector3::zeros(), deepest, f.norm())
 }
 
 /// World-frame inertia tensor of particle i (zero for spheres, which never rotate).
