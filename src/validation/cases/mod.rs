@@ -45,6 +45,7 @@ pub fn runner_for(id: &str) -> Option<Runner> {
         "507" => Some(packing::case_507),
         "508" => Some(packing::case_508),
         "509" => Some(packing::case_509),
+        "510" => Some(packing::case_510),
         "512" => Some(packing::case_512),
         "520" => Some(packing::case_520),
         "521" => Some(packing::case_521),
