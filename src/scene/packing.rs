@@ -17,14 +17,15 @@
 //! diameter = 6.0                   # cylinder diameter D_cyl in D (> 1), cylinder only
 //! [mcm]
 //! seed = 1                         # ChaCha8 seed of the random start [1]
-//! scheme = "original"              # "original" (eq. 2.4-2.10) | "revised" (eq. 3.2-3.13)
+//! scheme = "original"              # "original" (eq. 2.4-2.10) | "revised" (eq. 3.2-3.13) |
+//!                                  # "relax" (collective FIRE descent, packing::relax)
 //! phi0 = 0.05                      # start packing fraction, (0, 0.2]
 //! delta_v_per_particle = 0.01      # Delta V / N in D^3
 //! halvings = 6                     # halvings of Delta V after failed steps
 //! tries_per_particle = 200.0       # particle moves allowed per compression step / N
 //! overlap_tol = 1e-4               # overlaps below this count as removed (sec. 2.2.6)
 //! beta = 0.5                       # original scheme, eq. 2.10
-//! dt = 0.1                         # revised scheme, eq. 3.9 / 3.12
+//! dt = 0.1                         # revised scheme, eq. 3.9 / 3.12; relax: FIRE's initial step
 //! energy = 1.0                     # revised scheme, c of eq. 3.4
 //! max_steps = 1000000              # safety limit on accepted steps
 //! [final_stage]                    # optional second stage from where the first stopped

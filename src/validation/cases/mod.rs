@@ -47,6 +47,7 @@ pub fn runner_for(id: &str) -> Option<Runner> {
         "509" => Some(packing::case_509),
         "510" => Some(packing::case_510),
         "512" => Some(packing::case_512),
+        "513" => Some(packing::case_513),
         "520" => Some(packing::case_520),
         "521" => Some(packing::case_521),
         "401" => Some(brownian::case_401),
