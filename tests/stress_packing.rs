@@ -2,7 +2,8 @@
 //! stress_packing -- --ignored --nocapture`).
 
 use porelab::analysis;
-use porelab::packing::{run, McmParams, Scheme};
+use porelab::contact::ContactShape;
+use porelab::packing::{run, McmParams, Particles, Scheme};
 use std::time::Instant;
 
 fn env_f(name: &str, d: f64) -> f64 {
@@ -77,6 +78,60 @@ fn explore() {
     for h in r.history.iter().rev().take(3) {
         eprintln!("  {:?}", h);
     }
+}
+
+/// Superball packings (thesis 003 sec. 4.5, Fig. 4.5; case 509) with parameters from the
+/// environment: SB_N (particles, 50), SB_GAMMA (3), SB_SEED (1), SB_TRIES (tries per particle,
+/// 100), SB_DT (0.5), SB_DV (Delta V per particle, 0.02), SB_H (halvings, 3), SB_CHECK (1:
+/// certified and sampled overlap checks and contacts of the final configuration, 0: none).
+/// Prints one `RESULT` line.
+#[test]
+#[ignore = "exploration run driven by the SB_* environment variables"]
+fn explore_superballs() {
+    let n = env_f("SB_N", 50.0) as usize;
+    let g = env_f("SB_GAMMA", 3.0);
+    let mut p = McmParams::new(n, 0.0, env_f("SB_SEED", 1.0) as u64);
+    p.particles = Some(Particles::mixture(&[(
+        ContactShape::Superquadric {
+            semi_axes: [0.5; 3],
+            exponents: [g; 3],
+        },
+        n,
+    )]));
+    p.scheme = Scheme::Revised;
+    p.dt = env_f("SB_DT", 0.5);
+    p.delta_v_per_particle = env_f("SB_DV", 0.02);
+    p.halvings = env_f("SB_H", 3.0) as u32;
+    p.tries_per_particle = env_f("SB_TRIES", 100.0);
+    p.overlap_tol = 1e-4;
+    let t = Instant::now();
+    let r = run(&p).unwrap();
+    let secs = t.elapsed().as_secs_f64();
+    let v = r.packing.view();
+    let mut line = format!(
+        "RESULT N={n} gamma={g} seed={} tries={} dt={} dv={} h={} phi={:.5} steps={} failed={} moves={} secs={:.2}",
+        p.seed,
+        p.tries_per_particle,
+        p.dt,
+        p.delta_v_per_particle,
+        p.halvings,
+        r.packing.packing_fraction(),
+        r.history.len(),
+        r.failed_steps,
+        r.total_tries,
+        secs
+    );
+    if env_f("SB_CHECK", 1.0) > 0.0 {
+        let gaps = analysis::pair_gaps(&v, 1e-3).unwrap();
+        let worst = gaps.iter().map(|g| g.gap).fold(f64::INFINITY, f64::min);
+        let (c, _) = analysis::mean_contacts(v.n(), &gaps, 1e-3, None);
+        let s = analysis::sampled_overlap(&v, analysis::OVERLAP_SAMPLES).unwrap();
+        line += &format!(
+            " worst_gap={worst:.3e} sampled={:.3e} C(1e-3)={c:.3}",
+            s.worst.map_or(0.0, |w| w.2)
+        );
+    }
+    println!("{line}");
 }
 
 /// Rods too long for the periodic box: a clear error naming the rule, never a silent result.

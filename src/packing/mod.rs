@@ -602,12 +602,11 @@ fn sq_overlap(
     tol: f64,
 ) -> Result<Option<Overlap>> {
     use crate::analysis::PERTURB_ANGLE;
-    use crate::contact::{contact_perturbed, Pose};
+    use crate::contact::{contact_perturbed, contact_superquadric_perturbed, Pose};
     if d.norm() >= a.bound + b.bound {
         return Ok(None);
     }
-    let (sa, sb) = (a.sq.clone(), b.sq.clone());
-    let (Some(sa), Some(sb)) = (sa, sb) else {
+    let (Some(sa), Some(sb)) = (&a.sq, &b.sq) else {
         return invalid("superquadric pair without superquadric shapes (internal)");
     };
     // Separating-axis prefilter along the line of centres u (support points in closed form):
@@ -630,7 +629,17 @@ fn sq_overlap(
     // b rotated by PERTURB_ANGLE = 1e-6 rad, which moves its surface by at most 0.87e-6 D
     // for a superball of half-width 1/2 (bounding radius <= 0.5 sqrt 3), 1% of the default
     // overlap_tol; a query that still fails is an error naming the pair.
-    let c = contact_perturbed(&a.shape, &pa, &b.shape, &pb, PERTURB_ANGLE).map_err(|e| {
+    // A pair with a superquadric goes to the superquadric solver with the species' shapes
+    // (bounding radii computed once); other pairs (spheres, ellipsoids) through the dispatch.
+    let sq_pair = [&a.shape, &b.shape]
+        .iter()
+        .any(|s| matches!(s, ContactShape::Superquadric { .. }));
+    let c = if sq_pair {
+        contact_superquadric_perturbed(sa, &pa, sb, &pb, PERTURB_ANGLE)
+    } else {
+        contact_perturbed(&a.shape, &pa, &b.shape, &pb, PERTURB_ANGLE)
+    };
+    let c = c.map_err(|e| {
         crate::Error::InvalidInput(format!(
             "MCM overlap of particles {i} and {j} (centre distance {:.6}): {e}",
             d.norm()
