@@ -309,7 +309,7 @@ fn small_superball_packing_is_overlap_free_by_the_sampled_check() {
 }
 
 /// A dense polydisperse packing (diameters 0.5-1.5, one species per particle, original scheme
-/// with beta 1.3 to compact hard) ends overlap-free by the brute-force check (issue 5,
+/// with beta 1.3 to compact hard, then optionally the collective relaxation) ends overlap-free by the brute-force check (issue 5,
 /// stress: dense polydisperse mixtures).
 #[test]
 fn dense_polydisperse_spheres_end_overlap_free() {
@@ -324,13 +324,25 @@ fn dense_polydisperse_spheres_end_overlap_free() {
     let mut prm = quick(n, 0.0, 6, Scheme::Original, 0.02, 3, 200.0);
     prm.beta = 1.3;
     prm.particles = Some(Particles::per_particle(shapes));
-    let r = run(&prm).unwrap();
-    analysis::check_no_overlap(&r.packing.view(), prm.overlap_tol).unwrap();
-    assert!(
-        r.packing.packing_fraction() > 0.55,
-        "{}",
-        r.packing.packing_fraction()
-    );
+    // Also with the collective relaxation as final stage (forces of unequal spheres).
+    let relax = Stage {
+        scheme: Scheme::Relax,
+        delta_v_per_particle: 0.002,
+        halvings: 3,
+        tries_per_particle: 1000.0,
+        beta: 1.3,
+        dt: 0.1,
+    };
+    for last in [None, Some(relax)] {
+        prm.final_stage = last;
+        let r = run(&prm).unwrap();
+        analysis::check_no_overlap(&r.packing.view(), prm.overlap_tol).unwrap();
+        assert!(
+            r.packing.packing_fraction() > 0.55,
+            "{}",
+            r.packing.packing_fraction()
+        );
+    }
 }
 
 /// Two equal spheres overlapping by 0.19 D: the collective relaxation separates them to within
