@@ -27,6 +27,9 @@ use crate::Result;
 use nalgebra::{UnitQuaternion, Vector3};
 use rayon::prelude::*;
 
+/// Force, torque, deepest overlap and residual force of one particle.
+type ParticleLoad = (Vector3<f64>, Vector3<f64>, f64, f64);
+
 /// FIRE constants of Bitzek et al. (2006): steps with positive power before dt grows, growth
 /// and shrink factors of dt, initial mixing alpha and its decay.
 const N_MIN: u32 = 5;
@@ -73,7 +76,7 @@ pub(super) fn relax_overlaps(
         // Forces and torques of U, the deepest overlap and the largest residual force (a
         // torque counts as the force at the particle's bounding radius). Each particle sums its
         // own pairs in list order, so the result does not depend on the thread count.
-        let per_particle: Vec<Result<(Vector3<f64>, Vector3<f64>, f64, f64)>> = (0..n)
+        let per_particle: Vec<Result<ParticleLoad>> = (0..n)
             .into_par_iter()
             .with_min_len(PARALLEL_CHUNK)
             .map_init(Vec::new, |ov, i| {
@@ -183,7 +186,7 @@ fn sphere_force(
     spc: &[usize],
     i: usize,
     list: &[usize],
-) -> (Vector3<f64>, Vector3<f64>, f64, f64) {
+) -> ParticleLoad {
     let (xi, ri) = (p.positions[i], props[spc[i]].r);
     let (mut f, mut deepest) = (Vector3::zeros(), 0.0f64);
     for &j in list {
