@@ -158,52 +158,63 @@ fn tiny_delta_v_ends_overlap_free() {
     analysis::check_no_overlap(&r.packing.view(), p.overlap_tol * (1.0 + 1e-6)).unwrap();
 }
 
-/// Aspect ratio 10 with a small try budget: whatever it reaches is overlap-free.
+/// Aspect ratio 10 with a small try budget, with the original scheme and with the collective
+/// relaxation: whatever it reaches is overlap-free.
 #[test]
 fn aspect_ten_ends_overlap_free() {
-    let mut p = McmParams::new(300, 10.0, 3);
-    p.scheme = Scheme::Original;
-    p.delta_v_per_particle = 0.5;
-    p.halvings = 1;
-    p.tries_per_particle = 20.0;
-    match run(&p) {
-        Ok(r) => {
-            analysis::check_no_overlap(&r.packing.view(), p.overlap_tol * (1.0 + 1e-6)).unwrap();
-            eprintln!(
-                "L/D = 10: phi = {:.4}, steps = {}",
-                r.packing.packing_fraction(),
-                r.history.len()
-            );
+    for scheme in [Scheme::Original, Scheme::Relax] {
+        let mut p = McmParams::new(300, 10.0, 3);
+        p.scheme = scheme;
+        p.dt = 0.5;
+        p.delta_v_per_particle = 0.5;
+        p.halvings = 1;
+        p.tries_per_particle = 20.0;
+        match run(&p) {
+            Ok(r) => {
+                analysis::check_no_overlap(&r.packing.view(), p.overlap_tol * (1.0 + 1e-6))
+                    .unwrap();
+                eprintln!(
+                    "L/D = 10, {scheme:?}: phi = {:.4}, steps = {}",
+                    r.packing.packing_fraction(),
+                    r.history.len()
+                );
+            }
+            Err(e) => assert!(e.to_string().contains("box length"), "{e}"),
         }
-        Err(e) => assert!(e.to_string().contains("box length"), "{e}"),
     }
 }
 
 /// Aspect ratio L/D = 100 (thesis: phi0 = 0.005 for aspect ratios >= 50, sec. 2.2.6) with a
-/// coarse schedule: the run either ends overlap-free or stops with the minimum-image error
-/// once the box is shorter than twice a rod; never a silently overlapping result.
+/// coarse schedule, original scheme and collective relaxation: the run either ends
+/// overlap-free or stops with the minimum-image error once the box is shorter than twice a
+/// rod; never a silently overlapping result.
 #[test]
 fn aspect_hundred_ends_overlap_free_or_with_a_clear_error() {
-    let mut p = McmParams::new(600, 100.0, 4);
-    p.scheme = Scheme::Original;
-    p.phi0 = 0.005;
-    p.delta_v_per_particle = 500.0;
-    p.halvings = 1;
-    p.tries_per_particle = 5.0;
-    p.max_steps = 10;
-    match run(&p) {
-        Ok(r) => {
-            analysis::check_no_overlap(&r.packing.view(), p.overlap_tol * (1.0 + 1e-6)).unwrap();
-            eprintln!(
-                "L/D = 100: phi = {:.5}, steps = {}",
-                r.packing.packing_fraction(),
-                r.history.len()
-            );
-        }
-        Err(e) => {
-            let e = e.to_string();
-            assert!(e.contains("box length") && e.contains("pair cutoff"), "{e}");
-            eprintln!("L/D = 100: {e}");
+    for scheme in [Scheme::Original, Scheme::Relax] {
+        let mut p = McmParams::new(600, 100.0, 4);
+        p.scheme = scheme;
+        p.dt = 1.0;
+        p.phi0 = 0.005;
+        p.delta_v_per_particle = 500.0;
+        p.halvings = 1;
+        // One relaxation iteration moves every rod; it needs more of them than single moves.
+        p.tries_per_particle = if scheme == Scheme::Relax { 200.0 } else { 5.0 };
+        p.max_steps = 10;
+        match run(&p) {
+            Ok(r) => {
+                analysis::check_no_overlap(&r.packing.view(), p.overlap_tol * (1.0 + 1e-6))
+                    .unwrap();
+                eprintln!(
+                    "L/D = 100, {scheme:?}: phi = {:.5}, steps = {}",
+                    r.packing.packing_fraction(),
+                    r.history.len()
+                );
+            }
+            Err(e) => {
+                let e = e.to_string();
+                assert!(e.contains("box length") && e.contains("pair cutoff"), "{e}");
+                eprintln!("L/D = 100, {scheme:?}: {e}");
+            }
         }
     }
 }
