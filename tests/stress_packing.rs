@@ -158,8 +158,30 @@ fn tiny_delta_v_ends_overlap_free() {
     analysis::check_no_overlap(&r.packing.view(), p.overlap_tol * (1.0 + 1e-6)).unwrap();
 }
 
+/// Runs `p` and asserts the stress contract: the run ends overlap-free (brute force, contact
+/// tolerance) or stops with the minimum-image error once the box is shorter than twice a rod;
+/// never a silently overlapping result.
+fn overlap_free_or_box_error(p: &McmParams, label: &str) {
+    match run(p) {
+        Ok(r) => {
+            analysis::check_no_overlap(&r.packing.view(), p.overlap_tol * (1.0 + 1e-6)).unwrap();
+            eprintln!(
+                "{label}, {:?}: phi = {:.5}, steps = {}",
+                p.scheme,
+                r.packing.packing_fraction(),
+                r.history.len()
+            );
+        }
+        Err(e) => {
+            let e = e.to_string();
+            assert!(e.contains("box length") && e.contains("pair cutoff"), "{e}");
+            eprintln!("{label}, {:?}: {e}", p.scheme);
+        }
+    }
+}
+
 /// Aspect ratio 10 with a small try budget, with the original scheme and with the collective
-/// relaxation: whatever it reaches is overlap-free.
+/// relaxation.
 #[test]
 fn aspect_ten_ends_overlap_free() {
     for scheme in [Scheme::Original, Scheme::Relax] {
@@ -169,25 +191,12 @@ fn aspect_ten_ends_overlap_free() {
         p.delta_v_per_particle = 0.5;
         p.halvings = 1;
         p.tries_per_particle = 20.0;
-        match run(&p) {
-            Ok(r) => {
-                analysis::check_no_overlap(&r.packing.view(), p.overlap_tol * (1.0 + 1e-6))
-                    .unwrap();
-                eprintln!(
-                    "L/D = 10, {scheme:?}: phi = {:.4}, steps = {}",
-                    r.packing.packing_fraction(),
-                    r.history.len()
-                );
-            }
-            Err(e) => assert!(e.to_string().contains("box length"), "{e}"),
-        }
+        overlap_free_or_box_error(&p, "L/D = 10");
     }
 }
 
 /// Aspect ratio L/D = 100 (thesis: phi0 = 0.005 for aspect ratios >= 50, sec. 2.2.6) with a
-/// coarse schedule, original scheme and collective relaxation: the run either ends
-/// overlap-free or stops with the minimum-image error once the box is shorter than twice a
-/// rod; never a silently overlapping result.
+/// coarse schedule, original scheme and collective relaxation.
 #[test]
 fn aspect_hundred_ends_overlap_free_or_with_a_clear_error() {
     for scheme in [Scheme::Original, Scheme::Relax] {
@@ -200,22 +209,7 @@ fn aspect_hundred_ends_overlap_free_or_with_a_clear_error() {
         // One relaxation iteration moves every rod; it needs more of them than single moves.
         p.tries_per_particle = if scheme == Scheme::Relax { 200.0 } else { 5.0 };
         p.max_steps = 10;
-        match run(&p) {
-            Ok(r) => {
-                analysis::check_no_overlap(&r.packing.view(), p.overlap_tol * (1.0 + 1e-6))
-                    .unwrap();
-                eprintln!(
-                    "L/D = 100, {scheme:?}: phi = {:.5}, steps = {}",
-                    r.packing.packing_fraction(),
-                    r.history.len()
-                );
-            }
-            Err(e) => {
-                let e = e.to_string();
-                assert!(e.contains("box length") && e.contains("pair cutoff"), "{e}");
-                eprintln!("L/D = 100, {scheme:?}: {e}");
-            }
-        }
+        overlap_free_or_box_error(&p, "L/D = 100");
     }
 }
 

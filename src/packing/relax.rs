@@ -144,7 +144,7 @@ pub(super) fn relax_overlaps(
             };
             v[i] += dt * a;
             w[i] += dt * b;
-            v2 += body.mass * v[i].norm_squared() + w[i].dot(&(torque_metric(p, body, i) * w[i]));
+            v2 += body.mass * v[i].norm_squared() + w[i].dot(&(inertia_world(p, body, i) * w[i]));
             a2 += force[i].dot(&a) + torque[i].dot(&b);
             accel[i] = (a, b);
         }
@@ -208,7 +208,7 @@ fn sphere_force(
 }
 
 /// World-frame inertia tensor of particle i (zero for spheres, which never rotate).
-fn torque_metric(p: &Packing, body: &species::Props, i: usize) -> nalgebra::Matrix3<f64> {
+fn inertia_world(p: &Packing, body: &species::Props, i: usize) -> nalgebra::Matrix3<f64> {
     if body.sphere {
         return nalgebra::Matrix3::zeros();
     }
