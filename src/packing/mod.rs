@@ -761,15 +761,20 @@ fn list_gap_bound(
     }
 }
 
-/// Checks the box and builds the neighbour lists of `p` (skin 0.3 D, less in a small box).
+/// Checks the box and builds the neighbour lists of `p` (skin `max_skin`, less in a small box).
+/// Largest neighbour-list skin of the Gauss-Seidel schemes (D): their moves are up to an
+/// overlap depth or more, so lists rebuild often with a thin skin.
+const GS_SKIN: f64 = 0.3;
+
 fn neighbour_lists(
     p: &Packing,
     props: &[species::Props],
     list_gap: &neighbours::ListGap,
+    max_skin: f64,
 ) -> Result<Neighbours> {
     check_box(&p.container, p.box_length, props)?;
     let cutoff = max_pair_cutoff(props);
-    let skin = (0.5 * p.box_length - cutoff).min(0.3);
+    let skin = (0.5 * p.box_length - cutoff).min(max_skin);
     let half: Vec<f64> = p.particles.species.iter().map(|&k| props[k].h).collect();
     Neighbours::new(p, cutoff, skin, half, list_gap)
 }
@@ -804,7 +809,7 @@ fn remove_overlaps_with(
     let spc = p.particles.species.clone();
     let list_gap =
         |p: &Packing, i: usize, j: usize, d: &Vector3<f64>| list_gap_bound(props, &spc, p, i, j, d);
-    let mut nb = neighbour_lists(p, props, &list_gap)?;
+    let mut nb = neighbour_lists(p, props, &list_gap, GS_SKIN)?;
     let mut dirty = DirtySet::full(n);
     let mut ov = Vec::new();
     let mut tries = 0u64;

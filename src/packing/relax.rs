@@ -43,6 +43,11 @@ const DT_MAX_FACTOR: f64 = 4.0;
 /// Largest displacement of any particle point in one iteration (D): the overlaps of one
 /// compression step are far smaller, and the neighbour lists follow each move.
 const MAX_STEP: f64 = 0.02;
+/// Largest neighbour-list skin (D). Relaxation moves are small (MAX_STEP and far less near
+/// jamming), so a thin skin rarely triggers a rebuild and keeps the lists short: 1000
+/// spheres, seed 1, one thread, best of 3: skin 0.3, 0.1, 0.05 took 4.13, 3.88, 3.88 CPU s,
+/// bitwise the same packing (the lists hold every overlapping pair in index order either way).
+const RELAX_SKIN: f64 = 0.1;
 /// Particles per rayon task in the force loop (smaller packings run on one thread).
 const PARALLEL_CHUNK: usize = 256;
 /// A configuration is a force-balanced (jammed) minimum when the largest residual force is
@@ -63,7 +68,7 @@ pub(super) fn relax_overlaps(
     let spc = p.particles.species.clone();
     let list_gap =
         |p: &Packing, i: usize, j: usize, d: &Vector3<f64>| list_gap_bound(props, &spc, p, i, j, d);
-    let mut nb = neighbour_lists(p, props, &list_gap)?;
+    let mut nb = neighbour_lists(p, props, &list_gap, RELAX_SKIN)?;
     // Spheres in the periodic box (no wall particles): the pair forces in closed form.
     let spheres_in_box = p.container == super::Container::Periodic
         && props.iter().all(|s| s.sphere && s.sq.is_none());
