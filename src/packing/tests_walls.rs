@@ -435,3 +435,23 @@ fn superquadrics_in_walls_refuse_unsupported_setups() {
     let e = run(&prm).unwrap_err().to_string();
     assert!(e.contains("cylinder diameter 1.15"), "{e}");
 }
+
+/// A long ellipsoid lying across the cylinder pokes through the wall on both sides: two
+/// contacts, at the ends of its long axis, with the closed-form depths a_1 +- x_c - R_cyl and
+/// opposite normals (the azimuths then span the whole circle).
+#[test]
+fn ellipsoid_across_the_cylinder_touches_both_sides() {
+    let e = C::Ellipsoid {
+        semi_axes: [1.2, 0.2, 0.3],
+    };
+    let q = UnitQuaternion::identity();
+    let cyl = Container::Cylinder { diameter: 2.2 };
+    let mut ov = wall_overlaps(&one(cyl, e, Vector3::new(0.05, 0.0, 5.0), q));
+    ov.sort_by(|a, b| b.depth.total_cmp(&a.depth));
+    assert_eq!(ov.len(), 2, "{ov:?}");
+    for (o, (depth, side)) in ov.iter().zip([(0.15, 1.0f64), (0.05, -1.0)]) {
+        assert!((o.depth - depth).abs() < 1e-12, "{o:?}");
+        assert!((o.normal - side * Vector3::x()).norm() < 1e-9, "{o:?}");
+        assert!((o.rc - side * 1.2 * Vector3::x()).norm() < 1e-6, "{o:?}");
+    }
+}
