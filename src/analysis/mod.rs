@@ -30,8 +30,7 @@ pub const OVERLAP_SAMPLES: usize = 20_000;
 /// spherocylinders, ellipsoids, superquadrics, and each particle's species) in the periodic
 /// box [0, L)^3, or, with `wall_diameter`, inside a hard cylinder of that diameter about the z
 /// axis (x = y = 0), periodic along z over [0, L), or, with `wedge` = (l_w, alpha in radians), inside the hard
-/// wedge 0 <= y <= x tan(alpha), x <= l_w, periodic along z over [0, L) (thesis sec. 2.2.4)
-/// (walls: spheres and spherocylinders only).
+/// wedge 0 <= y <= x tan(alpha), x <= l_w, periodic along z over [0, L) (thesis sec. 2.2.4).
 #[derive(Debug, Clone, Copy)]
 pub struct Rods<'a> {
     pub box_length: f64,
@@ -119,13 +118,12 @@ impl Rods<'_> {
         let mut dmax: f64 = 0.0;
         if self.wall_diameter.is_some() || self.wedge.is_some() {
             for s in self.shapes {
-                let Some((r, _)) = rod_parameters(s) else {
-                    return invalid(format!(
-                        "walls (cylinder, wedge) hold spheres and spherocylinders only, not {}",
-                        s.name()
-                    ));
+                // Rods: their diameter; ellipsoids and superquadrics: their bounding sphere.
+                let d = match rod_parameters(s) {
+                    Some((r, _)) => 2.0 * r,
+                    None => 2.0 * crate::shape::bounding_radius_of(s)?,
                 };
-                dmax = dmax.max(2.0 * r);
+                dmax = dmax.max(d);
             }
         }
         if let Some(d) = self.wall_diameter {
@@ -170,11 +168,34 @@ pub fn packing_fraction(c: &Rods) -> Result<f64> {
 /// for spheres), the largest sqrt(p_x^2 + p_y^2) + R - R_cyl in the cylinder, or R minus the
 /// distance to the nearest of the back, bottom and slope planes in the wedge; None in the
 /// periodic box or when nothing penetrates.
+///
+/// Ellipsoids and superquadrics (no contact solver, no support function): the deepest of
+/// [`OVERLAP_SAMPLES`] surface samples of the shape module ([`ConvexShape::surface_samples`]),
+/// with R = 0 in the formulas above. A lower bound of the true penetration: for a sample
+/// spacing h and principal curvatures at most kappa the deepest point is missed by at most
+/// kappa h^2 / 2 (the body contains a ball of radius 1/kappa tangent at its deepest point,
+/// Blaschke's rolling theorem; the wall's distance function is at least the tangent plane's).
+///
+/// [`ConvexShape::surface_samples`]: crate::shape::ConvexShape::surface_samples
 pub fn wall_penetration(c: &Rods) -> Result<Option<(usize, f64)>> {
     c.check()?;
     if c.wall_diameter.is_none() && c.wedge.is_none() {
         return Ok(None);
     }
+    // Surface samples of the non-rod species (body frame), computed once per species.
+    let samples: Vec<Option<Vec<Vector3<f64>>>> = c
+        .shapes
+        .iter()
+        .map(|s| match sampled::superquadric_parameters(s) {
+            Some((a, g)) if rod_parameters(s).is_none() => {
+                use crate::shape::ConvexShape;
+                Ok(Some(
+                    crate::shape::Superquadric::new(a, g)?.surface_samples(OVERLAP_SAMPLES),
+                ))
+            }
+            _ => Ok(None),
+        })
+        .collect::<Result<_>>()?;
     let depth = |e: &Vector3<f64>, r: f64| match (c.wall_diameter, c.wedge) {
         (Some(d), _) => e.x.hypot(e.y) + r - 0.5 * d,
         (None, Some((l, a))) => {
@@ -185,7 +206,17 @@ pub fn wall_penetration(c: &Rods) -> Result<Option<(usize, f64)>> {
     };
     let mut worst: Option<(usize, f64)> = None;
     for (i, (x, q)) in c.positions.iter().zip(c.orientations).enumerate() {
-        let (r, h) = rod_parameters(c.shape(i)).expect("checked: rods only behind walls");
+        if let Some(pts) = &samples[c.species[i]] {
+            let rot = q.to_rotation_matrix();
+            for y in pts {
+                let pen = depth(&(x + rot * y), 0.0);
+                if pen > 0.0 && worst.is_none_or(|w| pen > w.1) {
+                    worst = Some((i, pen));
+                }
+            }
+            continue;
+        }
+        let (r, h) = rod_parameters(c.shape(i)).expect("rods and sampled shapes only");
         let a = q * Vector3::z();
         for s in [-h, h] {
             let e = x + s * a;
@@ -322,6 +353,14 @@ pub fn check_no_overlap(c: &Rods, tol: f64) -> Result<()> {
         return invalid(format!("tol = {tol}: must be finite and >= 0"));
     }
     if c.shapes.iter().any(|s| rod_parameters(s).is_none()) {
+        if let Some((i, pen)) = wall_penetration(c)? {
+            if pen > tol {
+                return invalid(format!(
+                    "particle {i}: a surface sample lies {pen:e} beyond the wall, deeper than \
+                     the contact tolerance {tol:e} (sampled check)"
+                ));
+            }
+        }
         let s = sampled_overlap(c, OVERLAP_SAMPLES)?;
         if let Some((i, j, depth)) = s.worst.filter(|w| w.2 > tol) {
             return invalid(format!(

@@ -47,7 +47,7 @@ fn inside(a: &[f64; 3], g: &[f64; 3], y: &Vector3<f64>) -> f64 {
 }
 
 /// Semi-axes and exponents of an ellipsoid or superquadric (spheres: exponents 2).
-fn superquadric_parameters(s: &ContactShape) -> Option<([f64; 3], [f64; 3])> {
+pub(super) fn superquadric_parameters(s: &ContactShape) -> Option<([f64; 3], [f64; 3])> {
     match *s {
         ContactShape::Sphere { radius } => Some(([radius; 3], [2.0; 3])),
         ContactShape::Ellipsoid { semi_axes } => Some((semi_axes, [2.0; 3])),
@@ -102,13 +102,17 @@ fn max_nearest_distance(pts: &[Vector3<f64>], cell: f64) -> f64 {
 }
 
 /// Solver-free overlap check of a configuration of ellipsoids / superquadrics (spheres among
-/// them allowed) in the periodic box, over all pairs and all 27 images, with `samples`
-/// surface points per particle (module docs).
+/// them allowed) over all pairs and all periodic images (27 in the periodic box, the 3 along
+/// z in a cylinder or wedge), with `samples` surface points per particle (module docs). Pairs
+/// only: the walls are checked by [`super::wall_penetration`].
 pub fn sampled_overlap(c: &Rods, samples: usize) -> Result<SampledOverlap> {
     c.check()?;
-    if c.wall_diameter.is_some() || c.wedge.is_some() {
-        return invalid("sampled overlap check: periodic box only");
-    }
+    // Images along the periodic directions only (z alone behind walls).
+    let lat = if c.wall_diameter.is_some() || c.wedge.is_some() {
+        0
+    } else {
+        1
+    };
     if samples < 100 {
         return invalid(format!("samples = {samples}: need at least 100"));
     }
@@ -167,8 +171,8 @@ pub fn sampled_overlap(c: &Rods, samples: usize) -> Result<SampledOverlap> {
             let mut worst: Option<(usize, usize, f64)> = None;
             for j in i + 1..n {
                 let reach = bounds[c.species[i]] + bounds[c.species[j]];
-                for sx in -1..=1 {
-                    for sy in -1..=1 {
+                for sx in -lat..=lat {
+                    for sy in -lat..=lat {
                         for sz in -1..=1 {
                             let shift = Vector3::new(sx as f64, sy as f64, sz as f64) * bl;
                             let d = c.positions[j] + shift - c.positions[i];

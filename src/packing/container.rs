@@ -3,7 +3,10 @@
 //!
 //! Hard walls act through virtual particles (Fig. 2.4): a particle that penetrates the wall
 //! sees an identical particle on the other side of it, touching the wall from outside, and the
-//! ordinary pair overlap removal pushes it back.
+//! ordinary pair overlap removal pushes it back. Spheres and rods get the thesis' virtual
+//! particles ([`Container::wall_virtuals`]); ellipsoids and superquadrics the same mirror
+//! image in the wall's tangent plane, in closed form through their support function
+//! ([`Container::convex_wall_contacts`]).
 
 use crate::error::invalid;
 use crate::Result;
@@ -264,6 +267,177 @@ impl Container {
                         let n_out = Vector3::new(-sin, cos, 0.0);
                         let c = e + (slope.max(-ESCAPED * r) + r) * n_out;
                         out.push((c - x, Vector3::new(cos, sin, 0.0)));
+                    }
+                }
+            }
+        }
+    }
+}
+
+/// A wall contact of a convex body (see [`Container::convex_wall_contacts`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct WallContact {
+    /// Penetration depth beyond the wall (> 0: overlap; the sphere path's virtual-particle
+    /// overlap 2R - |c - x| equals it).
+    pub depth: f64,
+    /// Outward unit normal of the wall at the contact (from the body towards its mirror image).
+    pub normal: Vector3<f64>,
+    /// The deepest point of the body (its support point along `normal`), relative to the centre.
+    pub rc: Vector3<f64>,
+}
+
+/// Azimuths sampled across the arc of the cylinder wall a convex body can reach, before the
+/// local maxima of the support function are refined (see [`Container::convex_wall_contacts`]).
+const CYL_AZIMUTHS: usize = 17;
+/// Refinement steps of a cylinder wall contact at most (the fixed-point ascent converges
+/// linearly at the ratio of the body's curvature radius at the contact to the cylinder's).
+const CYL_ASCENT_STEPS: usize = 100;
+
+impl Container {
+    /// Wall contacts of a convex body (ellipsoid, superquadric; spheres among them) centred at
+    /// `x` with bounding radius `bound` and world-frame support map `support(u)` = the body
+    /// point farthest along the unit vector u, relative to the centre. Pushes onto `out`
+    /// (cleared first) every contact whose depth is positive.
+    ///
+    /// The thesis' virtual particle (sec. 2.2.4, Fig. 2.4; used with eq. 2.12-2.13) is the
+    /// mirror image of the particle in the wall's tangent plane. For a plane with outward unit
+    /// normal m at signed distance d_c of the centre (positive inside), the body and its mirror
+    /// image overlap along m by twice the penetration, and the penetration itself, the depth
+    /// each one removes, is that of the body's deepest point beyond the plane, its support
+    /// point along m:
+    ///
+    ///   depth = h(m) - d_c,   h(m) = max over the body of m . (y - x),
+    ///   contact point r_c = support(m), normal m (pushes the body along -m).
+    ///
+    /// For a sphere of radius R this is R - d_c, the overlap 2R - |c - x| of the sphere path's
+    /// virtual sphere (so both paths agree, and the pair convention of the overlap removal,
+    /// depth + normal from i to j + contact point of i, carries over to the revised scheme and
+    /// the relaxation with their torques r_c x F). Unlike the mirror construction, the depth
+    /// grows without bound as the body leaves the container: a body far outside is always
+    /// pushed inward and always blocks acceptance (the defect [`Container::wall_virtuals`]
+    /// guards against for spheres and rods cannot occur).
+    ///
+    /// Wedge: the three planes of [`wedge_wall_distances`], each on its own (the wedge is their
+    /// intersection, so a body is inside exactly when no plane reports a contact).
+    ///
+    /// Cylinder: the penetration is max over the body of rho(y) - R_cyl (rho: distance from the
+    /// axis) = max over horizontal unit u of h(u) - R_cyl, the tangent plane at azimuth u. The
+    /// function h(u) is sampled at [`CYL_AZIMUTHS`] azimuths over the arc where u . x + bound
+    /// exceeds R_cyl, and each discrete local maximum is refined by the ascent
+    /// u <- P s(u) / |P s(u)| (s(u) = x + support(u), P the projection across the axis), which
+    /// never decreases h (h(u') >= u' . s(u) = |P s(u)| >= u . s(u) = h(u)) and stops where
+    /// P s is parallel to u, i.e. at a stationary point of h. A flat face (superball) touching
+    /// the curved wall at two edges gives two contacts, as a rod touching it with both ends does.
+    pub fn convex_wall_contacts(
+        &self,
+        x: &Vector3<f64>,
+        bound: f64,
+        support: impl Fn(&Vector3<f64>) -> Vector3<f64>,
+        out: &mut Vec<WallContact>,
+    ) {
+        out.clear();
+        match *self {
+            Container::Periodic => {}
+            Container::Wedge { length, angle_rad } => {
+                let (sin, cos) = angle_rad.sin_cos();
+                let normals = [Vector3::x(), -Vector3::y(), Vector3::new(-sin, cos, 0.0)];
+                let dist = wedge_wall_distances(x, length, angle_rad);
+                for (m, d_c) in normals.iter().zip(dist) {
+                    if d_c >= bound {
+                        continue;
+                    }
+                    let rc = support(m);
+                    let depth = m.dot(&rc) - d_c;
+                    if depth > 0.0 {
+                        out.push(WallContact {
+                            depth,
+                            normal: *m,
+                            rc,
+                        });
+                    }
+                }
+            }
+            Container::Cylinder { diameter } => {
+                let rcyl = 0.5 * diameter;
+                let rho = x.x.hypot(x.y);
+                if rho + bound <= rcyl {
+                    return;
+                }
+                let phi_c = if rho > 0.0 { x.y.atan2(x.x) } else { 0.0 };
+                // Azimuths where u . x + bound > R_cyl: |phi - phi_c| < half (all of them when
+                // the bounding sphere reaches the wall on every side).
+                let c = if rho > 0.0 {
+                    (rcyl - bound) / rho
+                } else {
+                    -1.0
+                };
+                let full = c <= -1.0;
+                let half = if full {
+                    std::f64::consts::PI
+                } else {
+                    c.min(1.0).acos()
+                };
+                let m = CYL_AZIMUTHS;
+                let azimuth = |k: usize| {
+                    if full {
+                        phi_c + std::f64::consts::TAU * k as f64 / m as f64
+                    } else {
+                        phi_c - half + 2.0 * half * k as f64 / (m - 1) as f64
+                    }
+                };
+                let unit = |phi: f64| Vector3::new(phi.cos(), phi.sin(), 0.0);
+                let h = |u: &Vector3<f64>| u.dot(x) + u.dot(&support(u));
+                let hs: [f64; CYL_AZIMUTHS] = std::array::from_fn(|k| h(&unit(azimuth(k))));
+                for k in 0..m {
+                    let (prev, next) = if full {
+                        (hs[(k + m - 1) % m], hs[(k + 1) % m])
+                    } else {
+                        (
+                            if k > 0 { hs[k - 1] } else { f64::NEG_INFINITY },
+                            if k + 1 < m {
+                                hs[k + 1]
+                            } else {
+                                f64::NEG_INFINITY
+                            },
+                        )
+                    };
+                    // Discrete local maxima (ties: the first of a plateau).
+                    if !(hs[k] > prev && hs[k] >= next) {
+                        continue;
+                    }
+                    let mut u = unit(azimuth(k));
+                    let mut rc = support(&u);
+                    let mut hu = u.dot(&(x + rc));
+                    for _ in 0..CYL_ASCENT_STEPS {
+                        let s = x + rc;
+                        let ps = Vector3::new(s.x, s.y, 0.0);
+                        let pn = ps.norm();
+                        if pn == 0.0 {
+                            break;
+                        }
+                        let un = ps / pn;
+                        let moved = (un - u).norm();
+                        if moved <= 1e-12 {
+                            break;
+                        }
+                        // h rises quadratically slowly near the maximum: an iterate that
+                        // lowers it by rounding only is kept (it refines the normal), a real
+                        // decrease (impossible in exact arithmetic) stops the ascent.
+                        let rn = support(&un);
+                        let hn = un.dot(&(x + rn));
+                        if hn < hu - 1e-14 * hu.abs().max(1.0) {
+                            break;
+                        }
+                        (u, rc, hu) = (un, rn, hn.max(hu));
+                    }
+                    let depth = hu - rcyl;
+                    // Two starts that reached the same maximum count once.
+                    if depth > 0.0 && !out.iter().any(|w| (w.normal - u).norm() < 1e-9) {
+                        out.push(WallContact {
+                            depth,
+                            normal: u,
+                            rc,
+                        });
                     }
                 }
             }

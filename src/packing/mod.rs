@@ -6,7 +6,8 @@
 //!
 //! The algorithm (sec. 2.2.1, 3.2): a dilute random overlap-free start (random sequential
 //! addition at `phi0`, fixed seed, ChaCha8) in a periodic cubic box or a hard cylinder
-//! ([`Container`]; wall overlaps through virtual particles, sec. 2.2.4); the volume is reduced
+//! ([`Container`]; wall overlaps through virtual particles, sec. 2.2.4, for ellipsoids and
+//! superquadrics through the support point beyond the wall's tangent plane); the volume is reduced
 //! by Delta V and positions are scaled (orientations kept); overlaps deeper than
 //! `overlap_tol` are removed by translating and rotating the overlapping particles
 //! ([`Scheme::Revised`], eq. 3.2-3.13, or [`Scheme::Original`], eq. 2.4-2.10). When the
@@ -234,11 +235,6 @@ impl McmParams {
                 if stages.contains(&Some(Scheme::Original)) {
                     return invalid(
                         "scheme = original: ellipsoids and superquadrics need the revised scheme                          (the original one, eq. 2.4-2.10, moves rods by their axis segment; thesis                          ch. 4 packs superquadrics with the revised MCM)",
-                    );
-                }
-                if self.container != Container::Periodic {
-                    return invalid(
-                        "container: ellipsoids and superquadrics are packed in the periodic box                          only (the wall's virtual particles are defined for spheres and rods)",
                     );
                 }
             }
@@ -586,7 +582,11 @@ fn check_box(container: &Container, box_length: f64, props: &[species::Props]) -
              bounding radii): the minimum image would miss contacts; use more particles"
         ));
     }
-    let dmax = props.iter().map(|s| 2.0 * s.r).fold(0.0, f64::max);
+    // Ellipsoids and superquadrics: the bounding sphere (the random start places it inside).
+    let dmax = props
+        .iter()
+        .map(|s| 2.0 * if s.sq.is_some() { s.bound } else { s.r })
+        .fold(0.0, f64::max);
     container.check(dmax)
 }
 
@@ -658,8 +658,9 @@ fn sq_overlap(
     }))
 }
 
-/// Overlaps deeper than `tol` of particle i with the particles in `nb` and with the virtual
-/// wall particles (cylinder).
+/// Overlaps deeper than `tol` of particle i with the particles in `nb` and with the walls
+/// (cylinder, wedge): virtual wall particles for spheres and rods, the support-function depth
+/// for ellipsoids and superquadrics.
 fn overlaps_of(
     p: &Packing,
     props: &[species::Props],
@@ -672,13 +673,35 @@ fn overlaps_of(
     let spc = &p.particles.species;
     let si = &props[spc[i]];
     let xi = p.positions[i];
-    if si.sq.is_some() {
+    if let Some(sa) = &si.sq {
         for &j in nb {
             let sj = &props[spc[j]];
             let d = p.container.separation(&xi, &p.positions[j], p.box_length);
             let (qi, qj) = (&p.orientations[i], &p.orientations[j]);
             if let Some(o) = sq_overlap((i, si, qi), (j, sj, qj), &d, tol)? {
                 out.push(o);
+            }
+        }
+        if p.container != Container::Periodic {
+            // Walls: the depth of the deepest body point beyond the wall's tangent plane, the
+            // mirror-image virtual particle of sec. 2.2.4 generalised to convex bodies
+            // (`Container::convex_wall_contacts`).
+            let rot = p.orientations[i].to_rotation_matrix();
+            let support = |u: &Vector3<f64>| rot * sa.support(&(rot.transpose() * u));
+            let mut walls = Vec::new();
+            p.container
+                .convex_wall_contacts(&xi, si.bound, support, &mut walls);
+            for w in walls {
+                if w.depth > tol {
+                    out.push(Overlap {
+                        depth: w.depth,
+                        normal: w.normal,
+                        // As for solver pairs: point on the wall minus contact point.
+                        k: -w.depth * w.normal,
+                        rc: w.rc,
+                        l: 0.0,
+                    });
+                }
             }
         }
         return Ok(());
@@ -1185,3 +1208,5 @@ pub use species::Particles;
 
 #[cfg(test)]
 mod tests;
+#[cfg(test)]
+mod tests_walls;

@@ -278,6 +278,17 @@ fn bad_particle_tables_are_errors() {
     assert!(p.validate().unwrap_err().to_string().contains("revised"));
 }
 
+/// The solver-free sampled pair check and [`analysis::check_no_overlap`] (walls included) of a
+/// packing with superquadrics, both asserted within `tol`; returns the deepest sampled pair
+/// overlap and the sample spacing.
+pub(super) fn assert_sampled_overlap_free(p: &Packing, tol: f64) -> (f64, f64) {
+    let s = analysis::sampled_overlap(&p.view(), analysis::OVERLAP_SAMPLES).unwrap();
+    let deepest = s.worst.map_or(0.0, |w| w.2);
+    assert!(deepest <= tol, "{:?} in {:?}", s.worst, p.container);
+    analysis::check_no_overlap(&p.view(), tol).unwrap();
+    (deepest, s.spacing)
+}
+
 /// Smoke test (fast tier): a small superball packing (thesis ch. 4, revised scheme) ends
 /// overlap-free under the solver-free sampled check, compressed far beyond its start.
 #[test]
@@ -293,15 +304,12 @@ fn small_superball_packing_is_overlap_free_by_the_sampled_check() {
     let t = std::time::Instant::now();
     let r = run(&prm).unwrap();
     let p = &r.packing;
-    let s = analysis::sampled_overlap(&p.view(), analysis::OVERLAP_SAMPLES).unwrap();
-    let deepest = s.worst.map_or(0.0, |w| w.2);
-    assert!(deepest <= prm.overlap_tol, "{:?}", s.worst);
-    analysis::check_no_overlap(&p.view(), prm.overlap_tol).unwrap();
+    let (deepest, spacing) = assert_sampled_overlap_free(p, prm.overlap_tol);
     let phi = p.packing_fraction();
     eprintln!(
         "24 superballs g = 3: phi = {phi:.4}, deepest sampled {deepest:.2e}, spacing {:.4}, \
          {} tries, {:.1} s",
-        s.spacing,
+        spacing,
         r.total_tries,
         t.elapsed().as_secs_f64()
     );

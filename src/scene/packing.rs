@@ -88,6 +88,11 @@ pub fn builtins() -> Vec<Builtin> {
             toml: include_str!("builtin/packing-superballs.toml"),
         },
         Builtin {
+            name: "packing-superballs-cylinder",
+            about: "MCM: 50 superballs gamma = 3 in a hard cylinder D_cyl = 4 (support-function wall)",
+            toml: include_str!("builtin/packing-superballs-cylinder.toml"),
+        },
+        Builtin {
             name: "packing-spherocylinders",
             about: "MCM: 500 spherocylinders L/D = 0.4 in a periodic box (original scheme)",
             toml: include_str!("builtin/packing-spherocylinders.toml"),
