@@ -13,8 +13,12 @@
 //! length_over_diameter = 0.0       # L/D of the cylinder between the caps (spherocylinder, > 0)
 //! [container]
 //! shape = "periodic"               # "periodic" (cubic box) | "cylinder" (hard wall, periodic
-//!                                  # along its axis z; sec. 2.2.4)  [periodic]
+//!                                  # along its axis z; sec. 2.2.4) | "wedge" (three hard
+//!                                  # planes, periodic along z; eq. 2.12-2.13)  [periodic]
 //! diameter = 6.0                   # cylinder diameter D_cyl in D (> 1), cylinder only
+//! length = 10.0                    # wedge length l_w along x (D), wedge only
+//! angle_deg = 30.0                 # wedge angle alpha (degrees), wedge only
+//!                                  # (any shape, superquadrics included, packs in any container)
 //! [mcm]
 //! seed = 1                         # ChaCha8 seed of the random start [1]
 //! scheme = "original"              # "original" (eq. 2.4-2.10) | "revised" (eq. 3.2-3.13) |
