@@ -1130,8 +1130,7 @@ impl McmState {
 
     /// One compression step (sec. 2.2.1, 3.2): compress by Delta V and remove the overlaps
     /// within `tries_per_particle` N moves; on failure revert to the last overlap-free
-    /// configuration (relaxation stage: the relaxed one expanded back, when overlap-free) and
-    /// halve Delta V, or finish when no halving is left.
+    /// configuration and halve Delta V, or finish when no halving is left.
     pub fn step(&mut self, all: &McmParams) -> Result<StepOutcome> {
         let prm = &all.stage_params(self.stage);
         if self.is_done() {
@@ -1167,24 +1166,8 @@ impl McmState {
                 Ok(StepOutcome::Accepted)
             }
             other => {
-                if let Some((relaxed, Err(tries))) = other {
+                if let Some((_, Err(tries))) = other {
                     self.total_tries += tries;
-                    // Relaxation stage, a failure with halvings left: the relaxed configuration,
-                    // expanded back to the last accepted volume, replaces that configuration
-                    // when it passes the same acceptance test (no overlap deeper than
-                    // overlap_tol). Same density, a contact network that has already settled,
-                    // so the retry with Delta V / 2 starts closer to its goal. 1000 spheres,
-                    // 9 seeds: 28% fewer moves (mean 3.2e4 -> 2.3e4 per particle, largest
-                    // 4.4e4 -> 3.2e4) at the same phi (0.6357 both) and contacts (5.86, 5.87).
-                    // The last failure (no halving left) leaves the configuration as it is.
-                    // Not part of the thesis' schemes, whose failures revert (sec. 2.2.1).
-                    if prm.scheme == Scheme::Relax && self.halvings_left > 0 {
-                        if let Some(mut back) = compress(&relaxed, -self.delta_v) {
-                            if remove_overlaps_with(&mut back, &props, prm, 0)?.is_ok() {
-                                self.packing = back;
-                            }
-                        }
-                    }
                 }
                 self.failed_steps += 1;
                 if self.halvings_left == 0 {
