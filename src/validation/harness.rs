@@ -210,6 +210,8 @@ pub struct Outcome {
     pub passed: bool,
     /// Why the case failed (None when it passed).
     pub message: Option<String>,
+    /// Every checked number the runner returned (empty when it returned none).
+    pub rows: Vec<Row>,
 }
 
 impl Outcome {
@@ -224,6 +226,7 @@ impl Outcome {
             seconds,
             passed: false,
             message: Some(msg),
+            rows: Vec::new(),
         }
     }
 
@@ -356,6 +359,7 @@ pub fn run_case_with(root: &Path, case: &Case, lookup: impl Fn(&str) -> Option<R
         seconds,
         passed,
         message,
+        rows,
     }
 }
 

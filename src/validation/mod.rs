@@ -116,7 +116,12 @@ pub fn cli_validate(ids: &[String], all: bool) -> Result<ExitCode> {
         }
     );
     let (csv, md) = report::write_reports(&root.join("target").join("porelab"), &outcomes)?;
-    println!("reports: {} and {}", csv.display(), md.display());
+    println!(
+        "reports: {} and {}; every checked number: {}",
+        csv.display(),
+        md.display(),
+        csv.with_file_name("validation-rows.csv").display()
+    );
     Ok(if failed == 0 {
         ExitCode::SUCCESS
     } else {

@@ -226,10 +226,36 @@ pub fn md_report(outcomes: &[Outcome]) -> String {
     s
 }
 
-/// Writes `<dir>/validation-report.csv` and `.md`; returns their paths.
+/// Every checked number of every case: id, row label (for a band row it names the band),
+/// measured value, expected value, scale of the relative tolerance, |got - expected|.
+pub fn rows_report(outcomes: &[Outcome]) -> Result<Vec<u8>> {
+    let mut w = csv::Writer::from_writer(Vec::new());
+    let err = |e: csv::Error| Error::Validation(format!("writing the rows report: {e}"));
+    w.write_record(["id", "label", "got", "expected", "scale", "abs_error"])
+        .map_err(err)?;
+    for o in outcomes {
+        for row in &o.rows {
+            w.write_record([
+                o.id.clone(),
+                row.label.clone(),
+                format!("{:e}", row.got),
+                format!("{:e}", row.expected),
+                format!("{:e}", row.scale),
+                format!("{:e}", (row.got - row.expected).abs()),
+            ])
+            .map_err(err)?;
+        }
+    }
+    w.into_inner()
+        .map_err(|e| Error::Validation(format!("writing the rows report: {e}")))
+}
+
+/// Writes `<dir>/validation-report.csv`, `.md` and `validation-rows.csv` (every checked
+/// number); returns the paths of the first two.
 pub fn write_reports(dir: &Path, outcomes: &[Outcome]) -> Result<(PathBuf, PathBuf)> {
     let csv = dir.join("validation-report.csv");
     let md = dir.join("validation-report.md");
+    write_atomic(&dir.join("validation-rows.csv"), &rows_report(outcomes)?)?;
     write_atomic(&csv, &csv_report(outcomes)?)?;
     write_atomic(&md, md_report(outcomes).as_bytes())?;
     Ok((csv, md))
@@ -251,6 +277,7 @@ mod tests {
             seconds: 0.5,
             passed,
             message: (!passed).then(|| "bad, \"row\"\nline2".to_string()),
+            rows: vec![crate::validation::Row::new("x in [0, 1]", 0.25, 0.5, 1.0)],
         }
     }
 
@@ -273,6 +300,11 @@ mod tests {
         assert_eq!(t.len(), 2);
         assert_eq!(t.str(1, "message").unwrap(), "bad, \"row\"\nline2");
         assert!(m.is_file());
+        let rows =
+            crate::validation::Table::read(&dir.join("sub").join("validation-rows.csv")).unwrap();
+        assert_eq!(rows.len(), 2);
+        assert_eq!(rows.f64(0, "got").unwrap(), 0.25);
+        assert_eq!(rows.f64(1, "abs_error").unwrap(), 0.25);
         let _ = std::fs::remove_dir_all(&dir);
     }
 }
