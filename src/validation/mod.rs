@@ -115,12 +115,12 @@ pub fn cli_validate(ids: &[String], all: bool) -> Result<ExitCode> {
             String::new()
         }
     );
-    let (csv, md) = report::write_reports(&root.join("target").join("porelab"), &outcomes)?;
+    let [csv, md, rows] = report::write_reports(&root.join("target").join("porelab"), &outcomes)?;
     println!(
         "reports: {} and {}; every checked number: {}",
         csv.display(),
         md.display(),
-        csv.with_file_name("validation-rows.csv").display()
+        rows.display()
     );
     Ok(if failed == 0 {
         ExitCode::SUCCESS

@@ -251,14 +251,15 @@ pub fn rows_report(outcomes: &[Outcome]) -> Result<Vec<u8>> {
 }
 
 /// Writes `<dir>/validation-report.csv`, `.md` and `validation-rows.csv` (every checked
-/// number); returns the paths of the first two.
-pub fn write_reports(dir: &Path, outcomes: &[Outcome]) -> Result<(PathBuf, PathBuf)> {
+/// number); returns their paths in that order.
+pub fn write_reports(dir: &Path, outcomes: &[Outcome]) -> Result<[PathBuf; 3]> {
     let csv = dir.join("validation-report.csv");
     let md = dir.join("validation-report.md");
-    write_atomic(&dir.join("validation-rows.csv"), &rows_report(outcomes)?)?;
+    let rows = dir.join("validation-rows.csv");
     write_atomic(&csv, &csv_report(outcomes)?)?;
     write_atomic(&md, md_report(outcomes).as_bytes())?;
-    Ok((csv, md))
+    write_atomic(&rows, &rows_report(outcomes)?)?;
+    Ok([csv, md, rows])
 }
 
 #[cfg(test)]
@@ -295,13 +296,12 @@ mod tests {
             "{md}"
         );
         let dir = std::env::temp_dir().join(format!("porelab-report-{}", std::process::id()));
-        let (c, m) = write_reports(&dir.join("sub"), &os).unwrap();
+        let [c, m, rows_path] = write_reports(&dir.join("sub"), &os).unwrap();
         let t = crate::validation::Table::read(&c).unwrap();
         assert_eq!(t.len(), 2);
         assert_eq!(t.str(1, "message").unwrap(), "bad, \"row\"\nline2");
         assert!(m.is_file());
-        let rows =
-            crate::validation::Table::read(&dir.join("sub").join("validation-rows.csv")).unwrap();
+        let rows = crate::validation::Table::read(&rows_path).unwrap();
         assert_eq!(rows.len(), 2);
         assert_eq!(rows.f64(0, "got").unwrap(), 0.25);
         assert_eq!(rows.f64(1, "abs_error").unwrap(), 0.25);
