@@ -1,27 +1,33 @@
 //! `porelab bench packing`: seconds to jam, reached density and contacts, against N, for the
 //! mechanical contraction method (thesis 003 ch. 2-3), and the reached packing fraction
-//! against the try budget (work-precision).
+//! against the work spent (work-precision).
 //!
 //! Sections:
 //! 1. jamming: spheres with the jamming schedule of the built-in scene `packing-spheres`
-//!    ([`McmParams::jammed_spheres`], case 512: compacting stage, then collective relaxation)
-//!    for N = 250, 500, 1000 (and 2000, 5000, 10000 up to `--max-n`), the Gauss-Seidel-only
-//!    schedule of case 506 (`spheres_gs`) at N = 250 and 1000 as the baseline, and
-//!    spherocylinders L/D = 5 with the schedule of case 504, each timed on a rayon pool of one
-//!    thread and, for N = 1000, of two: packing fraction, contacts at the smallest cut-off,
-//!    contacts extrapolated to zero cut-off with rattlers removed (sec. 2.2.5), seconds, moves
-//!    and moves per second; the exponent b of seconds ~ N^b from a log-log fit over the
-//!    spheres. The Gauss-Seidel moves of the thesis' schemes are sequential; the relaxation
-//!    stage computes its forces in parallel (results independent of the thread count).
-//! 2. work-precision: N = 500 spheres, one stage (original scheme, Delta V = 0.01 N halved 6
-//!    times): packing fraction against the try budget per step (100 ... 3000 N) for beta = 0.5
-//!    (thesis) and 1.3 (over-relaxation), with the moves and seconds spent.
+//!    ([`McmParams::jammed_spheres`], case 512: compacting stage, then collective relaxation
+//!    with a stage budget) for N = 250, 500, 1000 (and 2000, 5000, 10000 up to `--max-n`),
+//!    seeds 1..=`--seeds` each, the Gauss-Seidel-only schedule of case 506 (`spheres_gs`) at
+//!    N = 250 and 1000 as the baseline, and spherocylinders L/D = 5 with the schedule of case
+//!    504, each timed on a rayon pool of one thread and, for N = 1000, of two: packing
+//!    fraction, contacts at the smallest cut-off, contacts extrapolated to zero cut-off with
+//!    rattlers removed (sec. 2.2.5), seconds, moves and moves per second; per N the means over
+//!    the seeds, and the exponents b of CPU seconds ~ N^b and of moves per particle ~ N^b
+//!    from log-log fits. The Gauss-Seidel moves of the thesis' schemes are sequential; the
+//!    relaxation stage computes its forces in parallel (results independent of the thread
+//!    count).
+//! 2. work-precision of the compacting scheme: N = 500 spheres, one stage (original scheme,
+//!    Delta V = 0.01 N halved 6 times): packing fraction against the try budget per step
+//!    (100 ... 3000 N) for beta = 0.5 (thesis) and 1.3 (over-relaxation).
+//! 3. work-precision of the jamming schedule: N = 1000 spheres, the relaxation stage's budget
+//!    from 4000 N moves to unbounded, seeds 1..=`--seeds`: packing fraction and contacts
+//!    reached against the moves spent.
 //!
 //! Peer (issue 5): PackingGeneration (force-biased + Lubachevsky-Stillinger) jams N = 1000
 //! spheres to phi = 0.637 with about 5.6 contacts in about 8 s and N = 10000 to 0.639 in about
 //! 110 s on this class of machine; it is not installed here, so only porelab is timed.
 //!
-//! Output: tables on stdout and `target/porelab/bench-packing-{jamming,work-precision}.csv`.
+//! Output: tables on stdout and
+//! `target/porelab/bench-packing-{jamming,work-precision,jamming-work-precision}.csv`.
 
 use super::{run, McmParams, Scheme};
 use crate::error::invalid;
@@ -37,9 +43,13 @@ pub struct BenchArgs {
     /// Skip the spherocylinder runs.
     #[arg(long)]
     pub spheres_only: bool,
-    /// Skip the work-precision section.
+    /// Skip the work-precision sections.
     #[arg(long)]
     pub no_work_precision: bool,
+    /// Seeds 1..=K for the sphere sweep and the jamming work-precision (the moves per particle
+    /// vary 2x between seeds at N = 1000, so one seed is not a timing).
+    #[arg(long, default_value_t = 1)]
+    pub seeds: u64,
 }
 
 const SIZES: [usize; 6] = [250, 500, 1000, 2000, 5000, 10000];
@@ -81,9 +91,47 @@ fn process_cpu_seconds() -> f64 {
     }
 }
 
-/// One timed run: (phi, C(1e-8), extrapolated contacts without rattlers, wall seconds, moves,
-/// CPU seconds).
-fn timed(prm: &McmParams, threads: usize) -> Result<(f64, f64, f64, f64, u64, f64)> {
+/// One timed run.
+#[derive(Debug, Clone, Copy)]
+struct Timed {
+    phi: f64,
+    /// Mean contacts at the smallest cut-off (1e-8 D), all particles.
+    contacts_raw: f64,
+    /// Contacts extrapolated to zero cut-off, rattlers removed (sec. 2.2.5).
+    contacts0: f64,
+    wall_seconds: f64,
+    moves: u64,
+    cpu_seconds: f64,
+}
+
+impl Timed {
+    /// The issue's goal for N = 1000 spheres: phi >= 0.635 with >= 5.5 contacts.
+    fn meets_goal(&self) -> bool {
+        self.phi >= 0.635 && self.contacts0 >= 5.5
+    }
+}
+
+/// Means and minima over the seeds of one setting.
+struct OverSeeds {
+    runs: Vec<Timed>,
+}
+
+impl OverSeeds {
+    fn mean(&self, f: fn(&Timed) -> f64) -> f64 {
+        self.runs.iter().map(f).sum::<f64>() / self.runs.len() as f64
+    }
+    fn min(&self, f: fn(&Timed) -> f64) -> f64 {
+        self.runs.iter().map(f).fold(f64::INFINITY, f64::min)
+    }
+    fn max(&self, f: fn(&Timed) -> f64) -> f64 {
+        self.runs.iter().map(f).fold(f64::NEG_INFINITY, f64::max)
+    }
+    fn meeting_goal(&self) -> usize {
+        self.runs.iter().filter(|r| r.meets_goal()).count()
+    }
+}
+
+fn timed(prm: &McmParams, threads: usize) -> Result<Timed> {
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(threads)
         .build()
@@ -93,15 +141,15 @@ fn timed(prm: &McmParams, threads: usize) -> Result<(f64, f64, f64, f64, u64, f6
         let r = run(prm)?;
         let min_contacts = if prm.length == 0.0 { 4 } else { 5 };
         let m = measure(&r.packing, &CUTOFFS, min_contacts, 200)?;
-        let secs = t.elapsed().as_secs_f64();
-        Ok((
-            m.packing_fraction,
-            m.contacts_at_cutoffs[0],
-            m.contacts_extrapolated_no_rattlers,
-            secs,
-            r.total_tries,
-            process_cpu_seconds() - cpu,
-        ))
+        let wall_seconds = t.elapsed().as_secs_f64();
+        Ok(Timed {
+            phi: m.packing_fraction,
+            contacts_raw: m.contacts_at_cutoffs[0],
+            contacts0: m.contacts_extrapolated_no_rattlers,
+            wall_seconds,
+            moves: r.total_tries,
+            cpu_seconds: process_cpu_seconds() - cpu,
+        })
     })
 }
 
@@ -130,8 +178,15 @@ pub fn run_bench(args: &BenchArgs) -> Result<()> {
     );
     println!("# 1. jamming (seed {SEED}; engine on one thread, analysis on the pool)");
     println!("particles        N  threads    phi   C(1e-8)  C0(no rattlers)  seconds  cpu_s      moves  moves/s");
-    let mut row = |what: &str, n: usize, threads: usize, r: (f64, f64, f64, f64, u64, f64)| {
-        let (phi, c, c0, s, m, cpu) = r;
+    let mut row = |what: &str, n: usize, threads: usize, r: Timed| {
+        let (phi, c, c0, s, m, cpu) = (
+            r.phi,
+            r.contacts_raw,
+            r.contacts0,
+            r.wall_seconds,
+            r.moves,
+            r.cpu_seconds,
+        );
         println!(
             "{what:<14} {n:>6} {threads:>4}  {phi:.4}  {c:>7.3}  {c0:>14.3}  {s:>8.2}  {cpu:>7.2}  {m:>9.3e}  {:.2e}",
             m as f64 / s
@@ -141,20 +196,36 @@ pub fn run_bench(args: &BenchArgs) -> Result<()> {
             m as f64 / s
         ));
     };
-    let (mut ns, mut secs) = (Vec::new(), Vec::new());
+    // Per N: (N, mean CPU s, mean moves per particle) over the seeds.
+    let mut sweep: Vec<(f64, f64, f64)> = Vec::new();
+    let mut summary = Vec::new();
     for &n in SIZES.iter().filter(|&&n| n <= args.max_n) {
-        let r = timed(&McmParams::jammed_spheres(n, SEED), 1)?;
-        ns.push(n as f64);
-        secs.push(r.5);
-        row("spheres", n, 1, r);
-        if n == 1000 {
-            row(
-                "spheres",
-                n,
-                2,
-                timed(&McmParams::jammed_spheres(n, SEED), 2)?,
-            );
+        let mut runs = Vec::new();
+        for seed in 1..=args.seeds {
+            let r = timed(&McmParams::jammed_spheres(n, seed), 1)?;
+            row(&format!("spheres s{seed}"), n, 1, r);
+            runs.push(r);
         }
+        if n == 1000 {
+            let r2 = timed(&McmParams::jammed_spheres(n, SEED), 2)?;
+            row(&format!("spheres s{SEED}"), n, 2, r2);
+        }
+        let o = OverSeeds { runs };
+        let moves_pp = o.mean(|r| r.moves as f64) / n as f64;
+        sweep.push((n as f64, o.mean(|r| r.cpu_seconds), moves_pp));
+        summary.push(format!(
+            "{n:>6}  {:>5}  {:.4} ({:.4})  {:.3} ({:.3})  {:>6.2} ({:.2}-{:.2})  {moves_pp:.2e}  {}/{}",
+            o.runs.len(),
+            o.mean(|r| r.phi),
+            o.min(|r| r.phi),
+            o.mean(|r| r.contacts0),
+            o.min(|r| r.contacts0),
+            o.mean(|r| r.cpu_seconds),
+            o.min(|r| r.cpu_seconds),
+            o.max(|r| r.cpu_seconds),
+            o.meeting_goal(),
+            o.runs.len(),
+        ));
     }
     // Baseline in the same run: the Gauss-Seidel-only schedule (case 506).
     for &n in [250, 1000].iter().filter(|&&n| n <= args.max_n) {
@@ -166,10 +237,23 @@ pub fn run_bench(args: &BenchArgs) -> Result<()> {
             row("rods_LD5", n, 1, timed(&rods_aspect5(n, SEED), 1)?);
         }
     }
-    if ns.len() >= 2 {
+    println!(
+        "\nspheres, mean over seeds 1..={} (one thread):",
+        args.seeds
+    );
+    println!("     N  seeds  phi (min)         C0 (min)       CPU s (min-max)      moves/N  phi>=0.635 & C0>=5.5");
+    for line in &summary {
+        println!("{line}");
+    }
+    if sweep.len() >= 2 {
+        let ns: Vec<f64> = sweep.iter().map(|r| r.0).collect();
+        let cpu: Vec<f64> = sweep.iter().map(|r| r.1).collect();
+        let moves_pp: Vec<f64> = sweep.iter().map(|r| r.2).collect();
         println!(
-            "CPU seconds ~ N^b over the spheres: b = {:.2} (1 = linear)",
-            log_slope(&ns, &secs)
+            "CPU seconds ~ N^b over the spheres: b = {:.2} (1 = linear); moves per particle ~ N^{:.2} \
+             (0 = linear; deterministic, unlike the seconds)",
+            log_slope(&ns, &cpu),
+            log_slope(&ns, &moves_pp)
         );
     }
     std::fs::write(out.join("bench-packing-jamming.csv"), csv)?;
@@ -196,6 +280,59 @@ pub fn run_bench(args: &BenchArgs) -> Result<()> {
         }
         std::fs::write(out.join("bench-packing-work-precision.csv"), wp)?;
     }
+    if !args.no_work_precision {
+        jamming_work_precision(args.seeds, out)?;
+    }
     println!("\nwrote target/porelab/bench-packing-*.csv");
+    Ok(())
+}
+
+/// Relaxation-stage budgets per particle of the jamming work-precision section (None: the
+/// stage ends only on its halvings).
+const JAM_BUDGETS: [Option<f64>; 6] = [
+    Some(4000.0),
+    Some(8000.0),
+    Some(15000.0),
+    Some(25000.0),
+    Some(40000.0),
+    None,
+];
+
+/// Section 3: the jamming schedule at N = 1000 against the relaxation stage's budget
+/// (`stage_budget_per_particle`): packing fraction and contacts reached for the moves spent,
+/// mean over seeds 1..=`seeds`.
+fn jamming_work_precision(seeds: u64, out: &std::path::Path) -> Result<()> {
+    const N: usize = 1000;
+    println!(
+        "\n# 3. work-precision of the jamming schedule: N = {N} spheres, relaxation-stage budget, seeds 1..={seeds}"
+    );
+    println!("budget/N  moves/N     phi (min)        C0 (min)      CPU s  phi>=0.635 & C0>=5.5");
+    let mut wp = String::from(
+        "stage_budget_per_particle,seeds,moves_per_particle,packing_fraction_mean,packing_fraction_min,contacts_extrapolated_mean,contacts_extrapolated_min,cpu_seconds_mean,meeting_goal\n",
+    );
+    for budget in JAM_BUDGETS {
+        let mut runs = Vec::new();
+        for seed in 1..=seeds {
+            let mut p = McmParams::jammed_spheres(N, seed);
+            if let Some(st) = p.final_stage.as_mut() {
+                st.stage_budget_per_particle = budget;
+            }
+            runs.push(timed(&p, 1)?);
+        }
+        let o = OverSeeds { runs };
+        let name = budget.map_or("none".to_string(), |b| format!("{b}"));
+        let moves_pp = o.mean(|r| r.moves as f64) / N as f64;
+        let (phi, phi_min) = (o.mean(|r| r.phi), o.min(|r| r.phi));
+        let (c0, c0_min) = (o.mean(|r| r.contacts0), o.min(|r| r.contacts0));
+        let (cpu, ok) = (o.mean(|r| r.cpu_seconds), o.meeting_goal());
+        println!(
+            "{name:>8}  {moves_pp:>7.0}  {phi:.4} ({phi_min:.4})  {c0:.3} ({c0_min:.3})  {cpu:>6.2}  {ok}/{}",
+            o.runs.len()
+        );
+        wp.push_str(&format!(
+            "{name},{seeds},{moves_pp},{phi},{phi_min},{c0},{c0_min},{cpu},{ok}\n"
+        ));
+    }
+    std::fs::write(out.join("bench-packing-jamming-work-precision.csv"), wp)?;
     Ok(())
 }

@@ -71,6 +71,11 @@ pub struct McmParams {
     pub halvings: u32,
     /// Allowed particle moves per compression step, per particle (thesis: about 200).
     pub tries_per_particle: f64,
+    /// Allowed particle moves over the whole stage (accepted and failed steps), per particle.
+    /// None: unbounded, the thesis' schedule (a stage ends only when its halvings are spent).
+    /// When the stage's budget runs out, the step in progress fails and the stage ends as if
+    /// its halvings were spent; bounded work per particle keeps the run time linear in N.
+    pub stage_budget_per_particle: Option<f64>,
     /// Overlaps not deeper than this count as removed (thesis sec. 2.2.6: 1e-4).
     pub overlap_tol: f64,
     /// Revised scheme: time step (thesis: 0.1).
@@ -100,6 +105,8 @@ pub struct Stage {
     pub delta_v_per_particle: f64,
     pub halvings: u32,
     pub tries_per_particle: f64,
+    /// See [`McmParams::stage_budget_per_particle`].
+    pub stage_budget_per_particle: Option<f64>,
     /// Original scheme: beta of eq. 2.10.
     pub beta: f64,
     /// Revised scheme: time step of eq. 3.9 and 3.12.
@@ -117,6 +124,7 @@ impl McmParams {
             delta_v_per_particle: 0.01,
             halvings: 6,
             tries_per_particle: 200.0,
+            stage_budget_per_particle: None,
             overlap_tol: 1e-4,
             dt: 0.1,
             energy: 1.0,
@@ -139,6 +147,7 @@ impl McmParams {
             delta_v_per_particle: 0.001,
             halvings: 6,
             tries_per_particle: 1000.0,
+            stage_budget_per_particle: None,
             beta: 0.5,
             dt: 0.1,
         };
@@ -146,20 +155,23 @@ impl McmParams {
     }
 
     /// The jamming schedule for spheres (built-in scene `packing-spheres`, case 512, `porelab
-    /// bench packing`): stage 1 as in [`McmParams::compacting_spheres`] without halving and
-    /// with 1000 N tries, which compacts until its first failed step; stage 2 the collective
+    /// bench packing`): stage 1 as in [`McmParams::compacting_spheres`] with 1000 N tries and
+    /// Delta V halved twice, which compacts to about phi = 0.624; stage 2 the collective
     /// relaxation ([`Scheme::Relax`], FIRE initial step 0.1) from Delta V = 0.001 N halved 4
-    /// times with 2000 N tries settles the contact network.
+    /// times with 2000 N tries per step and at most 25000 N moves in all, which settles the
+    /// contact network. The stage budget bounds the work per particle, so the run time grows
+    /// linearly with N; without it the relaxation creeps on near jamming (README "Benchmark").
     pub fn jammed_spheres(n: usize, seed: u64) -> McmParams {
         let relax = Stage {
             scheme: Scheme::Relax,
             delta_v_per_particle: 0.001,
             halvings: 4,
             tries_per_particle: 2000.0,
+            stage_budget_per_particle: Some(25000.0),
             beta: 1.3, // unused by the relaxation; as stage 1 (what a scene file inherits)
             dt: 0.1,
         };
-        McmParams::compacting_spheres(n, seed, 0, 1000.0, relax)
+        McmParams::compacting_spheres(n, seed, 2, 1000.0, relax)
     }
 
     /// Spheres with a compacting first stage (original scheme, eq. 2.7-2.10, beta = 1.3:
@@ -212,6 +224,15 @@ impl McmParams {
                 return invalid(format!("{name} = {v}: must be positive and finite"));
             }
         }
+        if let Some(b) = self.stage_budget_per_particle {
+            if !(b.is_finite() && b >= self.tries_per_particle) {
+                return invalid(format!(
+                    "stage_budget_per_particle = {b}: must be finite and at least \
+                     tries_per_particle = {} (one step's budget)",
+                    self.tries_per_particle
+                ));
+            }
+        }
         if self.overlap_tol >= 0.1 {
             return invalid(format!(
                 "overlap_tol = {}: must be below 0.1 diameters",
@@ -234,7 +255,9 @@ impl McmParams {
                 let stages = [Some(self.scheme), self.final_stage.map(|s| s.scheme)];
                 if stages.contains(&Some(Scheme::Original)) {
                     return invalid(
-                        "scheme = original: ellipsoids and superquadrics need the revised scheme                          (the original one, eq. 2.4-2.10, moves rods by their axis segment; thesis                          ch. 4 packs superquadrics with the revised MCM)",
+                        "scheme = original: ellipsoids and superquadrics need the revised scheme \
+                         (the original one, eq. 2.4-2.10, moves rods by their axis segment; \
+                         thesis ch. 4 packs superquadrics with the revised MCM)",
                     );
                 }
             }
@@ -255,6 +278,7 @@ impl McmParams {
                 delta_v_per_particle: st.delta_v_per_particle,
                 halvings: st.halvings,
                 tries_per_particle: st.tries_per_particle,
+                stage_budget_per_particle: st.stage_budget_per_particle,
                 beta: st.beta,
                 dt: st.dt,
                 final_stage: None,
@@ -380,9 +404,12 @@ pub struct McmResult {
     pub failed_steps: usize,
     /// Total particle moves over the run.
     pub total_tries: u64,
-    /// True when the run stopped because all halvings were spent (jammed), false when it hit
-    /// `max_steps`.
+    /// True when the run stopped because all halvings were spent (jammed) or the last stage's
+    /// budget ran out, false when it hit `max_steps`.
     pub jammed: bool,
+    /// True when the last stage ended because its `stage_budget_per_particle` ran out (before
+    /// its halvings were spent).
+    pub stage_budget_spent: bool,
 }
 
 /// Overlap of one pair, as seen from particle i.
@@ -1074,6 +1101,10 @@ pub struct McmState {
     pub failed_steps: usize,
     /// Total particle moves over the run.
     pub total_tries: u64,
+    /// Particle moves in the stage running (against its `stage_budget_per_particle`).
+    pub stage_tries: u64,
+    /// The last stage ended because its budget ran out (see [`McmResult::stage_budget_spent`]).
+    pub stage_budget_spent: bool,
     /// The stage running (0: main, 1: final; see [`McmParams::final_stage`]).
     pub stage: u32,
     /// None while running; Some(true) when jammed (halvings of the last stage spent),
@@ -1119,6 +1150,8 @@ impl McmState {
             history: Vec::new(),
             failed_steps: 0,
             total_tries: 0,
+            stage_tries: 0,
+            stage_budget_spent: false,
             stage: 0,
             finished: None,
         })
@@ -1140,22 +1173,30 @@ impl McmState {
             self.finished = Some(false);
             return Ok(StepOutcome::Finished);
         }
-        let budget = (prm.tries_per_particle * self.packing.n() as f64).ceil() as u64;
+        let n = self.packing.n() as f64;
+        let step_budget = (prm.tries_per_particle * n).ceil() as u64;
+        let stage_budget = prm
+            .stage_budget_per_particle
+            .map_or(u64::MAX, |b| (b * n).ceil() as u64);
+        let budget = step_budget.min(stage_budget.saturating_sub(self.stage_tries));
         let vp = self.packing.particles.total_volume()?;
         let props = species::props_of(&self.packing.particles)?;
         let trial =
             compress(&self.packing, self.delta_v).filter(|t| vp < t.container.volume(t.box_length));
         let outcome = match trial {
             None => None,
-            Some(mut t) => {
+            Some(mut t) if budget > 0 => {
                 check_box(&t.container, t.box_length, &props)?;
                 let r = remove_overlaps_with(&mut t, &props, prm, budget)?;
                 Some((t, r))
             }
+            // The stage's budget is used up: a failed step without moves.
+            Some(_) => None,
         };
         match outcome {
             Some((t, Ok(tries))) => {
                 self.total_tries += tries;
+                self.stage_tries += tries;
                 self.packing = t;
                 self.history.push(StepRecord {
                     step: self.history.len() + 1,
@@ -1168,16 +1209,21 @@ impl McmState {
             other => {
                 if let Some((_, Err(tries))) = other {
                     self.total_tries += tries;
+                    self.stage_tries += tries;
                 }
                 self.failed_steps += 1;
-                if self.halvings_left == 0 {
+                // Less than one step's budget was left for this step: the stage is over.
+                let budget_spent = budget < step_budget;
+                if self.halvings_left == 0 || budget_spent {
                     if self.stage + 1 < all.stages() {
                         self.stage += 1;
+                        self.stage_tries = 0;
                         let next = all.stage_params(self.stage);
-                        self.delta_v = next.delta_v_per_particle * self.packing.n() as f64;
+                        self.delta_v = next.delta_v_per_particle * n;
                         self.halvings_left = next.halvings;
                         return Ok(StepOutcome::Halved);
                     }
+                    self.stage_budget_spent = budget_spent;
                     self.finished = Some(true);
                     return Ok(StepOutcome::Finished);
                 }
@@ -1195,6 +1241,7 @@ impl McmState {
             failed_steps: self.failed_steps,
             total_tries: self.total_tries,
             jammed: self.finished == Some(true),
+            stage_budget_spent: self.stage_budget_spent,
         }
     }
 }

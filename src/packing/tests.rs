@@ -338,6 +338,7 @@ fn dense_polydisperse_spheres_end_overlap_free() {
         delta_v_per_particle: 0.002,
         halvings: 3,
         tries_per_particle: 1000.0,
+        stage_budget_per_particle: None,
         beta: 1.3,
         dt: 0.1,
     };
@@ -420,6 +421,7 @@ fn relax_stage_packs_spherocylinders_overlap_free() {
         delta_v_per_particle: 0.01,
         halvings: 2,
         tries_per_particle: 500.0,
+        stage_budget_per_particle: None,
         beta: 0.5,
         dt: 0.2,
     });
@@ -451,4 +453,58 @@ fn jammed_spheres_schedule_settles_contacts() {
         r.total_tries
     );
     assert!(phi > 0.62 && c0 > 5.5, "phi {phi}, contacts {c0}");
+}
+
+/// A stage budget bounds the moves of its stage (accepted and failed steps) by
+/// `stage_budget_per_particle` N, ends the stage before its halvings are spent, and keeps every
+/// accepted step: the budgeted run is the unbudgeted one cut short (same configurations up to
+/// the cut, since the run uses no random numbers after the start).
+#[test]
+fn stage_budget_bounds_the_moves_and_cuts_the_run_short() {
+    let n = 200;
+    let mut free = McmParams::jammed_spheres(n, 3);
+    free.final_stage.as_mut().unwrap().stage_budget_per_particle = None;
+    let full = run(&free).unwrap();
+    assert!(!full.stage_budget_spent);
+    // Stage 2's moves in the unbudgeted run: everything after stage 1's last step.
+    let mut state = McmState::new(
+        random_start_of(free.container, free.particles(), free.phi0, free.seed).unwrap(),
+        &free,
+    )
+    .unwrap();
+    while state.stage == 0 {
+        state.step(&free).unwrap();
+    }
+    let stage1_tries = state.total_tries;
+    let stage2_full = full.total_tries - stage1_tries;
+    // Half of it, but at least one step's budget.
+    let budget_pp = (stage2_full as f64 / n as f64 / 2.0).max(2000.0);
+    let mut capped = free.clone();
+    capped
+        .final_stage
+        .as_mut()
+        .unwrap()
+        .stage_budget_per_particle = Some(budget_pp);
+    let cut = run(&capped).unwrap();
+    assert!(cut.stage_budget_spent && cut.jammed);
+    let stage2_cut = cut.total_tries - stage1_tries;
+    assert!(
+        stage2_cut as f64 <= budget_pp * n as f64 && stage2_cut < stage2_full,
+        "stage 2 moves {stage2_cut} (budget {}, unbudgeted {stage2_full})",
+        budget_pp * n as f64
+    );
+    // Every accepted step of the cut run is the unbudgeted run's step.
+    assert!(cut.history.len() <= full.history.len());
+    for (a, b) in cut.history.iter().zip(&full.history) {
+        assert_eq!(
+            (a.packing_fraction.to_bits(), a.tries),
+            (b.packing_fraction.to_bits(), b.tries)
+        );
+    }
+    analysis::check_no_overlap(&cut.packing.view(), capped.overlap_tol).unwrap();
+    // A budget below one step's is refused by name.
+    let mut bad = free.clone();
+    bad.final_stage.as_mut().unwrap().stage_budget_per_particle = Some(100.0);
+    let e = bad.validate().unwrap_err().to_string();
+    assert!(e.contains("stage_budget_per_particle"), "{e}");
 }

@@ -299,6 +299,7 @@ fn superballs_pack_inside_cylinder_and_wedge() {
         delta_v_per_particle: 0.01,
         halvings: 0,
         tries_per_particle: 200.0,
+        stage_budget_per_particle: None,
         beta: 0.5,
         dt: 0.1,
     };

@@ -27,6 +27,7 @@
 //! delta_v_per_particle = 0.01      # Delta V / N in D^3
 //! halvings = 6                     # halvings of Delta V after failed steps
 //! tries_per_particle = 200.0       # particle moves allowed per compression step / N
+//! stage_budget_per_particle = 2e4  # moves allowed over the whole stage / N [unbounded]
 //! overlap_tol = 1e-4               # overlaps below this count as removed (sec. 2.2.6)
 //! beta = 0.5                       # original scheme, eq. 2.10
 //! dt = 0.1                         # revised scheme, eq. 3.9 / 3.12; relax: FIRE's initial step
@@ -37,6 +38,7 @@
 //! delta_v_per_particle = 1e-4      # required in the table
 //! halvings = 10                    # required in the table
 //! tries_per_particle = 1000.0      # [as in [mcm]]
+//! stage_budget_per_particle = 2.5e4  # [unbounded; not inherited from [mcm]]
 //! beta = 0.5                       # [as in [mcm]]
 //! dt = 0.1                         # [as in [mcm]]
 //! [analysis]
@@ -210,6 +212,9 @@ struct McmSpec {
     delta_v_per_particle: f64,
     halvings: u32,
     tries_per_particle: f64,
+    /// Moves over the whole stage, per particle (absent: unbounded).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    stage_budget_per_particle: Option<f64>,
     overlap_tol: f64,
     beta: f64,
     dt: f64,
@@ -226,6 +231,7 @@ impl Default for McmSpec {
             delta_v_per_particle: p.delta_v_per_particle,
             halvings: p.halvings,
             tries_per_particle: p.tries_per_particle,
+            stage_budget_per_particle: None,
             overlap_tol: p.overlap_tol,
             beta: p.beta,
             dt: p.dt,
@@ -242,6 +248,9 @@ struct FinalStageSpec {
     delta_v_per_particle: f64,
     halvings: u32,
     tries_per_particle: Option<f64>,
+    /// Moves over the whole stage, per particle (absent: unbounded; not inherited).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    stage_budget_per_particle: Option<f64>,
     beta: Option<f64>,
     dt: Option<f64>,
 }
@@ -360,6 +369,7 @@ pub fn parse_scene(text: &str, origin: &str) -> Result<PackingScene> {
     p.delta_v_per_particle = m.delta_v_per_particle;
     p.halvings = m.halvings;
     p.tries_per_particle = m.tries_per_particle;
+    p.stage_budget_per_particle = m.stage_budget_per_particle;
     p.overlap_tol = m.overlap_tol;
     p.beta = m.beta;
     p.dt = m.dt;
@@ -370,6 +380,7 @@ pub fn parse_scene(text: &str, origin: &str) -> Result<PackingScene> {
         delta_v_per_particle: s.delta_v_per_particle,
         halvings: s.halvings,
         tries_per_particle: s.tries_per_particle.unwrap_or(m.tries_per_particle),
+        stage_budget_per_particle: s.stage_budget_per_particle,
         beta: s.beta.unwrap_or(m.beta),
         dt: s.dt.unwrap_or(m.dt),
     });
@@ -892,6 +903,8 @@ struct Summary<'a> {
     failed_steps: usize,
     total_tries: u64,
     jammed: bool,
+    /// The last stage ended on its `stage_budget_per_particle`, not on its halvings.
+    stage_budget_spent: bool,
     seconds: f64,
 }
 
@@ -995,6 +1008,7 @@ fn write_outputs(
         failed_steps: state.failed_steps,
         total_tries: state.total_tries,
         jammed: state.finished == Some(true),
+        stage_budget_spent: state.stage_budget_spent,
         seconds,
     };
     let json = serde_json::to_string_pretty(&s).map_err(|e| Error::InvalidInput(e.to_string()))?;
@@ -1020,6 +1034,12 @@ struct Checkpoint {
     history: Vec<(usize, u64, u64, u64)>,
     failed_steps: usize,
     total_tries: u64,
+    /// Moves in the running stage (absent in checkpoints written before stage budgets: 0,
+    /// which is exact for their scenes, as they had no budget).
+    #[serde(default)]
+    stage_tries: u64,
+    #[serde(default)]
+    stage_budget_spent: bool,
     finished: Option<bool>,
 }
 
@@ -1060,6 +1080,8 @@ fn write_checkpoint(path: &Path, scene: &PackingScene, s: &McmState, seconds: f6
             .collect(),
         failed_steps: s.failed_steps,
         total_tries: s.total_tries,
+        stage_tries: s.stage_tries,
+        stage_budget_spent: s.stage_budget_spent,
         finished: s.finished,
     };
     let text = serde_json::to_vec(&c).map_err(|e| Error::InvalidInput(e.to_string()))?;
@@ -1129,6 +1151,8 @@ fn read_checkpoint(path: &Path, scene: &PackingScene) -> Result<(McmState, f64)>
             .collect(),
         failed_steps: c.failed_steps,
         total_tries: c.total_tries,
+        stage_tries: c.stage_tries,
+        stage_budget_spent: c.stage_budget_spent,
         stage: c.stage,
         finished: c.finished,
     };
@@ -1169,6 +1193,38 @@ s4_trials = 50
         RunOptions {
             quiet: true,
             ..Default::default()
+        }
+    }
+
+    /// A run whose final stage ends on its budget resumes, one step at a time, to the same
+    /// result: the checkpoint carries the stage's moves so far.
+    #[test]
+    fn budgeted_stage_resumes_to_the_same_result() {
+        let text = SMALL.replace(
+            "halvings = 1\n[analysis]",
+            "halvings = 6\nstage_budget_per_particle = 120.0\n[analysis]",
+        );
+        assert_ne!(text, SMALL);
+        let (a, b) = (tmp("budget-full"), tmp("budget-resumed"));
+        run_scene(&text, "test", &a, &quiet()).unwrap();
+        let mut calls = 0;
+        while !b.join("final.xyz").exists() {
+            run_scene_limited(&text, "test", &b, &quiet(), Some(1)).unwrap();
+            calls += 1;
+            assert!(calls < 10_000);
+        }
+        assert!(
+            std::fs::read(a.join("final.xyz")).unwrap()
+                == std::fs::read(b.join("final.xyz")).unwrap(),
+            "final.xyz differs between the full and the resumed run"
+        );
+        let sa: serde_json::Value =
+            serde_json::from_slice(&std::fs::read(a.join("summary.json")).unwrap()).unwrap();
+        let sb: serde_json::Value =
+            serde_json::from_slice(&std::fs::read(b.join("summary.json")).unwrap()).unwrap();
+        assert_eq!(sa["stage_budget_spent"], serde_json::Value::Bool(true));
+        for k in ["total_tries", "failed_steps", "stage_budget_spent"] {
+            assert_eq!(sa[k], sb[k], "{k}");
         }
     }
 

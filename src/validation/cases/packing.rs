@@ -232,6 +232,7 @@ fn rods_513(seed: u64) -> McmParams {
         delta_v_per_particle: 0.2,
         halvings: 4,
         tries_per_particle: 2000.0,
+        stage_budget_per_particle: None,
         beta: 0.5,
         dt: 0.5,
     });
