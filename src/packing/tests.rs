@@ -39,6 +39,12 @@ fn bad_parameters_are_errors() {
     p = McmParams::new(10, 0.0, 1);
     p.dt = f64::NAN;
     assert!(p.validate().unwrap_err().to_string().contains("dt"));
+    for bad in [f64::NAN, f64::INFINITY, -1.0, 100.0] {
+        p = McmParams::new(10, 0.0, 1);
+        p.stage_budget_per_particle = Some(bad);
+        let e = p.validate().unwrap_err().to_string();
+        assert!(e.contains("stage_budget_per_particle"), "{bad}: {e}");
+    }
     // Too few long rods for the periodic box (the minimum image would miss contacts).
     assert!(random_start(10, 8.0, 0.05, 1).is_err());
 }
