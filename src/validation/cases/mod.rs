@@ -43,6 +43,7 @@ pub fn runner_for(id: &str) -> Option<Runner> {
         "505" => Some(packing::case_505),
         "506" => Some(packing::case_506),
         "507" => Some(packing::case_507),
+        "514" => Some(packing::case_514),
         "508" => Some(packing::case_508),
         "509" => Some(packing::case_509),
         "510" => Some(packing::case_510),
