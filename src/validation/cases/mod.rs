@@ -14,6 +14,7 @@ mod elliptic_cases;
 mod field_analytic;
 mod field_oracle;
 mod packing;
+mod packing_confined;
 mod shapes;
 
 /// The runner for case `id` ("104"), if one is registered.
@@ -49,6 +50,7 @@ pub fn runner_for(id: &str) -> Option<Runner> {
         "510" => Some(packing::case_510),
         "512" => Some(packing::case_512),
         "513" => Some(packing::case_513),
+        "515" => Some(packing_confined::case_515),
         "520" => Some(packing::case_520),
         "521" => Some(packing::case_521),
         "401" => Some(brownian::case_401),

@@ -1,0 +1,133 @@
+//! Confined packing cases (5xx), thesis 003 sec. 2.2.4 and 2.5: spherocylinders in a hard
+//! cylinder (virtual-particle wall), measured with [`crate::analysis`]. `expected.csv` lists
+//! bands `quantity,lower,upper,source` as in [`super::packing`] (rtol = 1, atol = 0: a row
+//! passes iff the value lies in [lower, upper]).
+//!
+//! * 515 (slow): the nematic order S (eq. 2.11) against D_cyl / Lambda for rods of aspect
+//!   ratio Lambda = 3 (Fig. 2.10c): complete ordering below D_cyl / Lambda = 0.75, none above
+//!   1.5, the S = 0.5 crossing between the two, no rise of S beyond the noise along the
+//!   curve; every final configuration overlap-free and inside the wall.
+
+use super::common::{band_rows, required_seed};
+use crate::analysis;
+use crate::packing::{self, Container, McmParams, Scheme};
+use crate::validation::{CaseContext, Row};
+use crate::Result;
+use std::collections::BTreeMap;
+
+/// Rod length between the cap centres (L/D = 2), so Lambda = (L + D) / D = 3.
+const ROD_LENGTH_515: f64 = 2.0;
+/// Cylinder diameters of case 515 (in D), i.e. D_cyl / Lambda = 0.6 ... 2.
+const DIAMETERS_515: [f64; 9] = [1.8, 2.0, 2.25, 2.5, 3.0, 3.5, 4.5, 5.0, 6.0];
+/// Rods per run: 100 up to D_cyl = 2.5 (nearly single file; the final cylinder is 95-300 D
+/// long), 200 above (27-135 D): at least 9 rod lengths everywhere, and in the wide cylinders
+/// enough rods that the isotropic finite-N value of S (about 0.06 for N = 200) stays well
+/// below the 0.2 level.
+fn rods_515(d: f64) -> usize {
+    if d <= 2.5 {
+        100
+    } else {
+        200
+    }
+}
+/// Independent runs (seeds) per diameter.
+const RUNS_515: usize = 2;
+/// The thesis' levels of Fig. 2.10c: complete ordering S >~ 0.8, none S <~ 0.2; the crossing
+/// level is their midpoint.
+const S_HALF: f64 = 0.5;
+
+/// (nematic S, deepest pair overlap, deepest wall penetration) of one MCM run of the case-501
+/// schedule (original scheme, beta 0.5, Delta V = 0.01 N halved 6 times, 200 N tries,
+/// tolerance 1e-4: the defaults of [`McmParams::new`] but the scheme) in a cylinder of
+/// diameter `d`.
+fn cylinder_run(d: f64, seed: u64) -> Result<(f64, f64, f64)> {
+    let prm = McmParams {
+        scheme: Scheme::Original,
+        container: Container::Cylinder { diameter: d },
+        ..McmParams::new(rods_515(d), ROD_LENGTH_515, seed)
+    };
+    let r = packing::run(&prm)?;
+    let view = r.packing.view();
+    let overlap = analysis::worst_gap(&view)?.map_or(0.0, |g| (-g.gap).max(0.0));
+    let wall = analysis::wall_penetration(&view)?.map_or(0.0, |w| w.1);
+    Ok((analysis::nematic_order(&r.packing.axes())?, overlap, wall))
+}
+
+/// D_cyl / Lambda where the piecewise-linear curve through `pts` (ascending x) first falls
+/// through `level` from above; NaN when it never does (the band check then fails).
+fn first_crossing(pts: &[(f64, f64)], level: f64) -> f64 {
+    pts.windows(2)
+        .find(|w| w[0].1 >= level && w[1].1 < level)
+        .map_or(f64::NAN, |w| {
+            let ((x0, y0), (x1, y1)) = (w[0], w[1]);
+            x0 + (y0 - level) / (y0 - y1) * (x1 - x0)
+        })
+}
+
+pub fn case_515(ctx: &CaseContext) -> Result<Vec<Row>> {
+    use rayon::prelude::*;
+    let s = required_seed(ctx, "case 515: a random case needs `seed` in case.toml")?;
+    let lambda = ROD_LENGTH_515 + 1.0;
+    // One job per (diameter, run), each with its own seed: independent of the thread count.
+    let jobs: Vec<(usize, u64)> = (0..DIAMETERS_515.len())
+        .flat_map(|i| (0..RUNS_515).map(move |k| (i, s + (i * RUNS_515 + k) as u64)))
+        .collect();
+    let runs: Vec<Result<(f64, f64, f64)>> = jobs
+        .par_iter()
+        .map(|&(i, seed)| cylinder_run(DIAMETERS_515[i], seed))
+        .collect();
+    let mut sums = [0.0f64; DIAMETERS_515.len()];
+    let (mut overlap, mut wall) = (0.0f64, 0.0f64);
+    for (&(i, seed), r) in jobs.iter().zip(runs) {
+        let (nematic, o, w) = r?;
+        // The measured curve, for the record (the checks below use the means).
+        eprintln!(
+            "case 515: D_cyl = {}, D_cyl/Lambda = {:.3}, seed {seed}: S = {nematic:.4}",
+            DIAMETERS_515[i],
+            DIAMETERS_515[i] / lambda
+        );
+        sums[i] += nematic / RUNS_515 as f64;
+        overlap = overlap.max(o);
+        wall = wall.max(w);
+    }
+    // The curve: mean S over the runs against D_cyl / Lambda.
+    let curve: Vec<(f64, f64)> = DIAMETERS_515
+        .iter()
+        .zip(sums)
+        .map(|(&d, m)| (d / lambda, m))
+        .collect();
+    for (x, m) in &curve {
+        eprintln!("case 515: D_cyl/Lambda = {x:.3}: mean S = {m:.4}");
+    }
+    let over = |pred: fn(f64) -> bool| curve.iter().filter(move |p| pred(p.0)).map(|p| p.1);
+    let largest_rise = curve
+        .windows(2)
+        .map(|w| w[1].1 - w[0].1)
+        .fold(f64::NEG_INFINITY, f64::max);
+    let mut got = BTreeMap::new();
+    got.insert(
+        "nematic_order_min_at_ratio_le_0_75",
+        over(|x| x <= 0.75 + 1e-12).fold(f64::INFINITY, f64::min),
+    );
+    got.insert(
+        "nematic_order_max_at_ratio_ge_1_5",
+        over(|x| x >= 1.5 - 1e-12).fold(f64::NEG_INFINITY, f64::max),
+    );
+    got.insert("ratio_at_nematic_order_0_5", first_crossing(&curve, S_HALF));
+    got.insert("nematic_order_largest_rise", largest_rise);
+    got.insert("deepest_overlap", overlap);
+    got.insert("deepest_wall_penetration", wall);
+    band_rows(ctx, &got)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::first_crossing;
+
+    #[test]
+    fn crossing_is_interpolated_linearly_and_nan_without_one() {
+        let pts = [(0.5, 0.9), (1.0, 0.7), (1.5, 0.3), (2.0, 0.6)];
+        assert!((first_crossing(&pts, 0.5) - 1.25).abs() < 1e-12);
+        assert!(first_crossing(&pts, 0.95).is_nan());
+    }
+}
