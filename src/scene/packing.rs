@@ -717,8 +717,16 @@ fn run_scene_limited(
         seconds = base + t0.elapsed().as_secs_f64();
         write_checkpoint(&ckpt_path, &scene, &state, seconds)?;
         if o != StepOutcome::Finished {
+            // With a stage budget: how much of it the running stage has used.
+            let budget = prm
+                .stage_params(state.stage)
+                .stage_budget_per_particle
+                .map_or(String::new(), |b| {
+                    let used = state.stage_tries as f64 / state.packing.n() as f64;
+                    format!("  stage moves/N {used:.0} of {b:.0}")
+                });
             bar.set_message(format!(
-                "stage {} step {}  phi = {:.5}  Delta V = {:.3e}  halvings left {}  tries {}",
+                "stage {} step {}  phi = {:.5}  Delta V = {:.3e}  halvings left {}  tries {}{budget}",
                 state.stage + 1,
                 state.history.len(),
                 state.packing.packing_fraction(),
