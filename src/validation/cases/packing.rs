@@ -348,9 +348,7 @@ pub fn case_514(ctx: &CaseContext) -> Result<Vec<Row>> {
     let runs: Vec<Result<McmResult>> = jobs
         .par_iter()
         .with_max_len(1)
-        .map(|&(i, k)| {
-            packing::run(&params_514(ASPECTS_514[i], s + k))
-        })
+        .map(|&(i, k)| packing::run(&params_514(ASPECTS_514[i], s + k)))
         .collect();
     let mut phi = vec![Vec::new(); ASPECTS_514.len()];
     let mut nematic = vec![Vec::new(); ASPECTS_514.len()];
