@@ -74,7 +74,7 @@ pub struct McmParams {
     /// Allowed particle moves over the whole stage (accepted and failed steps), per particle.
     /// None: unbounded, the thesis' schedule (a stage ends only when its halvings are spent).
     /// When the stage's budget runs out, the step in progress fails and the stage ends as if
-    /// its halvings were spent; bounded work per particle keeps the run time linear in N.
+    /// its halvings were spent; it keeps the moves per particle from growing with N.
     pub stage_budget_per_particle: Option<f64>,
     /// Overlaps not deeper than this count as removed (thesis sec. 2.2.6: 1e-4).
     pub overlap_tol: f64,
@@ -159,8 +159,8 @@ impl McmParams {
     /// Delta V halved twice, which compacts to about phi = 0.624; stage 2 the collective
     /// relaxation ([`Scheme::Relax`], FIRE initial step 0.1) from Delta V = 0.001 N halved 4
     /// times with 2000 N tries per step and at most 25000 N moves in all, which settles the
-    /// contact network. The stage budget bounds the work per particle, so the run time grows
-    /// linearly with N; without it the relaxation creeps on near jamming (README "Benchmark").
+    /// contact network. The stage budget bounds the moves per particle, which otherwise grow with
+    /// N as the relaxation creeps on near jamming (README "Creep near jamming").
     pub fn jammed_spheres(n: usize, seed: u64) -> McmParams {
         let relax = Stage {
             scheme: Scheme::Relax,
@@ -407,8 +407,8 @@ pub struct McmResult {
     /// True when the run stopped because all halvings were spent (jammed) or the last stage's
     /// budget ran out, false when it hit `max_steps`.
     pub jammed: bool,
-    /// True when the last stage ended because its `stage_budget_per_particle` ran out (before
-    /// its halvings were spent).
+    /// True when the last stage ended because its `stage_budget_per_particle` ran out (its
+    /// last step got less than a full step's budget and failed).
     pub stage_budget_spent: bool,
 }
 
