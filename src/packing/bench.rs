@@ -171,12 +171,18 @@ pub fn run_bench(args: &BenchArgs) -> Result<()> {
             args.max_n, SIZES[0]
         ));
     }
+    if args.seeds == 0 {
+        return invalid("--seeds 0: need at least one seed");
+    }
     let out = std::path::Path::new("target/porelab");
     std::fs::create_dir_all(out)?;
     let mut csv = String::from(
         "particles,n,threads,packing_fraction,contacts_raw_1e-8,contacts_extrapolated_no_rattlers,seconds,cpu_seconds,moves,moves_per_second\n",
     );
-    println!("# 1. jamming (seed {SEED}; engine on one thread, analysis on the pool)");
+    println!(
+        "# 1. jamming (seeds 1..={}; engine on one thread, analysis on the pool)",
+        args.seeds
+    );
     println!("particles        N  threads    phi   C(1e-8)  C0(no rattlers)  seconds  cpu_s      moves  moves/s");
     let mut row = |what: &str, n: usize, threads: usize, r: Timed| {
         let (phi, c, c0, s, m, cpu) = (
