@@ -38,7 +38,7 @@
 //! delta_v_per_particle = 1e-4      # required in the table
 //! halvings = 10                    # required in the table
 //! tries_per_particle = 1000.0      # [as in [mcm]]
-//! stage_budget_per_particle = 2.5e4  # [unbounded; not inherited from [mcm]]
+//! stage_budget_per_particle = 2.5e4 # [unbounded; not inherited from [mcm]]
 //! beta = 0.5                       # [as in [mcm]]
 //! dt = 0.1                         # [as in [mcm]]
 //! [analysis]
@@ -1197,6 +1197,11 @@ s4_trials = 50
         d
     }
 
+    /// The summary.json of a finished run in `dir`.
+    fn summary_of(dir: &std::path::Path) -> serde_json::Value {
+        serde_json::from_slice(&std::fs::read(dir.join("summary.json")).unwrap()).unwrap()
+    }
+
     fn quiet() -> RunOptions {
         RunOptions {
             quiet: true,
@@ -1226,10 +1231,8 @@ s4_trials = 50
                 == std::fs::read(b.join("final.xyz")).unwrap(),
             "final.xyz differs between the full and the resumed run"
         );
-        let sa: serde_json::Value =
-            serde_json::from_slice(&std::fs::read(a.join("summary.json")).unwrap()).unwrap();
-        let sb: serde_json::Value =
-            serde_json::from_slice(&std::fs::read(b.join("summary.json")).unwrap()).unwrap();
+        let sa = summary_of(&a);
+        let sb = summary_of(&b);
         assert_eq!(sa["stage_budget_spent"], serde_json::Value::Bool(true));
         for k in ["total_tries", "failed_steps", "stage_budget_spent"] {
             assert_eq!(sa[k], sb[k], "{k}");
@@ -1252,10 +1255,8 @@ s4_trials = 50
             );
             assert!(x == y, "{f} differs between the full and the resumed run");
         }
-        let sa: serde_json::Value =
-            serde_json::from_slice(&std::fs::read(a.join("summary.json")).unwrap()).unwrap();
-        let sb: serde_json::Value =
-            serde_json::from_slice(&std::fs::read(b.join("summary.json")).unwrap()).unwrap();
+        let sa = summary_of(&a);
+        let sb = summary_of(&b);
         for k in [
             "packing_fraction",
             "compression_steps",
