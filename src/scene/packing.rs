@@ -815,7 +815,8 @@ fn xyz_columns(s: &ContactShape) -> (&'static str, [f64; 3], f64, f64, [f64; 2])
 #[derive(Debug, Clone, Serialize)]
 pub struct Measures {
     pub packing_fraction: f64,
-    /// Deepest overlap (>= 0) by the independent brute-force check over all pairs and images.
+    /// Deepest overlap (>= 0) by the analysis' pair search ([`analysis::pair_gaps`], independent
+    /// of the engine; equal to the brute force over all pairs and images).
     pub deepest_overlap: f64,
     pub contact_cutoffs: Vec<f64>,
     /// Mean contacts at each cut-off, all particles.
