@@ -76,7 +76,25 @@ pub fn total_volume(shapes: &[ContactShape], species: &[usize]) -> Result<f64> {
     Ok(v)
 }
 
-impl Rods<'_> {
+impl<'a> Rods<'a> {
+    /// Particles in a periodic cubic box of side `box_length` (no walls).
+    pub fn periodic(
+        box_length: f64,
+        shapes: &'a [ContactShape],
+        species: &'a [usize],
+        positions: &'a [Vector3<f64>],
+        orientations: &'a [UnitQuaternion<f64>],
+    ) -> Rods<'a> {
+        Rods {
+            box_length,
+            wall_diameter: None,
+            wedge: None,
+            shapes,
+            species,
+            positions,
+            orientations,
+        }
+    }
     pub fn n(&self) -> usize {
         self.positions.len()
     }
@@ -856,15 +874,7 @@ mod tests {
         pos: &'a [Vector3<f64>],
         ori: &'a [UnitQuaternion<f64>],
     ) -> Rods<'a> {
-        Rods {
-            box_length,
-            wall_diameter: None,
-            wedge: None,
-            shapes: mono_shape(0.0),
-            species: zeros(pos.len()),
-            positions: pos,
-            orientations: ori,
-        }
+        Rods::periodic(box_length, mono_shape(0.0), zeros(pos.len()), pos, ori)
     }
 
     /// Volume of the spherical shell [k dr, (k + 1) dr).
@@ -1202,15 +1212,7 @@ mod tests {
         let ori: Vec<UnitQuaternion<f64>> = (0..n)
             .map(|_| random_rotation(rng.gen(), rng.gen(), rng.gen()))
             .collect();
-        let r = Rods {
-            box_length,
-            wall_diameter: None,
-            wedge: None,
-            shapes: &shapes,
-            species: &species,
-            positions: &pos,
-            orientations: &ori,
-        };
+        let r = Rods::periodic(box_length, &shapes, &species, &pos, &ori);
         let binned = pair_gaps(&r, 0.1).unwrap();
         assert_eq!(binned, pair_gaps_brute_force(&r, 0.1).unwrap());
         assert!(binned.iter().any(|g| g.gap < 0.0));

@@ -234,15 +234,7 @@ mod tests {
         for g in [2.0, 3.0, 5.0] {
             let (pos, ori, shapes) = pair(1e-3, g);
             let species = [0, 0];
-            let r = Rods {
-                box_length: 8.0,
-                wall_diameter: None,
-                wedge: None,
-                shapes: &shapes,
-                species: &species,
-                positions: &pos,
-                orientations: &ori,
-            };
+            let r = Rods::periodic(8.0, &shapes, &species, &pos, &ori);
             let s = sampled_overlap(&r, 20_000).unwrap();
             assert!(s.worst.is_none(), "g = {g}: {:?}", s.worst);
             assert!(
