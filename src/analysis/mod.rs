@@ -270,7 +270,8 @@ pub struct PairGap {
 /// spheres. The result is the same list, gap for gap, as [`pair_gaps_brute_force`] (tested),
 /// which the walls and small boxes use.
 pub fn pair_gaps(c: &Rods, max_gap: f64) -> Result<Vec<PairGap>> {
-    let reach = pair_search_reach(c, max_gap)?;
+    let geometry = PairGeometry::of(c, max_gap)?;
+    let reach = geometry.reach();
     let periodic = c.wall_diameter.is_none() && c.wedge.is_none();
     // (A relative margin of 1e-9 keeps the cell edge above the reach through the rounding
     // of the cell coordinates below.)
@@ -289,7 +290,6 @@ pub fn pair_gaps(c: &Rods, max_gap: f64) -> Result<Vec<PairGap>> {
     for (j, x) in c.positions.iter().enumerate() {
         members[index(cell_of(x))].push(j);
     }
-    let geometry = PairGeometry::of(c, max_gap)?;
     // Rows i in parallel (rayon), concatenated in order: the result does not depend on the
     // thread count.
     let rows: Vec<Result<Vec<PairGap>>> = (0..c.n())
@@ -333,25 +333,6 @@ pub fn pair_gaps(c: &Rods, max_gap: f64) -> Result<Vec<PairGap>> {
     concatenate(rows)
 }
 
-/// The largest centre distance at which two particles can be within `max_gap` of contact
-/// (twice the largest bounding radius plus the gap), after checking the configuration and
-/// that the box is longer than the largest particle.
-fn pair_search_reach(c: &Rods, max_gap: f64) -> Result<f64> {
-    c.check()?;
-    let mut largest = 0.0f64;
-    for s in c.shapes {
-        largest = largest.max(crate::shape::bounding_radius_of(s)?);
-    }
-    if c.box_length <= 2.0 * largest {
-        return invalid(format!(
-            "box_length = {}: must exceed the largest particle length {}",
-            c.box_length,
-            2.0 * largest
-        ));
-    }
-    Ok(2.0 * largest + max_gap.max(0.0))
-}
-
 /// What the gap of a pair at separation d needs: bounding radii, unit axes.
 struct PairGeometry {
     bounds: Vec<f64>,
@@ -360,16 +341,32 @@ struct PairGeometry {
 }
 
 impl PairGeometry {
+    /// Checks the configuration and that the box is longer than the largest particle.
     fn of(c: &Rods, max_gap: f64) -> Result<PairGeometry> {
+        c.check()?;
+        let bounds: Vec<f64> = c
+            .shapes
+            .iter()
+            .map(crate::shape::bounding_radius_of)
+            .collect::<Result<_>>()?;
+        let largest = 2.0 * bounds.iter().cloned().fold(0.0, f64::max);
+        if c.box_length <= largest {
+            return invalid(format!(
+                "box_length = {}: must exceed the largest particle length {largest}",
+                c.box_length
+            ));
+        }
         Ok(PairGeometry {
-            bounds: c
-                .shapes
-                .iter()
-                .map(crate::shape::bounding_radius_of)
-                .collect::<Result<_>>()?,
+            bounds,
             axes: c.orientations.iter().map(|q| q * Vector3::z()).collect(),
             max_gap,
         })
+    }
+
+    /// The largest centre distance at which two particles can be within `max_gap` of
+    /// contact: twice the largest bounding radius plus the gap.
+    fn reach(&self) -> f64 {
+        2.0 * self.bounds.iter().cloned().fold(0.0, f64::max) + self.max_gap.max(0.0)
     }
 
     /// Surface gap of particles i and j with j at separation `d` from i; None when the
@@ -418,10 +415,9 @@ fn concatenate(rows: Vec<Result<Vec<PairGap>>>) -> Result<Vec<PairGap>> {
 /// [`pair_gaps`] by brute force over every pair and every image (the independent overlap
 /// check of the validation cases, through [`worst_gap`]).
 pub fn pair_gaps_brute_force(c: &Rods, max_gap: f64) -> Result<Vec<PairGap>> {
-    pair_search_reach(c, max_gap)?;
+    let geometry = PairGeometry::of(c, max_gap)?;
     let n = c.n();
     let bl = c.box_length;
-    let geometry = PairGeometry::of(c, max_gap)?;
     // Images along the periodic directions only (z alone in the cylinder and the wedge).
     let lat = if c.wall_diameter.is_some() || c.wedge.is_some() {
         0
