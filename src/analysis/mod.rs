@@ -567,7 +567,9 @@ pub fn mean_contacts(
 
 /// Mean contact number extrapolated linearly to zero cut-off (thesis sec. 2.2.5): a
 /// least-squares line through (delta_k, <C>(delta_k)) evaluated at delta = 0. Rattlers are
-/// removed at each cut-off when `min_contacts` is given. Returns (intercept, slope).
+/// removed at each cut-off when `min_contacts` is given; if that removes every particle at
+/// some cut-off the result is an error (there is no mean to extrapolate). Returns
+/// (intercept, slope).
 pub fn extrapolated_contacts(
     n: usize,
     gaps: &[PairGap],
@@ -583,10 +585,19 @@ pub fn extrapolated_contacts(
     if let Some(d) = deltas.iter().find(|d| !(d.is_finite() && **d > 0.0)) {
         return invalid(format!("cut-off {d}: must be positive and finite"));
     }
-    let ys: Vec<f64> = deltas
-        .iter()
-        .map(|&d| mean_contacts(n, gaps, d, min_contacts).0)
-        .collect();
+    let mut ys = Vec::with_capacity(deltas.len());
+    for &d in deltas {
+        let (mean, removed) = mean_contacts(n, gaps, d, min_contacts);
+        if let (Some(m), true) = (min_contacts, removed == n) {
+            // The mean over no particles is undefined: refuse rather than report 0.
+            return invalid(format!(
+                "every one of the {n} particles is a rattler (fewer than {m} contacts after \
+                 repeated removal) at cut-off {d}: the mean contact number without rattlers is \
+                 undefined; lower the rattler threshold"
+            ));
+        }
+        ys.push(mean);
+    }
     let m = deltas.len() as f64;
     let mx = deltas.iter().sum::<f64>() / m;
     let my = ys.iter().sum::<f64>() / m;
@@ -967,6 +978,17 @@ mod tests {
         let (c_all, rat0) = mean_contacts(6, &g, 1e-9, None);
         assert_eq!(rat0, 0);
         assert!((c_all - 10.0 / 6.0).abs() < 1e-15);
+        // Threshold 3 removes the triangle as well: no particle is left to average over, and
+        // the extrapolation says so instead of returning 0.
+        assert_eq!(mean_contacts(6, &g, 1e-9, Some(3)).1, 6);
+        let e = extrapolated_contacts(6, &g, &[1e-9, 1e-8], Some(3)).unwrap_err();
+        assert!(
+            e.to_string()
+                .contains("every one of the 6 particles is a rattler"),
+            "{e}"
+        );
+        let (c0, slope) = extrapolated_contacts(6, &g, &[1e-9, 1e-8], Some(2)).unwrap();
+        assert_eq!((c0, slope), (2.0, 0.0));
     }
 
     #[test]

@@ -150,7 +150,12 @@ fn timed(prm: &McmParams, threads: usize) -> Result<Timed> {
         Ok(Timed {
             phi: m.packing_fraction,
             contacts_raw: m.contacts_at_cutoffs[0],
-            contacts0: m.contacts_extrapolated_no_rattlers,
+            contacts0: m.contacts_extrapolated_no_rattlers.ok_or_else(|| {
+                crate::Error::InvalidInput(format!(
+                    "N = {}, seed {}: every particle is a rattler; no contact number to report",
+                    prm.n, prm.seed
+                ))
+            })?,
             wall_seconds,
             moves: r.total_tries,
             cpu_seconds: process_cpu_seconds() - cpu,

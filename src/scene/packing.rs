@@ -738,7 +738,14 @@ fn run_scene_limited(
         }
     }
     bar.finish_and_clear();
-    let summary = write_outputs(out, origin, &scene, &state, seconds)?;
+    let (summary, rattler_free_mean_defined) = write_outputs(out, origin, &scene, &state, seconds)?;
+    if !rattler_free_mean_defined {
+        eprintln!(
+            "warning: with analysis.rattler_min_contacts = {} every particle is a rattler at some \
+             cut-off, so contacts_extrapolated_no_rattlers is null; set a lower threshold",
+            scene.rattler_min_contacts
+        );
+    }
     if !opts.quiet {
         eprintln!("{summary}");
         eprintln!("outputs in {}", out.display());
@@ -823,8 +830,10 @@ pub struct Measures {
     pub contacts_at_cutoffs: Vec<f64>,
     /// Linear extrapolation to zero cut-off, all particles counted (rattlers included).
     pub contacts_extrapolated: f64,
-    /// The same with rattlers removed repeatedly (fewer than `rattler_min_contacts`).
-    pub contacts_extrapolated_no_rattlers: f64,
+    /// The same with rattlers removed repeatedly (fewer than `rattler_min_contacts`); `None`
+    /// (JSON null) when that removes every particle at some cut-off, as it does for hypostatic
+    /// packings (superballs with the default threshold 5): there is no mean to report.
+    pub contacts_extrapolated_no_rattlers: Option<f64>,
     pub rattler_min_contacts: usize,
     /// Rattlers at the smallest cut-off.
     pub rattlers: usize,
@@ -862,7 +871,14 @@ pub fn measure(
         .map(|&d| analysis::mean_contacts(v.n(), &gaps, d, None).0)
         .collect();
     let (c0, _) = analysis::extrapolated_contacts(v.n(), &gaps, cutoffs, None)?;
-    let (c0r, _) = analysis::extrapolated_contacts(v.n(), &gaps, cutoffs, Some(min_contacts))?;
+    let all_rattlers = cutoffs
+        .iter()
+        .any(|&d| analysis::mean_contacts(v.n(), &gaps, d, Some(min_contacts)).1 == v.n());
+    let c0r = if all_rattlers {
+        None
+    } else {
+        Some(analysis::extrapolated_contacts(v.n(), &gaps, cutoffs, Some(min_contacts))?.0)
+    };
     let dmin = cutoffs.iter().cloned().fold(f64::INFINITY, f64::min);
     let (_, rattlers) = analysis::mean_contacts(v.n(), &gaps, dmin, Some(min_contacts));
     let wall = match p.container {
@@ -923,7 +939,7 @@ fn write_outputs(
     scene: &PackingScene,
     state: &McmState,
     seconds: f64,
-) -> Result<String> {
+) -> Result<(String, bool)> {
     let p = &state.packing;
     let prm = &scene.params;
     let m = measure(
@@ -1000,6 +1016,7 @@ fn write_outputs(
         }
     }
     write_atomic(&out.join("orientation_histogram.csv"), hcsv.as_bytes())?;
+    let rattler_free_mean_defined = m.contacts_extrapolated_no_rattlers.is_some();
     let s = Summary {
         scene: origin,
         title: &scene.title,
@@ -1022,7 +1039,7 @@ fn write_outputs(
     };
     let json = serde_json::to_string_pretty(&s).map_err(|e| Error::InvalidInput(e.to_string()))?;
     write_atomic(&out.join("summary.json"), json.as_bytes())?;
-    Ok(json)
+    Ok((json, rattler_free_mean_defined))
 }
 
 /// The checkpoint: the scene fingerprint and the full [`McmState`], every f64 stored as its
@@ -1208,6 +1225,31 @@ s4_trials = 50
             quiet: true,
             ..Default::default()
         }
+    }
+
+    /// Four touching spheres in a row have 1.5 contacts each on average. With the rattler
+    /// threshold 2 the ends go, then the middle pair: nothing is left, and the rattler-free
+    /// contact number is null, not 0. Threshold 1 keeps all four.
+    #[test]
+    fn rattler_free_contacts_are_null_when_every_particle_rattles() {
+        let p = Packing {
+            container: Container::Periodic,
+            box_length: 10.0,
+            particles: Particles::monodisperse(4, 0.0),
+            positions: (0..4)
+                .map(|k| Vector3::new(1.0 + k as f64, 5.0, 5.0))
+                .collect(),
+            orientations: vec![UnitQuaternion::identity(); 4],
+        };
+        let cut = [1e-6, 1e-5];
+        let all = measure(&p, &cut, 2, 10).unwrap();
+        assert_eq!(all.rattlers, 4);
+        assert_eq!(all.contacts_extrapolated_no_rattlers, None);
+        assert!((all.contacts_extrapolated - 1.5).abs() < 1e-12);
+        let kept = measure(&p, &cut, 1, 10).unwrap();
+        assert_eq!(kept.rattlers, 0);
+        let c0 = kept.contacts_extrapolated_no_rattlers.unwrap();
+        assert!((c0 - 1.5).abs() < 1e-12, "{c0}");
     }
 
     /// A run whose final stage ends on its budget resumes, one step at a time, to the same
