@@ -48,6 +48,7 @@ pub fn runner_for(id: &str) -> Option<Runner> {
         "508" => Some(packing::case_508),
         "509" => Some(packing::case_509),
         "510" => Some(packing::case_510),
+        "516" => Some(packing::case_516),
         "512" => Some(packing::case_512),
         "513" => Some(packing::case_513),
         "515" => Some(packing_confined::case_515),

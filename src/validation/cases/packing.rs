@@ -35,6 +35,9 @@
 //! * 509 (slow): 50 superballs at gamma = 2 and 3 (two seeds each): phi rises with gamma
 //!   (thesis sec. 4.5, Fig. 4.5); overlap-free by the solver and by the solver-free sampled
 //!   check.
+//! * 516 (slow): 100 superballs of exponent 2 (spheres through the superquadric solver), the
+//!   thesis' schedule, two seeds: phi near the thesis' 0.61 for its superball spheres (sec.
+//!   4.5); overlap-free by the solver and by the sampled check.
 //! * 510 (slow): 500 spherocylinders L/D = 1 (the thesis' N), two seeds, original (beta = 0.5)
 //!   and revised (dt = 0.1) schemes with the thesis' schedule: mean packing fractions within 1%
 //!   (thesis sec. 3.5-3.6, Fig. 3.3), overlap-free.
@@ -53,6 +56,15 @@ fn seed(ctx: &CaseContext) -> Result<u64> {
             ctx.id
         ))
     })
+}
+
+/// Runs the parameters of seeds `s` and `s + 1`, in parallel, each with its own fixed seed.
+fn two_seeds(s: u64, params: impl Fn(u64) -> McmParams + Sync) -> Vec<Result<McmResult>> {
+    use rayon::prelude::*;
+    [s, s + 1]
+        .par_iter()
+        .map(|&k| packing::run(&params(k)))
+        .collect()
 }
 
 /// Deepest overlap (>= 0) found by the independent brute-force check.
@@ -189,13 +201,9 @@ pub fn case_506(ctx: &CaseContext) -> Result<Vec<Row>> {
 const CONTACT_CUTOFFS: [f64; 4] = [1e-8, 1e-7, 1e-6, 1e-5];
 
 pub fn case_512(ctx: &CaseContext) -> Result<Vec<Row>> {
-    use rayon::prelude::*;
     let s = seed(ctx)?;
     // Independent runs in parallel, each with its own fixed seed.
-    let runs: Vec<Result<McmResult>> = [s, s + 1]
-        .par_iter()
-        .map(|&k| packing::run(&McmParams::jammed_spheres(1000, k)))
-        .collect();
+    let runs = two_seeds(s, |k| McmParams::jammed_spheres(1000, k));
     let (mut phis, mut contacts) = (Vec::new(), Vec::new());
     let (mut deepest, mut jammed) = (0.0f64, 1.0f64);
     for r in runs {
@@ -243,12 +251,8 @@ fn rods_513(seed: u64) -> McmParams {
 }
 
 pub fn case_513(ctx: &CaseContext) -> Result<Vec<Row>> {
-    use rayon::prelude::*;
     let s = seed(ctx)?;
-    let runs: Vec<Result<McmResult>> = [s, s + 1]
-        .par_iter()
-        .map(|&k| packing::run(&rods_513(k)))
-        .collect();
+    let runs = two_seeds(s, rods_513);
     let lambda = 24.0 + 1.0;
     let (mut prod, mut nematic, mut deepest) = (Vec::new(), 0.0f64, 0.0f64);
     for r in runs {
@@ -533,8 +537,19 @@ pub fn case_521(ctx: &CaseContext) -> Result<Vec<Row>> {
 /// why 5 is not part of the check).
 const GAMMAS_509: [f64; 2] = [2.0, 3.0];
 
+/// Makes the `p.n` particles superballs of half-width 1/2 and exponent `gamma` (thesis eq. 4.3
+/// with a_i = 1/2, gamma_i = gamma).
+fn with_superballs(p: &mut McmParams, gamma: f64) {
+    p.particles = Some(packing::Particles::mixture(&[(
+        crate::contact::ContactShape::Superquadric {
+            semi_axes: [0.5; 3],
+            exponents: [gamma; 3],
+        },
+        p.n,
+    )]));
+}
+
 pub fn case_509(ctx: &CaseContext) -> Result<Vec<Row>> {
-    use crate::contact::ContactShape;
     use rayon::prelude::*;
     let s = seed(ctx)?;
     let seeds = [s, s + 1];
@@ -546,15 +561,8 @@ pub fn case_509(ctx: &CaseContext) -> Result<Vec<Row>> {
     let runs: Vec<Result<McmResult>> = jobs
         .par_iter()
         .map(|&(g, k)| {
-            let n = 50;
-            let mut p = McmParams::new(n, 0.0, k);
-            p.particles = Some(packing::Particles::mixture(&[(
-                ContactShape::Superquadric {
-                    semi_axes: [0.5; 3],
-                    exponents: [g; 3],
-                },
-                n,
-            )]));
+            let mut p = McmParams::new(50, 0.0, k);
+            with_superballs(&mut p, g);
             p.scheme = Scheme::Revised;
             p.dt = 0.5;
             p.delta_v_per_particle = 0.02;
@@ -604,16 +612,57 @@ const SEEDS_510: u64 = 2;
 /// converged budget exists for either scheme up to 3200 N (at N = 100, doubling moves the
 /// six-seed mean by more than 0.2%, the rule fixed before measuring; table in README, case 510).
 fn params_510(scheme: Scheme, seed: u64) -> McmParams {
-    let mut p = McmParams::new(N_510, LENGTH_510, seed);
+    thesis_schedule(N_510, LENGTH_510, scheme, seed, 200.0)
+}
+
+/// The thesis' schedule of [`params_510`] for `n` particles with `tries_per_particle`.
+fn thesis_schedule(
+    n: usize,
+    length: f64,
+    scheme: Scheme,
+    seed: u64,
+    tries_per_particle: f64,
+) -> McmParams {
+    let mut p = McmParams::new(n, length, seed);
     p.scheme = scheme;
-    p.delta_v_per_particle = 0.1 / N_510 as f64;
+    p.delta_v_per_particle = 0.1 / n as f64;
     p.halvings = 4;
-    p.tries_per_particle = 200.0;
+    p.tries_per_particle = tries_per_particle;
     p.overlap_tol = 1e-4;
     p.beta = 0.5;
     p.dt = 0.1;
     p.energy = 1.0;
     p
+}
+
+/// Case 516: superballs of exponent 2 (spheres, through the superquadric contact solver).
+const N_516: usize = 100;
+
+/// Case 516's run: the thesis' schedule with its absolute 1e5 tries per compression step (sec.
+/// 2.2.6, "typically 10^5"; 1000 N at N = 100), revised scheme (sec. 4.5: "other simulation
+/// parameters similar to chapter 3").
+fn params_516(seed: u64) -> McmParams {
+    let mut p = thesis_schedule(N_516, 0.0, Scheme::Revised, seed, 1e5 / N_516 as f64);
+    with_superballs(&mut p, 2.0);
+    p
+}
+
+pub fn case_516(ctx: &CaseContext) -> Result<Vec<Row>> {
+    let s = seed(ctx)?;
+    let runs = two_seeds(s, params_516);
+    let (mut phi, mut solver, mut sampled) = (0.0, 0.0f64, 0.0f64);
+    for r in runs {
+        let r = r?;
+        solver = solver.max(deepest_overlap(&r)?);
+        let c = analysis::sampled_overlap(&r.packing.view(), analysis::OVERLAP_SAMPLES)?;
+        sampled = sampled.max(c.worst.map_or(0.0, |w| w.2));
+        phi += r.packing.packing_fraction() / 2.0;
+    }
+    let mut got = BTreeMap::new();
+    got.insert("packing_fraction_mean", phi);
+    got.insert("deepest_overlap_solver", solver);
+    got.insert("deepest_overlap_sampled", sampled);
+    band_rows(ctx, &got)
 }
 
 pub fn case_510(ctx: &CaseContext) -> Result<Vec<Row>> {
