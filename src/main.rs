@@ -56,6 +56,10 @@ enum Command {
         /// No progress bar.
         #[arg(long)]
         quiet: bool,
+        /// Packing runs: seconds between checkpoints (0: after every compression step). A
+        /// checkpoint is also written after every halving of Delta V and at the end.
+        #[arg(long, default_value_t = 10.0)]
+        checkpoint_every: f64,
     },
     /// Work-precision benchmarks.
     Bench {
@@ -105,6 +109,7 @@ fn main() -> ExitCode {
             out,
             threads,
             quiet,
+            checkpoint_every,
         } => porelab::scene::cli_run(
             scene.as_deref(),
             builtin.as_deref(),
@@ -113,6 +118,7 @@ fn main() -> ExitCode {
                 out,
                 threads,
                 quiet,
+                checkpoint_every_seconds: (checkpoint_every > 0.0).then_some(checkpoint_every),
             },
         )
         .map(|_| ExitCode::SUCCESS),

@@ -995,6 +995,7 @@ mod tests {
                 out: None,
                 threads: Some(threads),
                 quiet: true,
+                checkpoint_every_seconds: None,
             };
             run_scene(scene, "test", &out, &opts).unwrap();
             let read = |f: &str| std::fs::read_to_string(out.join(f)).unwrap();

@@ -44,6 +44,12 @@ pub struct RunOptions {
     pub threads: Option<usize>,
     /// No progress bar.
     pub quiet: bool,
+    /// Packing runs: write the checkpoint when at least this many seconds have passed since
+    /// the last one (and always after a halving, at the end, and when a run is stopped);
+    /// `None` writes it after every compression step. The checkpoint holds the whole history,
+    /// so writing it after each of the ~1e5 steps of a thesis-schedule run (Delta V absolute)
+    /// made the I/O quadratic in the step count.
+    pub checkpoint_every_seconds: Option<f64>,
 }
 
 /// The engine a scene names, read from its top-level `kind` key.

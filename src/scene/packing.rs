@@ -704,18 +704,33 @@ fn run_scene_limited(
         );
         b
     };
+    if let Some(t) = opts.checkpoint_every_seconds {
+        if !(t.is_finite() && t >= 0.0) {
+            return invalid(format!(
+                "checkpoint interval {t} s: must be finite and not negative"
+            ));
+        }
+    }
     let t0 = Instant::now();
     let base = seconds;
     let mut new_steps = 0usize;
+    let mut last_checkpoint = Instant::now();
     while !state.is_done() {
         if max_new_steps.is_some_and(|m| new_steps >= m) {
             bar.finish_and_clear();
-            return Ok(());
+            // Stopped between throttled checkpoints: save the state reached.
+            return write_checkpoint(&ckpt_path, &scene, &state, seconds);
         }
         let o = state.step(prm)?;
         new_steps += 1;
         seconds = base + t0.elapsed().as_secs_f64();
-        write_checkpoint(&ckpt_path, &scene, &state, seconds)?;
+        let due = opts
+            .checkpoint_every_seconds
+            .is_none_or(|t| last_checkpoint.elapsed().as_secs_f64() >= t);
+        if due || o != StepOutcome::Accepted {
+            write_checkpoint(&ckpt_path, &scene, &state, seconds)?;
+            last_checkpoint = Instant::now();
+        }
         if o != StepOutcome::Finished {
             // With a stage budget: how much of it the running stage has used.
             let budget = prm
@@ -1286,11 +1301,19 @@ s4_trials = 50
     fn interrupted_run_resumes_to_the_same_result() {
         let (a, b) = (tmp("full"), tmp("resumed"));
         run_scene(SMALL, "test", &a, &quiet()).unwrap();
-        // Interrupt twice (after 7 and 5 more steps), then finish.
-        run_scene_limited(SMALL, "test", &b, &quiet(), Some(7)).unwrap();
+        // Interrupt twice (after 7 and 5 more steps), then finish. The interrupted parts
+        // checkpoint rarely (every 1e9 s): the stop itself must save the state reached.
+        let rare = RunOptions {
+            checkpoint_every_seconds: Some(1e9),
+            ..quiet()
+        };
+        run_scene_limited(SMALL, "test", &b, &rare, Some(7)).unwrap();
         assert!(b.join("checkpoint.json").exists() && !b.join("final.xyz").exists());
-        run_scene_limited(SMALL, "test", &b, &quiet(), Some(5)).unwrap();
-        run_scene(SMALL, "test", &b, &quiet()).unwrap();
+        let scene = parse_scene(SMALL, "test").unwrap();
+        let (state, _) = read_checkpoint(&b.join("checkpoint.json"), &scene).unwrap();
+        assert_eq!(state.history.len() + state.failed_steps, 7);
+        run_scene_limited(SMALL, "test", &b, &rare, Some(5)).unwrap();
+        run_scene(SMALL, "test", &b, &rare).unwrap();
         for f in ["final.xyz", "phi_history.csv", "gr.csv"] {
             let (x, y) = (
                 std::fs::read(a.join(f)).unwrap(),
