@@ -118,7 +118,7 @@ fn main() -> ExitCode {
                 out,
                 threads,
                 quiet,
-                checkpoint_every_seconds: (checkpoint_every > 0.0).then_some(checkpoint_every),
+                checkpoint_every_seconds: Some(checkpoint_every),
             },
         )
         .map(|_| ExitCode::SUCCESS),

@@ -46,7 +46,8 @@ pub struct RunOptions {
     pub quiet: bool,
     /// Packing runs: write the checkpoint when at least this many seconds have passed since
     /// the last one (and always after a halving, at the end, and when a run is stopped);
-    /// `None` writes it after every compression step. The checkpoint holds the whole history,
+    /// `None` or `Some(0.0)` writes it after every compression step; negative or non-finite
+    /// values are refused. The checkpoint holds the whole history,
     /// so writing it after each of the ~1e5 steps of a thesis-schedule run (Delta V absolute)
     /// made the I/O quadratic in the step count.
     pub checkpoint_every_seconds: Option<f64>,

@@ -649,6 +649,13 @@ fn run_scene_limited(
     opts: &RunOptions,
     max_new_steps: Option<usize>,
 ) -> Result<()> {
+    if let Some(t) = opts.checkpoint_every_seconds {
+        if !(t.is_finite() && t >= 0.0) {
+            return invalid(format!(
+                "checkpoint interval {t} s: must be finite and not negative"
+            ));
+        }
+    }
     let scene = parse_scene(text, origin)?;
     let prm = &scene.params;
     std::fs::create_dir_all(out)?;
@@ -704,13 +711,6 @@ fn run_scene_limited(
         );
         b
     };
-    if let Some(t) = opts.checkpoint_every_seconds {
-        if !(t.is_finite() && t >= 0.0) {
-            return invalid(format!(
-                "checkpoint interval {t} s: must be finite and not negative"
-            ));
-        }
-    }
     let t0 = Instant::now();
     let base = seconds;
     let mut new_steps = 0usize;
@@ -1313,6 +1313,14 @@ s4_trials = 50
         let (state, _) = read_checkpoint(&b.join("checkpoint.json"), &scene).unwrap();
         assert_eq!(state.history.len() + state.failed_steps, 7);
         run_scene_limited(SMALL, "test", &b, &rare, Some(5)).unwrap();
+        for bad in [-1.0, f64::NAN, f64::INFINITY] {
+            let o = RunOptions {
+                checkpoint_every_seconds: Some(bad),
+                ..quiet()
+            };
+            let e = run_scene(SMALL, "test", &b, &o).unwrap_err().to_string();
+            assert!(e.contains("checkpoint interval"), "{e}");
+        }
         run_scene(SMALL, "test", &b, &rare).unwrap();
         for f in ["final.xyz", "phi_history.csv", "gr.csv"] {
             let (x, y) = (
