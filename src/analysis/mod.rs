@@ -565,6 +565,20 @@ pub fn mean_contacts(
     (mean, n - kept)
 }
 
+/// The first of the cut-offs at which removing rattlers (fewer than `min_contacts` contacts,
+/// repeatedly) leaves no particle, if any: there the rattler-free mean is undefined.
+pub fn cutoff_where_all_rattle(
+    n: usize,
+    gaps: &[PairGap],
+    deltas: &[f64],
+    min_contacts: usize,
+) -> Option<f64> {
+    deltas
+        .iter()
+        .copied()
+        .find(|&d| mean_contacts(n, gaps, d, Some(min_contacts)).1 == n)
+}
+
 /// Mean contact number extrapolated linearly to zero cut-off (thesis sec. 2.2.5): a
 /// least-squares line through (delta_k, <C>(delta_k)) evaluated at delta = 0. Rattlers are
 /// removed at each cut-off when `min_contacts` is given; if that removes every particle at
@@ -585,10 +599,8 @@ pub fn extrapolated_contacts(
     if let Some(d) = deltas.iter().find(|d| !(d.is_finite() && **d > 0.0)) {
         return invalid(format!("cut-off {d}: must be positive and finite"));
     }
-    let mut ys = Vec::with_capacity(deltas.len());
-    for &d in deltas {
-        let (mean, removed) = mean_contacts(n, gaps, d, min_contacts);
-        if let (Some(m), true) = (min_contacts, removed == n) {
+    if let Some(m) = min_contacts {
+        if let Some(d) = cutoff_where_all_rattle(n, gaps, deltas, m) {
             // The mean over no particles is undefined: refuse rather than report 0.
             return invalid(format!(
                 "every one of the {n} particles is a rattler (fewer than {m} contacts after \
@@ -596,8 +608,11 @@ pub fn extrapolated_contacts(
                  undefined; lower the rattler threshold"
             ));
         }
-        ys.push(mean);
     }
+    let ys: Vec<f64> = deltas
+        .iter()
+        .map(|&d| mean_contacts(n, gaps, d, min_contacts).0)
+        .collect();
     let m = deltas.len() as f64;
     let mx = deltas.iter().sum::<f64>() / m;
     let my = ys.iter().sum::<f64>() / m;

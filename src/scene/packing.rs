@@ -886,10 +886,7 @@ pub fn measure(
         .map(|&d| analysis::mean_contacts(v.n(), &gaps, d, None).0)
         .collect();
     let (c0, _) = analysis::extrapolated_contacts(v.n(), &gaps, cutoffs, None)?;
-    let all_rattlers = cutoffs
-        .iter()
-        .any(|&d| analysis::mean_contacts(v.n(), &gaps, d, Some(min_contacts)).1 == v.n());
-    let c0r = if all_rattlers {
+    let c0r = if analysis::cutoff_where_all_rattle(v.n(), &gaps, cutoffs, min_contacts).is_some() {
         None
     } else {
         Some(analysis::extrapolated_contacts(v.n(), &gaps, cutoffs, Some(min_contacts))?.0)
