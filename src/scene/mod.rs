@@ -45,12 +45,11 @@ pub struct RunOptions {
     /// No progress bar.
     pub quiet: bool,
     /// Packing runs: write the checkpoint when at least this many seconds have passed since
-    /// the last one (and always after a halving, at the end, and when a test stops the run after a
-    /// set number of steps; a killed run resumes from the last one);
-    /// `None` or `Some(0.0)` writes it after every compression step; negative or non-finite
-    /// values are refused. The checkpoint holds the whole history,
-    /// so writing it after each of the ~1e5 steps of a thesis-schedule run (Delta V absolute)
-    /// made the I/O quadratic in the step count.
+    /// the last one, and always after a halving, at the end, and when a test stops the run
+    /// after a set number of steps (a killed run resumes from the last one). `None` or
+    /// `Some(0.0)` writes it after every compression step; negative or non-finite values are
+    /// refused. The checkpoint holds the whole history, so writing it after each of the ~1e5
+    /// steps of a thesis-schedule run (Delta V absolute) made the I/O quadratic in the steps.
     pub checkpoint_every_seconds: Option<f64>,
 }
 
