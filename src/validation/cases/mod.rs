@@ -49,6 +49,7 @@ pub fn runner_for(id: &str) -> Option<Runner> {
         "509" => Some(packing::case_509),
         "510" => Some(packing::case_510),
         "516" => Some(packing::case_516),
+        "517" => Some(packing::case_517),
         "512" => Some(packing::case_512),
         "513" => Some(packing::case_513),
         "515" => Some(packing_confined::case_515),

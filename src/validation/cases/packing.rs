@@ -35,6 +35,9 @@
 //! * 509 (slow): 50 superballs at gamma = 2 and 3 (two seeds each): phi rises with gamma
 //!   (thesis sec. 4.5, Fig. 4.5); overlap-free by the solver and by the solver-free sampled
 //!   check.
+//! * 517 (slow): 100 superballs at gamma = 3 and 5 (two seeds each): phi keeps rising beyond
+//!   gamma = 3, as in the jammed-packing literature (Jiao et al. 2010; the thesis' fall of
+//!   Fig. 4.5 is not reproduced, see the case notes); overlap-free by both checks.
 //! * 516 (slow): 100 superballs of exponent 2 (spheres through the superquadric solver), the
 //!   thesis' schedule, two seeds: phi near the thesis' 0.61 for its superball spheres (sec.
 //!   4.5); overlap-free by the solver and by the sampled check.
@@ -549,48 +552,83 @@ fn with_superballs(p: &mut McmParams, gamma: f64) {
     )]));
 }
 
-pub fn case_509(ctx: &CaseContext) -> Result<Vec<Row>> {
+/// Superball runs at each exponent of `gammas` with the seeds `s` and `s + 1` (parameters from
+/// `params(gamma, seed)`; all runs in parallel, each with its own fixed seed): the mean packing
+/// fraction per exponent, and the deepest overlap over all runs by the independent brute-force
+/// solver check and by the solver-free sampled check.
+fn superball_pairs(
+    gammas: &[f64],
+    s: u64,
+    params: impl Fn(f64, u64) -> McmParams + Sync,
+) -> Result<(Vec<f64>, f64, f64)> {
     use rayon::prelude::*;
-    let s = seed(ctx)?;
     let seeds = [s, s + 1];
-    let jobs: Vec<(f64, u64)> = GAMMAS_509
-        .iter()
-        .flat_map(|&g| seeds.iter().map(move |&k| (g, k)))
+    let jobs: Vec<(usize, u64)> = (0..gammas.len())
+        .flat_map(|k| seeds.map(|seed| (k, seed)))
         .collect();
-    // Independent runs in parallel, each with its own fixed seed.
     let runs: Vec<Result<McmResult>> = jobs
         .par_iter()
-        .map(|&(g, k)| {
-            let mut p = McmParams::new(50, 0.0, k);
-            with_superballs(&mut p, g);
-            p.scheme = Scheme::Revised;
-            p.dt = 0.5;
-            p.delta_v_per_particle = 0.02;
-            p.halvings = 3;
-            p.tries_per_particle = 100.0;
-            p.overlap_tol = 1e-4;
-            packing::run(&p)
-        })
+        .map(|&(k, seed)| packing::run(&params(gammas[k], seed)))
         .collect();
-    let mut mean = [0.0; GAMMAS_509.len()];
+    let mut mean = vec![0.0; gammas.len()];
     let (mut solver, mut sampled) = (0.0f64, 0.0f64);
-    for ((g, _), r) in jobs.iter().zip(runs) {
+    for (&(k, _), r) in jobs.iter().zip(runs) {
         let r = r?;
         solver = solver.max(deepest_overlap(&r)?);
-        let v = r.packing.view();
-        let c = analysis::sampled_overlap(&v, analysis::OVERLAP_SAMPLES)?;
+        let c = analysis::sampled_overlap(&r.packing.view(), analysis::OVERLAP_SAMPLES)?;
         sampled = sampled.max(c.worst.map_or(0.0, |w| w.2));
-        let k = GAMMAS_509
-            .iter()
-            .position(|x| x == g)
-            .expect("gamma of a job");
         mean[k] += r.packing.packing_fraction() / seeds.len() as f64;
     }
+    Ok((mean, solver, sampled))
+}
+
+/// Cases 509 and 517: the rise of the mean packing fraction of superballs from `gammas[0]` to
+/// `gammas[1]` (row `key`) and both overlap checks, for N = `n` with the exploration's schedule
+/// in case 509's notes: revised scheme, dt = 0.5, Delta V = 0.02 N halved `halvings` times,
+/// `tries` N tries per step, contact tolerance 1e-4.
+fn superball_rise(
+    ctx: &CaseContext,
+    gammas: [f64; 2],
+    n: usize,
+    halvings: u32,
+    tries: f64,
+    key: &str,
+) -> Result<Vec<Row>> {
+    let (mean, solver, sampled) = superball_pairs(&gammas, seed(ctx)?, |g, k| {
+        let mut p = McmParams::new(n, 0.0, k);
+        with_superballs(&mut p, g);
+        p.scheme = Scheme::Revised;
+        p.dt = 0.5;
+        p.delta_v_per_particle = 0.02;
+        p.halvings = halvings;
+        p.tries_per_particle = tries;
+        p.overlap_tol = 1e-4;
+        p
+    })?;
     let mut got = BTreeMap::new();
-    got.insert("phi_gamma3_minus_phi_gamma2", mean[1] - mean[0]);
+    got.insert(key, mean[1] - mean[0]);
     got.insert("deepest_overlap_solver", solver);
     got.insert("deepest_overlap_sampled", sampled);
     band_rows(ctx, &got)
+}
+
+pub fn case_509(ctx: &CaseContext) -> Result<Vec<Row>> {
+    superball_rise(ctx, GAMMAS_509, 50, 3, 100.0, "phi_gamma3_minus_phi_gamma2")
+}
+
+/// Case 517: superball exponents 3 and 5, N = 100, with budget A of the exploration in case
+/// 509's notes (4 halvings, 200 N tries).
+const GAMMAS_517: [f64; 2] = [3.0, 5.0];
+
+pub fn case_517(ctx: &CaseContext) -> Result<Vec<Row>> {
+    superball_rise(
+        ctx,
+        GAMMAS_517,
+        100,
+        4,
+        200.0,
+        "phi_gamma5_minus_phi_gamma3",
+    )
 }
 
 /// Case 510: particles, cylinder length L (L/D = 1, aspect ratio Lambda = 2) and seeds.
@@ -648,18 +686,9 @@ fn params_516(seed: u64) -> McmParams {
 }
 
 pub fn case_516(ctx: &CaseContext) -> Result<Vec<Row>> {
-    let s = seed(ctx)?;
-    let runs = two_seeds(s, params_516);
-    let (mut phi, mut solver, mut sampled) = (0.0, 0.0f64, 0.0f64);
-    for r in runs {
-        let r = r?;
-        solver = solver.max(deepest_overlap(&r)?);
-        let c = analysis::sampled_overlap(&r.packing.view(), analysis::OVERLAP_SAMPLES)?;
-        sampled = sampled.max(c.worst.map_or(0.0, |w| w.2));
-        phi += r.packing.packing_fraction() / 2.0;
-    }
+    let (mean, solver, sampled) = superball_pairs(&[2.0], seed(ctx)?, |_, k| params_516(k))?;
     let mut got = BTreeMap::new();
-    got.insert("packing_fraction_mean", phi);
+    got.insert("packing_fraction_mean", mean[0]);
     got.insert("deepest_overlap_solver", solver);
     got.insert("deepest_overlap_sampled", sampled);
     band_rows(ctx, &got)
