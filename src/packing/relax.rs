@@ -55,6 +55,13 @@ const PARALLEL_CHUNK: usize = 256;
 /// calling thread / on a pool of two threads: N = 2000 10.6 / 12.9, N = 5000 28.9-33.4 /
 /// 26.8-28.4, N = 10000 71.6 / 67.9. The pool pays only from several thousand particles.
 const PARALLEL_MIN_PARTICLES: usize = 5000;
+/// Largest packing whose sphere force loop skips the pairs apart by a branch (see
+/// `sphere_force`). Mean engine CPU s over seeds 1-2 of `porelab bench packing`, one thread,
+/// same session, with the branch / without it: N = 1000 4.33 / 4.55, 2000 9.38 / 9.92, 5000
+/// 27.85 / 26.29, 10000 62.70 / 56.33 (same packings). A reading, not a measurement (no cache
+/// counters on the machine): without the branch the loads of successive neighbours need not
+/// wait behind a mispredicted branch, which pays once the arrays outgrow the core's cache.
+const SKIP_APART_MAX_PARTICLES: usize = 5000;
 /// A configuration is a force-balanced (jammed) minimum when the largest residual force is
 /// below this fraction of the deepest overlap (an isolated overlap has force = depth).
 /// (1e-2 gave up too early: one seed of 1000 spheres ended with 5.50 contacts instead of 5.76.)
@@ -145,6 +152,7 @@ fn relax_in_order(
     // Without a rotating particle the torques and angular velocities stay zero and their
     // terms (+0.0) are skipped below: the sums are bitwise the same without them.
     let rotating = props.iter().any(|s| !s.sphere);
+    let skip_apart = n < SKIP_APART_MAX_PARTICLES;
     let zero = Vector3::zeros();
     let (mut v, mut w) = (vec![zero; n], vec![zero; n]);
     let (mut force, mut torque) = (vec![zero; n], vec![zero; n]);
@@ -162,8 +170,10 @@ fn relax_in_order(
         let load = |ov: &mut Vec<super::Overlap>,
                     (i, (f_out, t_out)): (usize, (&mut Vector3<f64>, &mut Vector3<f64>))|
          -> Result<(f64, f64)> {
-            let (f, t, d, res) = if spheres_in_box {
-                sphere_force(p, props, &spc, equal_radius, i, &nb.lists[i])
+            let (f, t, d, res) = if spheres_in_box && skip_apart {
+                sphere_force::<true>(p, props, &spc, equal_radius, i, &nb.lists[i])
+            } else if spheres_in_box {
+                sphere_force::<false>(p, props, &spc, equal_radius, i, &nb.lists[i])
             } else {
                 load_of(p, props, &spc, i, &nb.lists[i], ov)?
             };
@@ -298,11 +308,18 @@ fn load_of(
 }
 
 /// Force on sphere i from its overlapping list neighbours, as the generic loop over
-/// [`overlaps_of`] computes it (same operations, so bitwise the same result): for gap =
-/// |d| - (r_i + r_j) < 0, F_i += gap n with n = d / |d|. `equal_radius`: the radius of every
-/// sphere when all are equal (then r_j is not looked up). Returns (force, zero torque, deepest
-/// overlap, |force|).
-fn sphere_force(
+/// [`overlaps_of`] computes it (same operations, so bitwise the same result; tested below):
+/// for gap = |d| - (r_i + r_j) < 0, F_i += gap n with n = d / |d|. `equal_radius`: the radius
+/// of every sphere when all are equal (then r_j is not looked up). Returns (force, zero
+/// torque, deepest overlap, |force|).
+///
+/// `SKIP_APART`: skip the pairs whose squared distance shows them apart before the square
+/// root and the division. With it a list neighbour costs a branch the predictor misses about
+/// as often as it hits near jamming (some 6 of 12-14 list neighbours touch); without it every
+/// neighbour takes the square root and the division, and a pair apart adds -0 * n, which
+/// leaves the sum bitwise unchanged (F starts at +0, and x + (-0) = x for every x). Which
+/// is faster depends on the packing size (`SKIP_APART_MAX_PARTICLES`).
+fn sphere_force<const SKIP_APART: bool>(
     p: &Packing,
     props: &[species::Props],
     spc: &[usize],
@@ -316,16 +333,15 @@ fn sphere_force(
         let d = p.container.separation(&xi, &p.positions[j], p.box_length);
         let contact = ri + equal_radius.unwrap_or_else(|| props[spc[j]].r);
         let r2 = d.norm_squared();
-        if r2 >= contact * contact {
+        if SKIP_APART && r2 >= contact * contact {
             continue;
         }
         let dist = r2.sqrt();
-        let gap = dist - contact;
-        if gap < 0.0 {
-            let n = if dist > 0.0 { d / dist } else { Vector3::x() };
-            deepest = deepest.max(-gap);
-            f += -(-gap) * n;
-        }
+        // -gap when the pair overlaps (negation and the rounded difference commute).
+        let overlap = (contact - dist).max(0.0);
+        let n = if dist > 0.0 { d / dist } else { Vector3::x() };
+        deepest = deepest.max(overlap);
+        f += -overlap * n;
     }
     (f, Vector3::zeros(), deepest, f.norm())
 }
@@ -343,6 +359,56 @@ fn inertia_world(p: &Packing, body: &species::Props, i: usize) -> nalgebra::Matr
 mod tests {
     use super::*;
     use crate::packing::{random_start_of, Container, Particles};
+
+    /// Both sphere loops give bitwise the generic loop's load (force, torque, deepest overlap,
+    /// residual) for every particle of a squeezed packing, equal spheres and two sizes (the
+    /// `equal_radius` path and the per-neighbour radius): which loop a sphere takes does not
+    /// change a packing.
+    #[test]
+    fn sphere_loops_give_bitwise_the_generic_load() {
+        use crate::contact::ContactShape;
+        let two_sizes = Particles::mixture(&[
+            (ContactShape::Sphere { radius: 0.5 }, 300),
+            (ContactShape::Sphere { radius: 0.35 }, 300),
+        ]);
+        for particles in [Particles::monodisperse(600, 0.0), two_sizes] {
+            let mut p = random_start_of(Container::Periodic, particles, 0.1, 11).unwrap();
+            let squeeze = (1.0f64 / 6.0).cbrt();
+            p.box_length *= squeeze;
+            for x in p.positions.iter_mut() {
+                *x *= squeeze;
+            }
+            let props = species::props_of(&p.particles).unwrap();
+            let spc = p.particles.species.clone();
+            let equal_radius = props
+                .iter()
+                .all(|s| s.r == props[0].r)
+                .then_some(props[0].r);
+            let list_gap = |p: &Packing, i: usize, j: usize, d: &Vector3<f64>| {
+                list_gap_bound(&props, &spc, p, i, j, d)
+            };
+            let nb = neighbour_lists(&p, &props, &list_gap, RELAX_SKIN).unwrap();
+            let bits = |l: ParticleLoad| {
+                let v = |x: Vector3<f64>| x.map(f64::to_bits);
+                (v(l.0), v(l.1), l.2.to_bits(), l.3.to_bits())
+            };
+            let (mut ov, mut overlapping, mut apart) = (Vec::new(), 0, 0);
+            for i in 0..p.n() {
+                let list = &nb.lists[i];
+                let generic = bits(load_of(&p, &props, &spc, i, list, &mut ov).unwrap());
+                let skip = sphere_force::<true>(&p, &props, &spc, equal_radius, i, list);
+                let full = sphere_force::<false>(&p, &props, &spc, equal_radius, i, list);
+                assert_eq!(bits(skip), generic, "particle {i}, skipping pairs apart");
+                assert_eq!(bits(full), generic, "particle {i}, every pair");
+                overlapping += ov.len();
+                apart += list.len() - ov.len();
+            }
+            assert!(
+                overlapping > 1000 && apart > 1000,
+                "{overlapping} / {apart}"
+            );
+        }
+    }
 
     /// The force loop on a pool of two threads and on the calling thread give bitwise the same
     /// relaxation, for spheres (closed-form forces) and for spherocylinders (contact solver and
