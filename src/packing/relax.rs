@@ -316,9 +316,11 @@ fn load_of(
 /// `SKIP_APART`: skip the pairs whose squared distance shows them apart before the square
 /// root and the division. With it a list neighbour costs a branch the predictor misses about
 /// as often as it hits near jamming (some 6 of 12-14 list neighbours touch); without it every
-/// neighbour takes the square root and the division, and a pair apart adds -0 * n, which
-/// leaves the sum bitwise unchanged (F starts at +0, and x + (-0) = x for every x). Which
-/// is faster depends on the packing size (`SKIP_APART_MAX_PARTICLES`).
+/// neighbour takes the square root and the division, and a pair apart adds -0 * n, a signed
+/// zero, which leaves the sum bitwise unchanged: x + (+-0) = x for every x but -0, and F
+/// never holds a -0 (it starts at +0, and round-to-nearest gives +0 both for +0 + -0 and for
+/// an exact cancellation). Which is faster depends on the packing size
+/// (`SKIP_APART_MAX_PARTICLES`).
 fn sphere_force<const SKIP_APART: bool>(
     p: &Packing,
     props: &[species::Props],
