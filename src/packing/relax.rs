@@ -143,12 +143,7 @@ fn relax_in_order(
     // Spheres in the periodic box (no wall particles): the pair forces in closed form.
     let spheres_in_box = p.container == super::Container::Periodic
         && props.iter().all(|s| s.sphere && s.sq.is_none());
-    // Equal spheres: every contact distance is 2r, and the force loop need not read the
-    // neighbours' species (one memory access less per neighbour).
-    let equal_radius = props
-        .iter()
-        .all(|s| s.r == props[0].r)
-        .then_some(props[0].r);
+    let equal_radius = equal_radius_of(props);
     // Without a rotating particle the torques and angular velocities stay zero and their
     // terms (+0.0) are skipped below: the sums are bitwise the same without them.
     let rotating = props.iter().any(|s| !s.sphere);
@@ -348,6 +343,16 @@ fn sphere_force<const SKIP_APART: bool>(
     (f, Vector3::zeros(), deepest, f.norm())
 }
 
+/// The radius shared by every species, if they share one: then every sphere contact
+/// distance is 2r, and the sphere force loop need not read the neighbours' species (one
+/// memory access less per neighbour).
+fn equal_radius_of(props: &[species::Props]) -> Option<f64> {
+    props
+        .iter()
+        .all(|s| s.r == props[0].r)
+        .then_some(props[0].r)
+}
+
 /// World-frame inertia tensor of particle i (zero for spheres, which never rotate).
 fn inertia_world(p: &Packing, body: &species::Props, i: usize) -> nalgebra::Matrix3<f64> {
     if body.sphere {
@@ -382,10 +387,7 @@ mod tests {
             }
             let props = species::props_of(&p.particles).unwrap();
             let spc = p.particles.species.clone();
-            let equal_radius = props
-                .iter()
-                .all(|s| s.r == props[0].r)
-                .then_some(props[0].r);
+            let equal_radius = equal_radius_of(&props);
             let list_gap = |p: &Packing, i: usize, j: usize, d: &Vector3<f64>| {
                 list_gap_bound(&props, &spc, p, i, j, d)
             };
