@@ -164,12 +164,152 @@ impl Grid {
 /// (the list criterion; see the module docs).
 pub(super) type ListGap<'a> = dyn Fn(&Packing, usize, usize, &Vector3<f64>) -> f64 + 'a;
 
+/// The neighbour lists of all particles in one buffer: particle i's list, sorted, is
+/// `data[start[i]..start[i] + len[i]]`, with room to grow to `cap[i]` in place. A pass over
+/// the particles in index order (the relaxation's force loop) then reads the lists as one
+/// stream instead of N heap blocks scattered by their growth, and building them costs no
+/// allocation per particle. A list that outgrows its room moves to the end of the buffer;
+/// the buffer is compacted when more than half of it is left behind by such moves.
+#[derive(Debug, Clone, Default)]
+pub(super) struct Lists {
+    data: Vec<usize>,
+    start: Vec<usize>,
+    len: Vec<u32>,
+    cap: Vec<u32>,
+    /// Slots of `data` that no list holds any more (left behind by moved lists).
+    unused: usize,
+}
+
+impl Lists {
+    /// Free slots given to a list at a build or a move (GS rebuilds change a list by a few
+    /// entries).
+    fn room(len: usize) -> usize {
+        len + len / 4 + 4
+    }
+
+    /// The lists of `n` particles holding both (i, j) and (j, i) for every given pair, sorted.
+    fn from_pairs(n: usize, pairs: &[(u32, u32)]) -> Lists {
+        let mut len = vec![0u32; n];
+        for &(i, j) in pairs {
+            len[i as usize] += 1;
+            len[j as usize] += 1;
+        }
+        let cap: Vec<u32> = len
+            .iter()
+            .map(|&l| Lists::room(l as usize) as u32)
+            .collect();
+        let mut start = Vec::with_capacity(n);
+        let mut total = 0usize;
+        for &c in &cap {
+            start.push(total);
+            total += c as usize;
+        }
+        let mut lists = Lists {
+            data: vec![0; total],
+            start,
+            len: vec![0; n],
+            cap,
+            unused: 0,
+        };
+        for &(i, j) in pairs {
+            lists.push_unsorted(i as usize, j as usize);
+            lists.push_unsorted(j as usize, i as usize);
+        }
+        for i in 0..n {
+            lists.slice_mut(i).sort_unstable();
+        }
+        lists
+    }
+
+    fn push_unsorted(&mut self, i: usize, j: usize) {
+        let at = self.start[i] + self.len[i] as usize;
+        self.data[at] = j;
+        self.len[i] += 1;
+    }
+
+    fn slice_mut(&mut self, i: usize) -> &mut [usize] {
+        let s = self.start[i];
+        &mut self.data[s..s + self.len[i] as usize]
+    }
+
+    /// Makes room for `need` entries in list i, moving it to the end of the buffer if needed.
+    fn reserve(&mut self, i: usize, need: usize) {
+        if need <= self.cap[i] as usize {
+            return;
+        }
+        let (s, l) = (self.start[i], self.len[i] as usize);
+        let cap = Lists::room(need);
+        let at = self.data.len();
+        self.data.resize(at + cap, 0);
+        self.data.copy_within(s..s + l, at);
+        self.unused += self.cap[i] as usize;
+        self.start[i] = at;
+        self.cap[i] = cap as u32;
+        if 2 * self.unused > self.data.len() {
+            self.compact();
+        }
+    }
+
+    /// Rewrites the buffer in index order with fresh room after every list.
+    fn compact(&mut self) {
+        let mut data = Vec::with_capacity(self.data.len() - self.unused);
+        for i in 0..self.start.len() {
+            let (s, l) = (self.start[i], self.len[i] as usize);
+            let cap = Lists::room(l);
+            self.start[i] = data.len();
+            self.cap[i] = cap as u32;
+            data.extend_from_slice(&self.data[s..s + l]);
+            data.resize(data.len() + cap - l, 0);
+        }
+        self.data = data;
+        self.unused = 0;
+    }
+
+    /// Inserts j into the sorted list i (no effect when it is there).
+    fn insert(&mut self, i: usize, j: usize) {
+        if let Err(at) = self[i].binary_search(&j) {
+            let l = self.len[i] as usize;
+            self.reserve(i, l + 1);
+            let s = self.start[i];
+            self.data.copy_within(s + at..s + l, s + at + 1);
+            self.data[s + at] = j;
+            self.len[i] += 1;
+        }
+    }
+
+    /// Removes j from the sorted list i (no effect when it is not there).
+    fn remove(&mut self, i: usize, j: usize) {
+        if let Ok(at) = self[i].binary_search(&j) {
+            let (s, l) = (self.start[i], self.len[i] as usize);
+            self.data.copy_within(s + at + 1..s + l, s + at);
+            self.len[i] -= 1;
+        }
+    }
+
+    /// Replaces list i by `fresh` (sorted).
+    fn set(&mut self, i: usize, fresh: &[usize]) {
+        self.len[i] = 0;
+        self.reserve(i, fresh.len());
+        let s = self.start[i];
+        self.data[s..s + fresh.len()].copy_from_slice(fresh);
+        self.len[i] = fresh.len() as u32;
+    }
+}
+
+impl std::ops::Index<usize> for Lists {
+    type Output = [usize];
+    fn index(&self, i: usize) -> &[usize] {
+        let s = self.start[i];
+        &self.data[s..s + self.len[i] as usize]
+    }
+}
+
 /// Per-particle Verlet lists with per-particle references (see the module docs).
 #[derive(Debug, Clone)]
 pub(super) struct Neighbours {
-    /// Neighbour list of each particle: every j whose gap bound was below the skin at the later
-    /// of the two particles' last rebuilds.
-    pub lists: Vec<Vec<usize>>,
+    /// Neighbour list of each particle (`lists[i]`, sorted): every j whose gap bound was below
+    /// the skin at the later of the two particles' last rebuilds.
+    pub lists: Lists,
     /// Centre-distance cutoff of the grid search (largest pair cutoff plus skin).
     list_cutoff: f64,
     skin: f64,
@@ -180,6 +320,8 @@ pub(super) struct Neighbours {
     half: Vec<f64>,
     /// Rebuilds of single lists since construction (for tests and profiling).
     pub rebuilds: u64,
+    /// Scratch list of a rebuild (no allocation per rebuild).
+    scratch: Vec<usize>,
 }
 
 impl Neighbours {
@@ -208,8 +350,14 @@ impl Neighbours {
             list_cutoff + 0.25 * skin,
             &p.positions,
         );
+        if u32::try_from(p.n()).is_err() {
+            return invalid(format!(
+                "neighbour lists: {} particles (at most 2^32)",
+                p.n()
+            ));
+        }
         let mut nb = Neighbours {
-            lists: vec![Vec::new(); p.n()],
+            lists: Lists::default(),
             list_cutoff,
             skin,
             grid,
@@ -217,23 +365,18 @@ impl Neighbours {
             ref_a: p.axes(),
             half,
             rebuilds: 0,
+            scratch: Vec::new(),
         };
+        let mut pairs = Vec::new();
         for i in 0..p.n() {
             let xi = p.positions[i];
-            let mut found = Vec::new();
             nb.grid.for_each_near(&xi, |j| {
                 if j > i && nb.listed(p, i, j, gap) {
-                    found.push(j);
+                    pairs.push((i as u32, j as u32));
                 }
             });
-            for j in found {
-                nb.lists[i].push(j);
-                nb.lists[j].push(i);
-            }
         }
-        for v in nb.lists.iter_mut() {
-            v.sort_unstable();
-        }
+        nb.lists = Lists::from_pairs(p.n(), &pairs);
         Ok(nb)
     }
 
@@ -266,29 +409,25 @@ impl Neighbours {
             return;
         }
         self.rebuilds += 1;
-        let old = std::mem::take(&mut self.lists[i]);
-        for &j in &old {
-            let v = &mut self.lists[j];
-            if let Ok(at) = v.binary_search(&i) {
-                v.remove(at);
-            }
+        let mut list = std::mem::take(&mut self.scratch);
+        list.clear();
+        list.extend_from_slice(&self.lists[i]);
+        for &j in &list {
+            self.lists.remove(j, i);
         }
-        let mut fresh = old;
-        fresh.clear();
+        list.clear();
         self.grid.update(i, &xi);
         self.grid.for_each_near(&xi, |j| {
             if j != i && self.listed(p, i, j, gap) {
-                fresh.push(j);
+                list.push(j);
             }
         });
-        fresh.sort_unstable();
-        for &j in &fresh {
-            let v = &mut self.lists[j];
-            if let Err(at) = v.binary_search(&i) {
-                v.insert(at, i);
-            }
+        list.sort_unstable();
+        for &j in &list {
+            self.lists.insert(j, i);
         }
-        self.lists[i] = fresh;
+        self.lists.set(i, &list);
+        self.scratch = list;
         self.ref_x[i] = xi;
         self.ref_a[i] = ai;
     }
@@ -301,6 +440,71 @@ mod tests {
     use crate::packing::random_start_in;
     use rand::{Rng, SeedableRng};
     use rand_chacha::ChaCha8Rng;
+
+    /// The one-buffer lists against a vector per list under random inserts, removals and
+    /// replacements (lists that outgrow their room, compactions): the same sorted lists.
+    #[test]
+    fn one_buffer_lists_match_a_vector_per_list() {
+        let n = 50;
+        let mut rng = ChaCha8Rng::seed_from_u64(4);
+        let mut model: Vec<Vec<usize>> = vec![Vec::new(); n];
+        let mut pairs = Vec::new();
+        for _ in 0..200 {
+            let (i, j) = (rng.gen_range(0..n), rng.gen_range(0..n));
+            if i < j && !model[i].contains(&j) {
+                pairs.push((i as u32, j as u32));
+                model[i].push(j);
+                model[j].push(i);
+            }
+        }
+        model.iter_mut().for_each(|v| v.sort_unstable());
+        let mut lists = Lists::from_pairs(n, &pairs);
+        let (mut moved, mut compactions) = (0, 0);
+        for _ in 0..20_000 {
+            let (i, j) = (rng.gen_range(0..n), rng.gen_range(0..n));
+            let (start, unused) = (lists.start[i], lists.unused);
+            match rng.gen_range(0..10) {
+                0..=4 => {
+                    lists.insert(i, j);
+                    if let Err(at) = model[i].binary_search(&j) {
+                        model[i].insert(at, j);
+                    }
+                }
+                5..=8 => {
+                    lists.remove(i, j);
+                    model[i].retain(|&k| k != j);
+                }
+                _ => {
+                    let mut fresh: Vec<usize> = (0..rng.gen_range(0..3 * n))
+                        .map(|_| rng.gen_range(0..n))
+                        .collect();
+                    fresh.sort_unstable();
+                    fresh.dedup();
+                    lists.set(i, &fresh);
+                    model[i] = fresh;
+                }
+            }
+            moved += (lists.start[i] != start) as u32;
+            compactions += (lists.unused < unused) as u32;
+            assert_eq!(&lists[i], &model[i][..]);
+        }
+        // Lists that keep growing leave their old room behind until the buffer is compacted.
+        for round in 0..300 {
+            let i = round % n;
+            let (unused, room) = (lists.unused, lists.cap[i] as usize);
+            let grown: Vec<usize> = (0..room + 1).collect();
+            lists.set(i, &grown);
+            model[i] = grown;
+            compactions += (lists.unused < unused) as u32;
+        }
+        for (i, v) in model.iter().enumerate() {
+            assert_eq!(&lists[i], &v[..], "list {i}");
+        }
+        assert!(
+            moved > 50 && compactions > 2,
+            "{moved} moves, {compactions} compactions"
+        );
+    }
 
     /// The grid holds reference positions and follows a particle only at its rebuilds; a
     /// search around any particle must still find every particle within the list cutoff of
