@@ -494,6 +494,12 @@ pub fn min_image1(d: f64, l: f64) -> f64 {
 
 /// Wraps a coordinate into [0, L).
 fn wrap1(c: f64, l: f64) -> f64 {
+    // A coordinate already inside (nearly every move) skips `floor`, a libm call on the
+    // baseline x86-64 target (2% of a sphere jamming run): for 0 < c / l < 1 the general
+    // expression below gives c itself, bit for bit (not for c = -0, which it turns into +0).
+    if c > 0.0 && c / l < 1.0 {
+        return c;
+    }
     let w = c - l * (c / l).floor();
     if w >= l {
         0.0
@@ -513,6 +519,35 @@ mod tests {
             let d = k as f64 * 0.0571;
             let want = d - l * (d / l).round();
             assert!((min_image1(d, l) - want).abs() < 1e-12, "d = {d}");
+        }
+    }
+
+    /// The early return of `wrap1` gives the general expression's own value, bit for bit,
+    /// for every coordinate: at +-0, next to 0 and L, inside and outside.
+    #[test]
+    fn wrap_inside_is_the_general_expression() {
+        for l in [1.0, 7.3, 21.544346900318832, 1e-3, 3e5] {
+            let next_down = |x: f64| f64::from_bits(x.to_bits() - 1);
+            let mut cs = vec![
+                0.0,
+                -0.0,
+                f64::MIN_POSITIVE,
+                next_down(l),
+                next_down(next_down(l)),
+            ];
+            cs.extend((0..10_000).map(|k| l * (k as f64 + 0.5) / 10_000.0));
+            for c in cs {
+                if c / l < 1.0 {
+                    let general = c - l * (c / l).floor();
+                    assert_eq!(wrap1(c, l).to_bits(), general.to_bits(), "c = {c}, l = {l}");
+                }
+                let w = wrap1(c, l);
+                assert!((0.0..l).contains(&w) || w == 0.0, "c = {c}, l = {l}: {w}");
+            }
+            for c in [-1e-300, -next_down(l), l, 2.5 * l, -3.5 * l] {
+                let w = wrap1(c, l);
+                assert!((0.0..l).contains(&w), "c = {c}, l = {l}: {w}");
+            }
         }
     }
 
