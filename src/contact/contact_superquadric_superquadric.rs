@@ -294,6 +294,8 @@ fn newton(
 }
 
 /// Checks 2-4 of the module doc; returns the contact or the reason for rejecting it.
+// The negated comparisons are meant: a NaN must fail every check.
+#[allow(clippy::neg_cmp_op_on_partial_ord)]
 fn certify(
     a: &SqBody,
     b: &SqBody,
@@ -481,7 +483,7 @@ fn support_newton(
                 let cand = (u + dir * alpha).normalize();
                 let gc = eval(&cand).0;
                 if gc > g {
-                    if best.map_or(true, |b| gc > b.0) {
+                    if best.is_none_or(|b| gc > b.0) {
                         best = Some((gc, cand));
                     }
                     break;
@@ -524,7 +526,7 @@ pub fn sample_start(a: &SqBody, b: &SqBody) -> Option<(Vector3<f64>, Vector3<f64
     let mut best_pair = (0usize, 0usize);
     let mut best_inside: Option<(f64, Vector3<f64>, Vector3<f64>)> = None;
     let mut consider_inside = |prod: f64, sa: Vector3<f64>, sb: Vector3<f64>| {
-        if best_inside.as_ref().map_or(true, |(p, _, _)| prod > *p) {
+        if best_inside.as_ref().is_none_or(|(p, _, _)| prod > *p) {
             best_inside = Some((prod, sa, sb));
         }
     };

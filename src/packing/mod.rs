@@ -496,6 +496,8 @@ fn inverse_inertia_world(q: &UnitQuaternion<f64>, inertia: &Vector3<f64>) -> Mat
 }
 
 /// The move (translation, rotation) of one particle under the revised scheme (eq. 3.6-3.12).
+// `!(lam2 > 0.0)` is meant: a NaN multiplier means no move.
+#[allow(clippy::neg_cmp_op_on_partial_ord)]
 fn move_revised(
     ov: &[Overlap],
     q: &UnitQuaternion<f64>,

@@ -96,8 +96,8 @@ impl<T: Real, const N: usize> Add for Dual<T, N> {
     #[inline(always)]
     fn add(self, o: Self) -> Self {
         let mut d = self.d;
-        for k in 0..N {
-            d[k] = d[k] + o.d[k];
+        for (dk, ok) in d.iter_mut().zip(o.d) {
+            *dk = *dk + ok;
         }
         Dual { v: self.v + o.v, d }
     }
@@ -107,8 +107,8 @@ impl<T: Real, const N: usize> Sub for Dual<T, N> {
     #[inline(always)]
     fn sub(self, o: Self) -> Self {
         let mut d = self.d;
-        for k in 0..N {
-            d[k] = d[k] - o.d[k];
+        for (dk, ok) in d.iter_mut().zip(o.d) {
+            *dk = *dk - ok;
         }
         Dual { v: self.v - o.v, d }
     }
@@ -118,8 +118,8 @@ impl<T: Real, const N: usize> Mul for Dual<T, N> {
     #[inline(always)]
     fn mul(self, o: Self) -> Self {
         let mut d = self.d;
-        for k in 0..N {
-            d[k] = d[k] * o.v + self.v * o.d[k];
+        for (dk, ok) in d.iter_mut().zip(o.d) {
+            *dk = *dk * o.v + self.v * ok;
         }
         Dual { v: self.v * o.v, d }
     }
@@ -130,8 +130,8 @@ impl<T: Real, const N: usize> Div for Dual<T, N> {
     fn div(self, o: Self) -> Self {
         let q = self.v / o.v;
         let mut d = self.d;
-        for k in 0..N {
-            d[k] = (d[k] - q * o.d[k]) / o.v;
+        for (dk, ok) in d.iter_mut().zip(o.d) {
+            *dk = (*dk - q * ok) / o.v;
         }
         Dual { v: q, d }
     }

@@ -146,14 +146,17 @@ pub fn case_302(ctx: &CaseContext) -> Result<Vec<Row>> {
     Ok(rows)
 }
 
+/// One pair of cases 303/304: (Perram-Wertheim wrong outside the near-contact band, solver
+/// wrong, solver failed, the two disagree outside the band, gap error / bounding radius).
+type PairOutcome = (bool, bool, bool, bool, f64);
+
 /// Shared by 303/304: returns the rows of the table's checks.
 fn pw_vs_nr(ctx: &CaseContext) -> Result<Vec<Row>> {
     let t = ctx.expected_table()?;
     let seed = required_seed(ctx, "case.toml needs a seed")?;
     let n = t.f64(0, "n_pairs")? as u64;
     let aspect = t.f64(0, "max_aspect")?;
-    // per pair: (pw_wrong_outside_band, nr_wrong, nr_failed, pw_vs_nr_outside_band, gap_err)
-    let res: Vec<(bool, bool, bool, bool, f64)> = (0..n)
+    let res: Vec<PairOutcome> = (0..n)
         .into_par_iter()
         .map(|i| {
             let mut rng = ChaCha8Rng::seed_from_u64(seed);
@@ -180,9 +183,7 @@ fn pw_vs_nr(ctx: &CaseContext) -> Result<Vec<Row>> {
             }
         })
         .collect();
-    let count = |f: &dyn Fn(&(bool, bool, bool, bool, f64)) -> bool| {
-        res.iter().filter(|r| f(r)).count() as f64
-    };
+    let count = |f: &dyn Fn(&PairOutcome) -> bool| res.iter().filter(|r| f(r)).count() as f64;
     let worst = res.iter().map(|r| r.4).fold(0.0, f64::max);
     let mut rows = Vec::new();
     for i in 0..t.len() {
