@@ -272,7 +272,7 @@ fn newton(
         if !phi.iter().all(|x| x.is_finite()) {
             return Err(format!("non-finite residual at iteration {it}"));
         }
-        let dq = match j.lu().solve(&(-phi)) {
+        let dq = match crate::special::lu::lu_solve(&j, &(-phi)) {
             Some(d) if d.iter().all(|x| x.is_finite()) => d,
             _ => return Err(format!("singular Jacobian at iteration {it}")),
         };
