@@ -165,7 +165,7 @@ impl Container {
     }
 
     /// Separation b - a: minimum image along the periodic directions.
-    #[inline]
+    #[inline(always)]
     pub fn separation(&self, a: &Vector3<f64>, b: &Vector3<f64>, l: f64) -> Vector3<f64> {
         match self {
             Container::Periodic => (b - a).map(|d| min_image1(d, l)),
