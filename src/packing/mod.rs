@@ -431,6 +431,7 @@ struct Overlap {
 /// rod j (rj, hj) at separation `d` (minimum image); spheres have h = 0.
 /// Returns (gap, normal i->j, k, rc_i, l_i, rc_j, l_j).
 #[allow(clippy::type_complexity, clippy::too_many_arguments)]
+#[inline(always)]
 fn pair_geometry(
     (ri, hi): (f64, f64),
     (rj, hj): (f64, f64),

@@ -382,6 +382,7 @@ impl Neighbours {
 
     /// True when the pair (i, j) belongs in the lists now: centres within the grid cutoff and
     /// the gap bound below the skin (plus the 1e-6 margin of the pair cutoffs).
+    #[inline(always)]
     fn listed(&self, p: &Packing, i: usize, j: usize, gap: &ListGap) -> bool {
         let d = p
             .container
