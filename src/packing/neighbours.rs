@@ -393,6 +393,9 @@ impl Neighbours {
 
     /// To be called after particle i moved: when it has drifted more than skin/4 from its
     /// reference, moves its reference (and its grid cell) to where it is and rebuilds its list.
+    /// The drift test is inlined into the callers' loops (a relaxation calls this for every
+    /// particle of every iteration, and nearly always returns here); the rebuild is not.
+    #[inline(always)]
     pub fn moved(&mut self, p: &Packing, i: usize, gap: &ListGap) {
         let xi = p.positions[i];
         let mut disp = p
@@ -409,6 +412,19 @@ impl Neighbours {
         if disp <= 0.25 * self.skin {
             return;
         }
+        self.rebuild(p, i, xi, ai, gap);
+    }
+
+    /// Rebuilds the list of particle i, now at `xi` with axis `ai` (see [`Neighbours::moved`]).
+    #[inline(never)]
+    fn rebuild(
+        &mut self,
+        p: &Packing,
+        i: usize,
+        xi: Vector3<f64>,
+        ai: Vector3<f64>,
+        gap: &ListGap,
+    ) {
         self.rebuilds += 1;
         let mut list = std::mem::take(&mut self.scratch);
         list.clear();
