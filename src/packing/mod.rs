@@ -27,7 +27,7 @@ use crate::error::invalid;
 use crate::Result;
 pub use container::{wedge_min_length, wedge_min_packing_fraction, Container};
 use nalgebra::{Matrix3, Unit, UnitQuaternion, Vector3};
-use neighbours::Neighbours;
+use neighbours::{Grid, Neighbours};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
@@ -996,6 +996,18 @@ pub fn random_start_of(
     let max_attempts = 1000 * n as u64 + 1000;
     let mut attempts = 0u64;
     let mut placed: Vec<usize> = Vec::with_capacity(n);
+    // The placed particles in a cell grid (grid index k = placed[k]) of edge above the largest
+    // pair cutoff: a trial is checked against the particles in the 27 cells around it, in
+    // the order they were placed, which is the order and outcome of a scan over all placed
+    // particles (the others are beyond the cutoff and skipped by it), without its N^2/2 cost
+    // (0.9 s of a 10000-sphere run, 2%).
+    let mut grid = Grid::new(
+        &container,
+        box_length,
+        max_pair_cutoff(&props) * (1.0 + 1e-9),
+        &[],
+    );
+    let mut near: Vec<usize> = Vec::new();
     while placed.len() < n {
         attempts += 1;
         if attempts > max_attempts {
@@ -1027,8 +1039,11 @@ pub fn random_start_of(
         if !inside {
             continue;
         }
+        near.clear();
+        grid.for_each_near(&x, |k| near.push(k));
+        near.sort_unstable();
         let mut ok = true;
-        for &j in &placed {
+        for j in near.iter().map(|&k| placed[k]) {
             let sj = &props[p.particles.species[j]];
             let d = container.separation(&x, &p.positions[j], box_length);
             if d.norm_squared() >= pair_cutoff(si, sj).powi(2) {
@@ -1048,6 +1063,7 @@ pub fn random_start_of(
         if ok {
             p.positions[i] = x;
             p.orientations[i] = q;
+            grid.push(&x);
             placed.push(i);
         }
     }

@@ -37,7 +37,7 @@ use nalgebra::Vector3;
 /// A uniform cell grid over the container: periodic along the periodic directions, clamped
 /// (cells at the edge take everything beyond it) across the cylinder.
 #[derive(Debug, Clone)]
-struct Grid {
+pub(super) struct Grid {
     /// Cells per direction (1 where there are fewer than 3 cells of the list cutoff, so each
     /// pair is searched once).
     dims: [usize; 3],
@@ -50,7 +50,12 @@ struct Grid {
 }
 
 impl Grid {
-    fn new(container: &Container, box_length: f64, cutoff: f64, pos: &[Vector3<f64>]) -> Grid {
+    pub(super) fn new(
+        container: &Container,
+        box_length: f64,
+        cutoff: f64,
+        pos: &[Vector3<f64>],
+    ) -> Grid {
         let (lower, extent, periodic) = container.grid_bounds(box_length);
         let mut dims = [1usize; 3];
         let mut cell_size = [0.0; 3];
@@ -125,8 +130,15 @@ impl Grid {
         }
     }
 
+    /// Adds particle `cell_of.len()` (the next index) at x.
+    pub(super) fn push(&mut self, x: &Vector3<f64>) {
+        let c = self.cell_index(x);
+        self.members[c].push(self.cell_of.len());
+        self.cell_of.push(c);
+    }
+
     /// Calls `f(j)` for every particle in the cells around the cell of `x` (each once).
-    fn for_each_near(&self, x: &Vector3<f64>, mut f: impl FnMut(usize)) {
+    pub(super) fn for_each_near(&self, x: &Vector3<f64>, mut f: impl FnMut(usize)) {
         let c = self.coords(x);
         let mut range = [[0usize; 3]; 3];
         let mut count = [0usize; 3];
