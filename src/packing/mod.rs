@@ -970,8 +970,30 @@ pub fn random_start_in(
 /// fraction phi0, uniform positions (in the cylinder: uniform over the disk, rejected when an
 /// end point penetrates the wall) and orientations (ChaCha8 seeded with `seed`). Particles are
 /// placed in order of decreasing bounding radius (index order among equals), so the large
-/// ones of a mixture find room first.
+/// ones of a mixture find room first. From 5000 particles on, the particles (positions,
+/// orientations, species) are then renumbered along a Z-order curve
+/// (`Z_ORDER_MIN_PARTICLES`).
 pub fn random_start_of(
+    container: Container,
+    particles: Particles,
+    phi0: f64,
+    seed: u64,
+) -> Result<Packing> {
+    let mut p = random_sequential_addition(container, particles, phi0, seed)?;
+    if p.n() >= Z_ORDER_MIN_PARTICLES {
+        let order = relax::z_order(&p.positions);
+        let old = p.clone();
+        for (k, &i) in order.iter().enumerate() {
+            p.positions[k] = old.positions[i];
+            p.orientations[k] = old.orientations[i];
+            p.particles.species[k] = old.particles.species[i];
+        }
+    }
+    Ok(p)
+}
+
+/// The placement of [`random_start_of`], in the caller's numbering.
+fn random_sequential_addition(
     container: Container,
     particles: Particles,
     phi0: f64,
@@ -1069,6 +1091,18 @@ pub fn random_start_of(
     }
     Ok(p)
 }
+
+/// Smallest random start whose particles are renumbered along a Z-order curve of their
+/// positions (`relax::z_order`), so that the Gauss-Seidel sweeps of the overlap removal, which
+/// follow the index order, and every neighbour list read nearby memory; the compression
+/// scales positions and keeps the order coherent. The relaxation renumbers its own copy at
+/// every step already. Built-in sphere scene, seed 1, one thread, ns of CPU per move without
+/// / with the renumbering (same session; the trajectories differ, so the moves do too):
+/// N = 1000 133, 133 / 141, 136; 2000 143, 139 / 138, 135; 5000 145, 152 / 138, 140; 10000
+/// 150, 147 / 142, 146; 20000 164 / 139 (101.1 against 86.3 CPU s). Without it the cost of a
+/// move grows with N as the arrays outgrow the cache; with it the cost is flat. Below 5000
+/// it gains nothing measurable, and every validation case (N <= 2000) keeps its packings.
+const Z_ORDER_MIN_PARTICLES: usize = 5000;
 
 /// Compresses `p` by `dv`, orientations kept: the cubic box to side (L^3 - dv)^(1/3) with all
 /// coordinates scaled; the cylinder to length L - dv / (pi R_cyl^2) with z scaled (its

@@ -60,6 +60,49 @@ fn random_start_is_overlap_free_and_deterministic() {
     }
 }
 
+/// A large start is the random sequential addition renumbered along the Z-order curve: the
+/// same particles (position, orientation and species together), numbered in the curve's order
+/// (z_order of the result is the identity); a smaller one keeps the addition's numbering.
+/// A mixture of two sphere sizes and rods, so a species left behind by the renumbering shows.
+#[test]
+fn large_starts_are_numbered_along_the_z_order_curve() {
+    use crate::contact::ContactShape;
+    let rod = Particles::monodisperse(1, 1.0).shapes[0];
+    for (n, renumbered) in [(Z_ORDER_MIN_PARTICLES, true), (400, false)] {
+        let particles = Particles::mixture(&[
+            (ContactShape::Sphere { radius: 0.5 }, n / 2),
+            (ContactShape::Sphere { radius: 0.35 }, n / 4),
+            (rod, n - n / 2 - n / 4),
+        ]);
+        let placed =
+            random_sequential_addition(Container::Periodic, particles.clone(), 0.05, 3).unwrap();
+        let start = random_start_of(Container::Periodic, particles, 0.05, 3).unwrap();
+        let identity: Vec<usize> = (0..n).collect();
+        assert_eq!(relax::z_order(&start.positions) == identity, renumbered);
+        assert!(relax::z_order(&placed.positions) != identity);
+        let key = |p: &Packing, i: usize| {
+            let q = p.orientations[i].quaternion();
+            let bits = [
+                p.positions[i].x,
+                p.positions[i].y,
+                p.positions[i].z,
+                q.w,
+                q.i,
+                q.j,
+                q.k,
+            ];
+            (bits.map(f64::to_bits), p.particles.species[i])
+        };
+        let sorted = |p: &Packing| {
+            let mut v: Vec<_> = (0..n).map(|i| key(p, i)).collect();
+            v.sort_unstable();
+            v
+        };
+        assert_eq!(sorted(&start), sorted(&placed));
+        assert_eq!(start.positions == placed.positions, !renumbered);
+    }
+}
+
 #[test]
 fn two_overlapping_spheres_are_separated() {
     for scheme in [Scheme::Revised, Scheme::Original] {
