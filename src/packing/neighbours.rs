@@ -410,20 +410,25 @@ impl Neighbours {
     #[inline(always)]
     pub fn moved(&mut self, p: &Packing, i: usize, gap: &ListGap) {
         let xi = p.positions[i];
-        let mut disp = p
-            .container
-            .separation(&self.ref_x[i], &xi, p.box_length)
-            .norm();
+        let shift = p.container.separation(&self.ref_x[i], &xi, p.box_length);
+        let drift = 0.25 * self.skin;
         let ai = if self.half[i] > 0.0 {
             let ai = p.axis(i);
-            disp += self.half[i] * (ai - self.ref_a[i]).norm();
+            if shift.norm() + self.half[i] * (ai - self.ref_a[i]).norm() <= drift {
+                return;
+            }
             ai
         } else {
+            // Spheres: the squared distance, without the square root's latency (14% of the
+            // relaxation's update loop at N = 10000, `perf annotate`). The roundings differ
+            // from |shift| <= drift by about 1e-16 relative, far inside the 1e-6 margin of the
+            // list criterion, so the lists stay complete; which lists also hold pairs apart
+            // changes no force and no move.
+            if shift.norm_squared() <= drift * drift {
+                return;
+            }
             self.ref_a[i]
         };
-        if disp <= 0.25 * self.skin {
-            return;
-        }
         self.rebuild(p, i, xi, ai, gap);
     }
 
