@@ -339,6 +339,18 @@ pub struct Packing {
 }
 
 impl Packing {
+    /// The same particles with particle k of the result the particle `order[k]` of this one
+    /// (position, orientation and species; `order` a permutation of 0..N).
+    fn renumbered(&self, order: &[usize]) -> Packing {
+        let mut q = self.clone();
+        for (k, &i) in order.iter().enumerate() {
+            q.positions[k] = self.positions[i];
+            q.orientations[k] = self.orientations[i];
+            q.particles.species[k] = self.particles.species[i];
+        }
+        q
+    }
+
     pub fn n(&self) -> usize {
         self.positions.len()
     }
@@ -979,15 +991,9 @@ pub fn random_start_of(
     phi0: f64,
     seed: u64,
 ) -> Result<Packing> {
-    let mut p = random_sequential_addition(container, particles, phi0, seed)?;
+    let p = random_sequential_addition(container, particles, phi0, seed)?;
     if p.n() >= Z_ORDER_MIN_PARTICLES {
-        let order = relax::z_order(&p.positions);
-        let old = p.clone();
-        for (k, &i) in order.iter().enumerate() {
-            p.positions[k] = old.positions[i];
-            p.orientations[k] = old.orientations[i];
-            p.particles.species[k] = old.particles.species[i];
-        }
+        return Ok(p.renumbered(&relax::z_order(&p.positions)));
     }
     Ok(p)
 }

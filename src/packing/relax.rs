@@ -88,12 +88,7 @@ pub(super) fn relax_overlaps(
     budget: u64,
 ) -> Result<std::result::Result<u64, u64>> {
     let order = z_order(&p.positions);
-    let mut q = p.clone();
-    for (k, &i) in order.iter().enumerate() {
-        q.positions[k] = p.positions[i];
-        q.orientations[k] = p.orientations[i];
-        q.particles.species[k] = p.particles.species[i];
-    }
+    let mut q = p.renumbered(&order);
     let parallel = rayon::current_num_threads() > 1 && p.n() >= PARALLEL_MIN_PARTICLES;
     let result = relax_in_order(&mut q, props, prm, budget, parallel);
     for (k, &i) in order.iter().enumerate() {
