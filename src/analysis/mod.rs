@@ -622,7 +622,7 @@ pub fn cutoff_where_all_rattle(
 }
 
 /// Mean contact number extrapolated linearly to zero cut-off (thesis sec. 2.2.5): a
-/// least-squares line through (delta_k, <C>(delta_k)) evaluated at delta = 0. Rattlers are
+/// least-squares line through (delta_k, `<C>`(delta_k)) evaluated at delta = 0. Rattlers are
 /// removed at each cut-off when `min_contacts` is given; if that removes every particle at
 /// some cut-off the result is an error (there is no mean to extrapolate). Returns
 /// (intercept, slope).
@@ -910,7 +910,7 @@ pub fn wall_aligned_fraction(c: &Rods, layer: f64, max_angle: f64) -> Result<(f6
 
 /// Histogram of particle axis directions (thesis sec. 2.2.5): polar angle theta of the
 /// headless axis in [0, pi/2] (u and -u identified, theta from +z) in `n_theta` equal bins,
-/// azimuth phi in [0, pi) in `n_phi` equal bins; counts[k_theta][k_phi].
+/// azimuth phi in [0, pi) in `n_phi` equal bins; `counts[k_theta][k_phi]`.
 pub fn orientation_histogram(
     axes: &[Vector3<f64>],
     n_theta: usize,

@@ -317,12 +317,12 @@ impl Container {
     /// pushed inward and always blocks acceptance (the defect [`Container::wall_virtuals`]
     /// guards against for spheres and rods cannot occur).
     ///
-    /// Wedge: the three planes of [`wedge_wall_distances`], each on its own (the wedge is their
+    /// Wedge: the three planes of `wedge_wall_distances`, each on its own (the wedge is their
     /// intersection, so a body is inside exactly when no plane reports a contact).
     ///
     /// Cylinder: the penetration is max over the body of rho(y) - R_cyl (rho: distance from the
     /// axis) = max over horizontal unit u of h(u) - R_cyl, the tangent plane at azimuth u. The
-    /// function h(u) is sampled at [`CYL_AZIMUTHS`] azimuths over the arc where u . x + bound
+    /// function h(u) is sampled at `CYL_AZIMUTHS` azimuths over the arc where u . x + bound
     /// exceeds R_cyl, and each discrete local maximum is refined by the ascent
     /// u <- P s(u) / |P s(u)| (s(u) = x + support(u), P the projection across the axis), which
     /// never decreases h (h(u') >= u' . s(u) = |P s(u)| >= u . s(u) = h(u)) and stops where

@@ -44,9 +44,9 @@ pub enum Scheme {
     /// divided by xi = I_xy / m (the moment of inertia per unit mass, sec. 2.3), step
     /// beta * min_j delta_ij / (removal rate), axis renormalised.
     Original,
-    /// Collective relaxation ([`relax`]): all particles move at once down the gradient of the
+    /// Collective relaxation (module `relax`): all particles move at once down the gradient of the
     /// harmonic overlap energy (FIRE minimiser), as in the molecular-dynamics settling that
-    /// Wouterse, Luding & Philipse (Granular Matter 11, 169, 2009; thesis ref. [15]) combine
+    /// Wouterse, Luding & Philipse (Granular Matter 11, 169, 2009; thesis ref. \[15\]) combine
     /// with the MCM; step `dt` is FIRE's initial time step. Same acceptance rule as the
     /// others: no overlap deeper than `overlap_tol`.
     Relax,
@@ -138,7 +138,7 @@ impl McmParams {
     }
 
     /// The Gauss-Seidel-only two-stage sphere schedule of case 506 (`porelab bench packing`
-    /// baseline `spheres_gs`): stage 1 as in [`McmParams::compacting_spheres`] with Delta V
+    /// baseline `spheres_gs`): stage 1 as in `McmParams::compacting_spheres` with Delta V
     /// halved 6 times and 3000 N tries; stage 2 revised scheme (eq. 3.6-3.13), dt = 0.1,
     /// Delta V = 0.001 N halved 6 times, 1000 N tries.
     pub fn two_stage_spheres(n: usize, seed: u64) -> McmParams {
@@ -155,7 +155,7 @@ impl McmParams {
     }
 
     /// The jamming schedule for spheres (built-in scene `packing-spheres`, case 512, `porelab
-    /// bench packing`): stage 1 as in [`McmParams::compacting_spheres`] with 1000 N tries and
+    /// bench packing`): stage 1 as in `McmParams::compacting_spheres` with 1000 N tries and
     /// Delta V halved twice, which compacts to about phi = 0.624; stage 2 the collective
     /// relaxation ([`Scheme::Relax`], FIRE initial step 0.1) from Delta V = 0.001 N halved 4
     /// times with 2000 N tries per step and at most 25000 N moves in all, which settles the

@@ -6,8 +6,8 @@
 //!
 //! **Superquadric** |x/a1|^g1 + |y/a2|^g2 + |z/a3|^g3 <= 1. By symmetry the integrals are 8 times
 //! those over the first octant, and with x = a1 xi, y = a2 eta, z = a3 zeta (an exact change of
-//! variables) V = 8 a1 a2 a3 J[1], int x^2 = 8 a1^3 a2 a3 J[xi^2], int y^2 = 8 a1 a2^3 a3 J[eta^2],
-//! int z^2 = 8 a1 a2 a3^3 J[zeta^2], J[f] = int over the unit-axes octant body of f. J is computed
+//! variables) V = 8 a1 a2 a3 J\[1\], int x^2 = 8 a1^3 a2 a3 J\[xi^2\], int y^2 = 8 a1 a2^3 a3 J\[eta^2\],
+//! int z^2 = 8 a1 a2 a3^3 J\[zeta^2\], J\[f\] = int over the unit-axes octant body of f. J is computed
 //! as nested one-dimensional integrals over z-slices with the analytic cross-section boundary:
 //! for a slice at zeta the section is xi^g1 + eta^g2 <= h = 1 - zeta^g3, xi runs over
 //! [0, h^(1/g1)], and for each xi the eta integral is done exactly (eta from 0 to
@@ -47,7 +47,7 @@ fn one_minus_pow(e: f64, g: f64) -> f64 {
 }
 
 /// First-octant integrals over the unit-axes superquadric with exponents g:
-/// [J[1], J[xi^2], J[eta^2], J[zeta^2]] and the absolute error estimate of each (every
+/// \[J\[1\], J\[xi^2\], J\[eta^2\], J\[zeta^2\]\] and the absolute error estimate of each (every
 /// component is integrated on its own, so each estimate refers to that component alone).
 pub fn superquadric_octant(g: [f64; 3]) -> ([f64; 4], [f64; 4]) {
     let mut val = [0.0; 4];

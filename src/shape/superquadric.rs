@@ -19,7 +19,7 @@
 //! is max sum a_i^2 u_i subject to sum u_i^(g_i/2) = 1. For equal exponents the closed form
 //! eq. 4.38 is used (evaluated with the largest a_i^2 factored out so that the power
 //! 1/(1 - eps) cannot overflow near g = 2; g = 2 gives max a_i). Otherwise the same problem is
-//! solved through its convex dual (see [`power_ball_max`]), a one-dimensional monotone
+//! solved through its convex dual (see `power_ball_max`), a one-dimensional monotone
 //! root-finding that returns an upper bound at any iterate and the exact value at convergence.
 //!
 //! **Support point.** The surface point whose normal (eq. 4.6) is parallel to d: with
