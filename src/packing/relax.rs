@@ -62,13 +62,6 @@ const PARALLEL_CHUNK: usize = 256;
 /// calling thread / on a pool of two threads: N = 2000 10.6 / 12.9, N = 5000 28.9-33.4 /
 /// 26.8-28.4, N = 10000 71.6 / 67.9. The pool pays only from several thousand particles.
 const PARALLEL_MIN_PARTICLES: usize = 5000;
-/// Largest packing whose sphere force loop skips the pairs apart by a branch (see
-/// `sphere_force`). Mean engine CPU s over seeds 1-2 of `porelab bench packing`, one thread,
-/// same session, with the branch / without it: N = 1000 4.33 / 4.55, 2000 9.38 / 9.92, 5000
-/// 27.85 / 26.29, 10000 62.70 / 56.33 (same packings). A reading, not a measurement (no cache
-/// counters on the machine): without the branch the loads of successive neighbours need not
-/// wait behind a mispredicted branch, which pays once the arrays outgrow the core's cache.
-const SKIP_APART_MAX_PARTICLES: usize = 5000;
 /// A configuration is a force-balanced (jammed) minimum when the largest residual force is
 /// below this fraction of the deepest overlap (an isolated overlap has force = depth).
 /// (1e-2 gave up too early: one seed of 1000 spheres ended with 5.50 contacts instead of 5.76.)
@@ -155,7 +148,6 @@ fn relax_in_order(
     // Without a rotating particle the torques and angular velocities stay zero and their
     // terms (+0.0) are skipped below: the sums are bitwise the same without them.
     let rotating = props.iter().any(|s| !s.sphere);
-    let skip_apart = n < SKIP_APART_MAX_PARTICLES;
     let zero = Vector3::zeros();
     let (mut v, mut w) = (vec![zero; n], vec![zero; n]);
     let (mut force, mut torque) = (vec![zero; n], vec![zero; n]);
@@ -163,29 +155,36 @@ fn relax_in_order(
     let mut accel = vec![(zero, zero); n];
     let (mut dt, mut alpha, mut positive_steps) = (prm.dt, ALPHA_START, 0u32);
     let mut tries = 0u64;
+    // Scratch of `sphere_forces_pairwise`, one index range per thread of the pool when the
+    // force loop runs in parallel; allocated once for the whole descent.
+    let mut ranges: Vec<RangeScratch> = (0..if parallel {
+        rayon::current_num_threads()
+    } else {
+        1
+    })
+        .map(|_| RangeScratch::default())
+        .collect();
     loop {
         // Forces and torques of U, the deepest overlap and the largest residual force (a
         // torque counts as the force at the particle's bounding radius). Each particle sums its
-        // own pairs in list order, so the result does not depend on the thread count. The
+        // own pairs in list order, so the result does not depend on the thread count (spheres
+        // in the box: `sphere_forces_pairwise`, one index range per thread). The
         // loads go straight into `force` and `torque` (no per-iteration buffer: at N = 10000
         // the arrays of one iteration already outgrow the cache), and the two maxima are
         // exact in any reduction order.
         let load = |ov: &mut Vec<super::Overlap>,
                     (i, (f_out, t_out)): (usize, (&mut Vector3<f64>, &mut Vector3<f64>))|
          -> Result<(f64, f64)> {
-            let (f, t, d, res) = if spheres_in_box && skip_apart {
-                sphere_force::<true>(p, props, &spc, equal_radius, i, &nb.lists[i])
-            } else if spheres_in_box {
-                sphere_force::<false>(p, props, &spc, equal_radius, i, &nb.lists[i])
-            } else {
-                load_of(p, props, &spc, i, &nb.lists[i], ov)?
-            };
+            let (f, t, d, res) = load_of(p, props, &spc, i, &nb.lists[i], ov)?;
             *f_out = f;
             *t_out = t;
             Ok((d, res))
         };
         let max2 = |a: (f64, f64), b: (f64, f64)| (a.0.max(b.0), a.1.max(b.1));
-        let (deepest, residual) = if parallel {
+        let (deepest, residual) = if spheres_in_box {
+            let lists = &nb.lists;
+            sphere_forces_pairwise(p, props, &spc, equal_radius, lists, &mut force, &mut ranges)
+        } else if parallel {
             force
                 .par_iter_mut()
                 .zip(torque.par_iter_mut())
@@ -310,45 +309,132 @@ fn load_of(
     Ok((f, t, deepest, f.norm().max(t.norm() / body.bound)))
 }
 
-/// Force on sphere i from its overlapping list neighbours, as the generic loop over
-/// [`overlaps_of`] computes it (same operations, so bitwise the same result; tested below):
-/// for gap = |d| - (r_i + r_j) < 0, F_i += gap n with n = d / |d|. `equal_radius`: the radius
-/// of every sphere when all are equal (then r_j is not looked up). Returns (force, zero
-/// torque, deepest overlap, |force|).
+/// The force term -delta n of sphere pair (i, j) on i at `xi` (radius `ri`; j's radius `rj`),
+/// the overlap delta and whether the centres are apart (|d| > 0), with n = d / |d| (x for coincident centres) and delta = (r_i + r_j -
+/// |d|) clamped at 0: the generic loop's F_i += gap n over the overlapping pairs of
+/// [`overlaps_of`], computed for every list pair without a branch. A pair apart gives -0 n,
+/// signed zeros, which leave a sum bitwise unchanged: x + (+-0) = x for every x but -0, and a
+/// force never holds a -0 (it starts at +0, and rounding to nearest gives +0 both for +0 + -0
+/// and for an exact cancellation).
+#[inline(always)]
+fn sphere_pair_term(
+    p: &Packing,
+    xi: &Vector3<f64>,
+    ri: f64,
+    j: usize,
+    rj: f64,
+) -> (Vector3<f64>, f64, bool) {
+    let d = p.container.separation(xi, &p.positions[j], p.box_length);
+    let dist = d.norm_squared().sqrt();
+    // -gap when the pair overlaps (negation and the rounded difference commute).
+    let overlap = ((ri + rj) - dist).max(0.0);
+    let n = if dist > 0.0 { d / dist } else { Vector3::x() };
+    (-overlap * n, overlap, dist > 0.0)
+}
+
+/// Scratch of one index range of [`sphere_forces_pairwise`]: the terms left for the range's
+/// particles (from the first slot of each one's list on, `Lists::slot`) and how many have
+/// arrived for each.
+#[derive(Default)]
+struct RangeScratch {
+    received: Vec<Vector3<f64>>,
+    arrived: Vec<u32>,
+}
+
+/// All sphere forces of the packing, each pair within an index range computed once (Newton's
+/// third law); bitwise the generic loop over [`overlaps_of`] (tested below), so which loop a
+/// sphere takes does not change a packing.
 ///
-/// `SKIP_APART`: skip the pairs whose squared distance shows them apart before the square
-/// root and the division. With it a list neighbour costs a branch the predictor misses about
-/// as often as it hits near jamming (some 6 of 12-14 list neighbours touch); without it every
-/// neighbour takes the square root and the division, and a pair apart adds -0 * n, a signed
-/// zero, which leaves the sum bitwise unchanged: x + (+-0) = x for every x but -0, and F
-/// never holds a -0 (it starts at +0, and round-to-nearest gives +0 both for +0 + -0 and for
-/// an exact cancellation). Which is faster depends on the packing size
-/// (`SKIP_APART_MAX_PARTICLES`).
-fn sphere_force<const SKIP_APART: bool>(
+/// The particles are split into one contiguous index range per scratch (one per thread); a
+/// pair across two ranges is computed on both sides. Particle i adds its terms
+/// ([`sphere_pair_term`]) in list order, as the generic loop does. Its list (sorted, and
+/// symmetric: j is in i's list when i is in j's) holds the entries below its range, computed
+/// here; then those in its range below i, whose terms those particles computed earlier and
+/// left at i's slots in the order they were processed, which is list order (so their count
+/// says where they end in the list); then those in its range above i, computed here, each
+/// leaving the opposite term for j; then those above the range, computed here. The opposite
+/// term is exact: the minimum-image separation of (j, i) is the negated one of (i, j) bit for
+/// bit (IEEE subtraction and rounding to nearest are odd), so |d|, the overlap and d / |d| come
+/// out the same but for the sign; coincident centres (|d| = 0) take n = x on both sides.
+///
+/// Computing each pair once, and every list pair without a branch: built-in sphere scene, seed
+/// 1, one thread, CPU s of the whole run, same packings bit for bit: N = 1000 3.76-4.01 before
+/// -> 3.04-3.05; N = 10000 41.2-44.2 -> 36.3; with the pairs apart skipped by a branch
+/// instead, 3.07-3.10 and 39.1-39.2. Writes `force`; returns (deepest overlap, largest
+/// |force|).
+fn sphere_forces_pairwise(
     p: &Packing,
     props: &[species::Props],
     spc: &[usize],
     equal_radius: Option<f64>,
-    i: usize,
-    list: &[usize],
-) -> ParticleLoad {
-    let (xi, ri) = (p.positions[i], props[spc[i]].r);
-    let (mut f, mut deepest) = (Vector3::zeros(), 0.0f64);
-    for &j in list {
-        let d = p.container.separation(&xi, &p.positions[j], p.box_length);
-        let contact = ri + equal_radius.unwrap_or_else(|| props[spc[j]].r);
-        let r2 = d.norm_squared();
-        if SKIP_APART && r2 >= contact * contact {
-            continue;
+    lists: &super::neighbours::Lists,
+    force: &mut [Vector3<f64>],
+    scratch: &mut [RangeScratch],
+) -> (f64, f64) {
+    let n = p.n();
+    let range_len = n.div_ceil(scratch.len()).max(1);
+    let radius = |j: usize| equal_radius.unwrap_or_else(|| props[spc[j]].r);
+    let one_range = |(k, (force, s)): (usize, (&mut [Vector3<f64>], &mut RangeScratch))| {
+        let (lo, hi) = (k * range_len, k * range_len + force.len());
+        let RangeScratch { received, arrived } = s;
+        // Every slot read below was written before in this call: no clearing (the buffer is
+        // as long as the lists' buffer, megabytes at N = 10000, and this runs every
+        // iteration).
+        if received.len() < lists.slots() {
+            received.resize(lists.slots(), Vector3::zeros());
         }
-        let dist = r2.sqrt();
-        // -gap when the pair overlaps (negation and the rounded difference commute).
-        let overlap = (contact - dist).max(0.0);
-        let n = if dist > 0.0 { d / dist } else { Vector3::x() };
-        deepest = deepest.max(overlap);
-        f += -overlap * n;
+        arrived.clear();
+        arrived.resize(hi - lo, 0);
+        let (mut deepest, mut residual) = (0.0f64, 0.0f64);
+        for (i, f_out) in (lo..hi).zip(force.iter_mut()) {
+            let (xi, ri) = (p.positions[i], props[spc[i]].r);
+            let (list, base) = (&lists[i], lists.slot(i));
+            let mut f = Vector3::zeros();
+            let mut k = 0;
+            while k < list.len() && list[k] < lo {
+                let (t, overlap, _) = sphere_pair_term(p, &xi, ri, list[k], radius(list[k]));
+                deepest = deepest.max(overlap);
+                f += t;
+                k += 1;
+            }
+            let below = arrived[i - lo] as usize;
+            for t in &received[base..base + below] {
+                f += *t;
+            }
+            k += below;
+            debug_assert!(list[..k].iter().all(|&j| j < i) && list[k..].iter().all(|&j| j > i));
+            while k < list.len() && list[k] < hi {
+                let j = list[k];
+                k += 1;
+                let (t, overlap, apart) = sphere_pair_term(p, &xi, ri, j, radius(j));
+                deepest = deepest.max(overlap);
+                f += t;
+                // The opposite term (the same one for coincident centres).
+                let at = lists.slot(j) + arrived[j - lo] as usize;
+                arrived[j - lo] += 1;
+                received[at] = if apart { -t } else { t };
+            }
+            for &j in &list[k..] {
+                let (t, overlap, _) = sphere_pair_term(p, &xi, ri, j, radius(j));
+                deepest = deepest.max(overlap);
+                f += t;
+            }
+            residual = residual.max(f.norm());
+            *f_out = f;
+        }
+        (deepest, residual)
+    };
+    let max2 = |a: (f64, f64), b: (f64, f64)| (a.0.max(b.0), a.1.max(b.1));
+    if scratch.len() == 1 {
+        one_range((0, (force, &mut scratch[0])))
+    } else {
+        force
+            .par_chunks_mut(range_len)
+            .zip(scratch.par_iter_mut())
+            .enumerate()
+            .map(one_range)
+            .reduce(|| (0.0, 0.0), max2)
     }
-    (f, Vector3::zeros(), deepest, f.norm())
 }
 
 /// The radius shared by every species, if they share one: then every sphere contact
@@ -375,12 +461,13 @@ mod tests {
     use super::*;
     use crate::packing::{random_start_of, Container, Particles};
 
-    /// Both sphere loops give bitwise the generic loop's load (force, torque, deepest overlap,
-    /// residual) for every particle of a squeezed packing, equal spheres and two sizes (the
-    /// `equal_radius` path and the per-neighbour radius): which loop a sphere takes does not
-    /// change a packing.
+    /// The pairwise sphere loop gives bitwise the generic loop's force for every particle and
+    /// its deepest overlap and largest residual, with one index range and with several
+    /// (pairs across ranges), for a squeezed packing of equal spheres and one of two sizes
+    /// (the `equal_radius` path and the per-neighbour radius), with two particles on the same
+    /// centre (n = x on both sides): which loop a sphere takes does not change a packing.
     #[test]
-    fn sphere_loops_give_bitwise_the_generic_load() {
+    fn pairwise_sphere_loop_gives_bitwise_the_generic_load() {
         use crate::contact::ContactShape;
         let two_sizes = Particles::mixture(&[
             (ContactShape::Sphere { radius: 0.5 }, 300),
@@ -393,6 +480,7 @@ mod tests {
             for x in p.positions.iter_mut() {
                 *x *= squeeze;
             }
+            p.positions[200] = p.positions[100];
             let props = species::props_of(&p.particles).unwrap();
             let spc = p.particles.species.clone();
             let equal_radius = equal_radius_of(&props);
@@ -400,18 +488,16 @@ mod tests {
                 list_gap_bound(&props, &spc, p, i, j, d)
             };
             let nb = neighbour_lists(&p, &props, &list_gap, RELAX_SKIN).unwrap();
-            let bits = |l: ParticleLoad| {
-                let v = |x: Vector3<f64>| x.map(f64::to_bits);
-                (v(l.0), v(l.1), l.2.to_bits(), l.3.to_bits())
-            };
+            assert!(nb.lists[100].contains(&200));
+            let bits = |v: &Vector3<f64>| v.map(f64::to_bits);
             let (mut ov, mut overlapping, mut apart) = (Vec::new(), 0, 0);
+            let (mut generic, mut deepest, mut residual) = (Vec::new(), 0.0f64, 0.0f64);
             for i in 0..p.n() {
                 let list = &nb.lists[i];
-                let generic = bits(load_of(&p, &props, &spc, i, list, &mut ov).unwrap());
-                let skip = sphere_force::<true>(&p, &props, &spc, equal_radius, i, list);
-                let full = sphere_force::<false>(&p, &props, &spc, equal_radius, i, list);
-                assert_eq!(bits(skip), generic, "particle {i}, skipping pairs apart");
-                assert_eq!(bits(full), generic, "particle {i}, every pair");
+                let (f, t, d, res) = load_of(&p, &props, &spc, i, list, &mut ov).unwrap();
+                assert_eq!(t, Vector3::zeros());
+                generic.push(bits(&f));
+                (deepest, residual) = (deepest.max(d), residual.max(res));
                 overlapping += ov.len();
                 apart += list.len() - ov.len();
             }
@@ -419,6 +505,25 @@ mod tests {
                 overlapping > 1000 && apart > 1000,
                 "{overlapping} / {apart}"
             );
+            for ranges in [1, 2, 3, 7] {
+                let mut scratch: Vec<RangeScratch> =
+                    (0..ranges).map(|_| RangeScratch::default()).collect();
+                let mut force = vec![Vector3::repeat(f64::NAN); p.n()];
+                let (d, res) = sphere_forces_pairwise(
+                    &p,
+                    &props,
+                    &spc,
+                    equal_radius,
+                    &nb.lists,
+                    &mut force,
+                    &mut scratch,
+                );
+                for (i, f) in force.iter().enumerate() {
+                    assert_eq!(bits(f), generic[i], "particle {i}, {ranges} ranges");
+                }
+                assert_eq!(d.to_bits(), deepest.to_bits(), "{ranges} ranges");
+                assert_eq!(res.to_bits(), residual.to_bits(), "{ranges} ranges");
+            }
         }
     }
 
