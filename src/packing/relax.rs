@@ -61,6 +61,10 @@ const PARALLEL_CHUNK: usize = 256;
 /// jamming schedule (built-in `packing-spheres`, seed 1), wall seconds with the loop on the
 /// calling thread / on a pool of two threads: N = 2000 10.6 / 12.9, N = 5000 28.9-33.4 /
 /// 26.8-28.4, N = 10000 71.6 / 67.9. The pool pays only from several thousand particles.
+/// Again with the pairwise sphere loop (`sphere_forces_pairwise`, same scene, wall s, two
+/// runs each, on the calling thread / on the pool): N = 1000 3.26, 3.34 / 3.66, 3.97; N = 2000
+/// 7.88, 7.89 / 8.31, 8.59; N = 5000 17.79, 20.35 / 18.83, 17.73 (a wash); N = 10000 38.1,
+/// 39.8 / 32.9 (`porelab bench packing`, seeds 1-2 / seed 1).
 const PARALLEL_MIN_PARTICLES: usize = 5000;
 /// A configuration is a force-balanced (jammed) minimum when the largest residual force is
 /// below this fraction of the deepest overlap (an isolated overlap has force = depth).
