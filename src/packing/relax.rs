@@ -314,9 +314,10 @@ fn load_of(
 }
 
 /// The force term -delta n of sphere pair (i, j) on i at `xi` (radius `ri`; j's radius `rj`),
-/// the overlap delta and whether the centres are apart (|d| > 0), with n = d / |d| (x for coincident centres) and delta = (r_i + r_j -
-/// |d|) clamped at 0: the generic loop's F_i += gap n over the overlapping pairs of
-/// [`overlaps_of`], computed for every list pair without a branch. A pair apart gives -0 n,
+/// the overlap delta and whether the centres are apart (|d| > 0), with n = d / |d| (x for
+/// coincident centres) and delta = (r_i + r_j - |d|) clamped at 0: the generic loop's
+/// F_i += gap n over the overlapping pairs of [`overlaps_of`], computed for every list pair
+/// without a branch. A pair apart gives -0 n,
 /// signed zeros, which leave a sum bitwise unchanged: x + (+-0) = x for every x but -0, and a
 /// force never holds a -0 (it starts at +0, and rounding to nearest gives +0 both for +0 + -0
 /// and for an exact cancellation).
@@ -361,10 +362,11 @@ struct RangeScratch {
 /// bit (IEEE subtraction and rounding to nearest are odd), so |d|, the overlap and d / |d| come
 /// out the same but for the sign; coincident centres (|d| = 0) take n = x on both sides.
 ///
-/// Computing each pair once, and every list pair without a branch: built-in sphere scene, seed
-/// 1, one thread, CPU s of the whole run, same packings bit for bit: N = 1000 3.76-4.01 before
-/// -> 3.04-3.05; N = 10000 41.2-44.2 -> 36.3; with the pairs apart skipped by a branch
-/// instead, 3.07-3.10 and 39.1-39.2. Writes `force`; returns (deepest overlap, largest
+/// Against the per-particle loop it replaced (same packings bit for bit), `porelab bench
+/// packing`, engine CPU s, means of seeds 1-2, one thread: N = 1000 3.63 -> 3.32, N = 10000
+/// 40.76 -> 38.91; two threads, N = 10000, wall s: 37.59 -> 32.91. Skipping the pairs apart
+/// by a branch instead (built-in scene, seed 1, CPU s): N = 1000 3.07-3.10 against 3.04-3.11,
+/// N = 10000 39.1-39.2 against 35.7-36.6. Writes `force`; returns (deepest overlap, largest
 /// |force|).
 fn sphere_forces_pairwise(
     p: &Packing,
