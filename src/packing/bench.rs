@@ -5,16 +5,19 @@
 //! Sections:
 //! 1. jamming: spheres with the jamming schedule of the built-in scene `packing-spheres`
 //!    ([`McmParams::jammed_spheres`], case 512: compacting stage, then collective relaxation
-//!    with a stage budget) for N = 250, 500, 1000 (and 2000, 5000, 10000 up to `--max-n`),
-//!    seeds 1..=`--seeds` each, the Gauss-Seidel-only schedule of case 506 (`spheres_gs`) at
-//!    N = 250 and 1000 as the baseline, and spherocylinders L/D = 5 with the schedule of case
+//!    with a stage budget) for N = 250, 500, 1000 (and 2000, 5000, 10000, 20000, 40000 up to
+//!    `--max-n`), seeds 1..=`--seeds` each, the Gauss-Seidel-only schedule of case 506
+//!    (`spheres_gs`) at N = 250 and 1000 as the baseline, and spherocylinders L/D = 5 with the schedule of case
 //!    504, each timed on a rayon pool of one thread and, for N = 1000 and 10000, of two: packing
 //!    fraction, contacts at the smallest cut-off, contacts extrapolated to zero cut-off with
 //!    rattlers removed (sec. 2.2.5), seconds, moves and moves per second; per N the means over
 //!    the seeds, and the exponents b of CPU seconds ~ N^b and of moves per particle ~ N^b
-//!    from log-log fits. The Gauss-Seidel moves of the thesis' schemes are sequential; the
-//!    relaxation stage computes its forces in parallel from 5000 particles on (results
-//!    independent of the thread count).
+//!    from log-log fits (over all N, and over N >= 5000, above the step in the cost of a move
+//!    where the relaxation's arrays outgrow a core's L2 cache), and for each tenfold step in N
+//!    the CPU ratio split into its two factors, moves per particle and CPU seconds per move.
+//!    The Gauss-Seidel moves of the thesis' schemes are sequential; the relaxation stage
+//!    computes its forces in parallel from 5000 particles on (results independent of the
+//!    thread count).
 //! 2. work-precision of the compacting scheme: N = 500 spheres, one stage (original scheme,
 //!    Delta V = 0.01 N halved 6 times): packing fraction against the try budget per step
 //!    (100 ... 3000 N) for beta = 0.5 (thesis) and 1.3 (over-relaxation).
@@ -37,7 +40,7 @@ use std::time::Instant;
 
 #[derive(Debug, Clone, clap::Args)]
 pub struct BenchArgs {
-    /// Largest N of the sphere sweep 250, 500, 1000, 2000, 5000, 10000.
+    /// Largest N of the sphere sweep 250, 500, 1000, 2000, 5000, 10000, 20000, 40000.
     #[arg(long, default_value_t = 1000)]
     pub max_n: usize,
     /// Skip the spherocylinder runs.
@@ -52,7 +55,10 @@ pub struct BenchArgs {
     pub seeds: u64,
 }
 
-const SIZES: [usize; 6] = [250, 500, 1000, 2000, 5000, 10000];
+const SIZES: [usize; 8] = [250, 500, 1000, 2000, 5000, 10000, 20000, 40000];
+/// The sizes from which a move costs the same (session 9: moves per CPU second 6.0-6.4e6 up
+/// to N = 2000, 5.1-5.2e6 from 5000 on): the fit over them is the asymptotic exponent.
+const LARGE_N: usize = 5000;
 const SEED: u64 = 1;
 /// Contact cut-offs for the extrapolation to zero (thesis sec. 2.2.5: 1e-8 ... 1e-5).
 const CUTOFFS: [f64; 4] = [1e-8, 1e-7, 1e-6, 1e-5];
@@ -164,6 +170,32 @@ fn timed(prm: &McmParams, threads: usize) -> Result<Timed> {
     })
 }
 
+/// Engine CPU nanoseconds per particle move.
+fn ns_per_move(engine_cpu_seconds: f64, moves_per_particle: f64, n: usize) -> f64 {
+    1e9 * engine_cpu_seconds / (moves_per_particle * n as f64)
+}
+
+/// For every pair of swept sizes N and 10 N (the scaling goal: T(10 N) <= 10 T(N)),
+/// the engine CPU ratio and its two factors: T(10 N) / T(N) = 10 x (moves per particle ratio)
+/// x (CPU seconds per move ratio). `sweep` rows: (N, CPU s, moves per particle, engine CPU s).
+fn tenfold_steps(sweep: &[(f64, f64, f64, f64)]) -> Vec<String> {
+    let mut lines = Vec::new();
+    for a in sweep {
+        if let Some(b) = sweep.iter().find(|b| b.0 == 10.0 * a.0) {
+            let per_move = |r: &(f64, f64, f64, f64)| ns_per_move(r.3, r.2, r.0 as usize);
+            lines.push(format!(
+                "N = {} -> {}: engine CPU x{:.2} = 10 x {:.3} (moves per particle) x {:.3} (CPU per move)",
+                a.0,
+                b.0,
+                b.3 / a.3,
+                b.2 / a.2,
+                per_move(b) / per_move(a)
+            ));
+        }
+    }
+    lines
+}
+
 /// Least-squares slope of ln y against ln x.
 fn log_slope(x: &[f64], y: &[f64]) -> f64 {
     let lx: Vec<f64> = x.iter().map(|v| v.ln()).collect();
@@ -240,7 +272,7 @@ pub fn run_bench(args: &BenchArgs) -> Result<()> {
             o.mean(|r| r.engine_cpu_seconds),
         ));
         summary.push(format!(
-            "{n:>6}  {:>5}  {:.4} ({:.4})  {:.3} ({:.3})  {:>6.2} ({:.2}-{:.2})  {:>8.2}  {moves_pp:.2e}  {}/{}",
+            "{n:>6}  {:>5}  {:.4} ({:.4})  {:.3} ({:.3})  {:>6.2} ({:.2}-{:.2})  {:>8.2}  {moves_pp:.2e}  {:>14.1}  {}/{}",
             o.runs.len(),
             o.mean(|r| r.phi),
             o.min(|r| r.phi),
@@ -250,6 +282,7 @@ pub fn run_bench(args: &BenchArgs) -> Result<()> {
             o.min(|r| r.cpu_seconds),
             o.max(|r| r.cpu_seconds),
             o.mean(|r| r.engine_cpu_seconds),
+            ns_per_move(o.mean(|r| r.engine_cpu_seconds), moves_pp, n),
             o.meeting_goal(),
             o.runs.len(),
         ));
@@ -268,7 +301,7 @@ pub fn run_bench(args: &BenchArgs) -> Result<()> {
         "\nspheres, mean over seeds 1..={} (one thread):",
         args.seeds
     );
-    println!("     N  seeds  phi (min)         C0 (min)       CPU s (min-max)    engine CPU s  moves/N  phi>=0.635 & C0>=5.5");
+    println!("     N  seeds  phi (min)         C0 (min)       CPU s (min-max)    engine CPU s  moves/N  engine ns/move  phi>=0.635 & C0>=5.5");
     for line in &summary {
         println!("{line}");
     }
@@ -285,6 +318,18 @@ pub fn run_bench(args: &BenchArgs) -> Result<()> {
             log_slope(&ns, &cpu),
             log_slope(&ns, &moves_pp)
         );
+        let large: Vec<_> = sweep.iter().filter(|r| r.0 >= LARGE_N as f64).collect();
+        if large.len() >= 2 {
+            let x: Vec<f64> = large.iter().map(|r| r.0).collect();
+            let y: Vec<f64> = large.iter().map(|r| r.3).collect();
+            println!(
+                "over N >= {LARGE_N} only: engine CPU seconds ~ N^{:.2}",
+                log_slope(&x, &y)
+            );
+        }
+        for line in tenfold_steps(&sweep) {
+            println!("{line}");
+        }
     }
     std::fs::write(out.join("bench-packing-jamming.csv"), csv)?;
     if !args.no_work_precision {
@@ -365,4 +410,34 @@ fn jamming_work_precision(seeds: u64, out: &std::path::Path) -> Result<()> {
     }
     std::fs::write(out.join("bench-packing-jamming-work-precision.csv"), wp)?;
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The two factors of a tenfold step multiply back to the CPU ratio over 10, and only
+    /// sizes with a tenfold partner give a line.
+    #[test]
+    fn tenfold_step_factors_multiply_to_the_cpu_ratio() {
+        // (N, CPU s, moves per particle, engine CPU s)
+        let sweep = [
+            (1000.0, 3.5, 2.9e4, 3.3),
+            (2000.0, 7.5, 3.0e4, 7.3),
+            (10000.0, 40.0, 3.1e4, 38.9),
+        ];
+        let lines = tenfold_steps(&sweep);
+        assert_eq!(lines.len(), 1, "{lines:?}");
+        let moves: f64 = 3.1e4 / 2.9e4;
+        let per_move: f64 = (38.9 / (3.1e4 * 1e4)) / (3.3 / (2.9e4 * 1e3));
+        assert!((10.0 * moves * per_move - 38.9 / 3.3).abs() < 1e-12);
+        assert!(
+            lines[0].contains(&format!("x{:.2}", 38.9 / 3.3)),
+            "{}",
+            lines[0]
+        );
+        assert!(lines[0].contains(&format!("{moves:.3}")), "{}", lines[0]);
+        assert!(lines[0].contains(&format!("{per_move:.3}")), "{}", lines[0]);
+        assert!((ns_per_move(3.3, 2.9e4, 1000) - 1e9 * 3.3 / 2.9e7).abs() < 1e-9);
+    }
 }
