@@ -298,17 +298,6 @@ impl Lists {
         }
     }
 
-    /// Index in the buffer of the first entry of list i: list i occupies `slot(i)..slot(i) +
-    /// self[i].len()` of `0..slots()` (a per-entry side table can share the layout).
-    pub(super) fn slot(&self, i: usize) -> usize {
-        self.start[i]
-    }
-
-    /// Length of the buffer (every list's entries lie below it).
-    pub(super) fn slots(&self) -> usize {
-        self.data.len()
-    }
-
     /// Replaces list i by `fresh` (sorted).
     fn set(&mut self, i: usize, fresh: &[usize]) {
         self.len[i] = 0;

@@ -153,10 +153,13 @@ fn relax_in_order(
     // terms (+0.0) are skipped below: the sums are bitwise the same without them.
     let rotating = props.iter().any(|s| !s.sphere);
     let zero = Vector3::zeros();
-    let (mut v, mut w) = (vec![zero; n], vec![zero; n]);
+    // Angular velocities and accelerations only when something rotates (a packing of spheres
+    // then streams neither); the accelerations are those of the current iteration, one buffer
+    // each for the whole run.
+    let n_rotating = if rotating { n } else { 0 };
+    let (mut v, mut w) = (vec![zero; n], vec![zero; n_rotating]);
     let (mut force, mut torque) = (vec![zero; n], vec![zero; n]);
-    // Accelerations (linear, angular) of the current iteration; one buffer for the whole run.
-    let mut accel = vec![(zero, zero); n];
+    let (mut accel, mut accel_w) = (vec![zero; n], vec![zero; n_rotating]);
     let (mut dt, mut alpha, mut positive_steps) = (prm.dt, ALPHA_START, 0u32);
     let mut tries = 0u64;
     // Scratch of `sphere_forces_pairwise`, one index range per thread of the pool when the
@@ -252,20 +255,21 @@ fn relax_in_order(
                 v2 +=
                     body.mass * v[i].norm_squared() + w[i].dot(&(inertia_world(p, body, i) * w[i]));
                 a2 += force[i].dot(&a) + torque[i].dot(&b);
-                accel[i] = (a, b);
+                accel[i] = a;
+                accel_w[i] = b;
             } else {
                 v2 += body.mass * v[i].norm_squared();
                 a2 += force[i].dot(&a);
-                accel[i].0 = a;
+                accel[i] = a;
             }
         }
         // The FIRE mixing (when there is a force at all), then the move, particle by particle.
         let mix = (a2 > 0.0).then(|| alpha * (v2 / a2).sqrt());
         for i in 0..n {
             if let Some(mix) = mix {
-                v[i] = (1.0 - alpha) * v[i] + mix * accel[i].0;
+                v[i] = (1.0 - alpha) * v[i] + mix * accel[i];
                 if rotating {
-                    w[i] = (1.0 - alpha) * w[i] + mix * accel[i].1;
+                    w[i] = (1.0 - alpha) * w[i] + mix * accel_w[i];
                 }
             }
             let body = &props[spc[i]];
@@ -337,13 +341,11 @@ fn sphere_pair_term(
     (-overlap * n, overlap, dist > 0.0)
 }
 
-/// Scratch of one index range of [`sphere_forces_pairwise`]: the terms left for the range's
-/// particles (from the first slot of each one's list on, `Lists::slot`) and how many have
-/// arrived for each.
+/// Scratch of one index range of [`sphere_forces_pairwise`]: for each of the range's
+/// particles, how many entries at the head of its list are already summed into its force.
 #[derive(Default)]
 struct RangeScratch {
-    received: Vec<Vector3<f64>>,
-    arrived: Vec<u32>,
+    summed: Vec<u32>,
 }
 
 /// All sphere forces of the packing, each pair within an index range computed once (Newton's
@@ -352,22 +354,26 @@ struct RangeScratch {
 ///
 /// The particles are split into one contiguous index range per scratch (one per thread); a
 /// pair across two ranges is computed on both sides. Particle i adds its terms
-/// ([`sphere_pair_term`]) in list order, as the generic loop does. Its list (sorted, and
-/// symmetric: j is in i's list when i is in j's) holds the entries below its range, computed
-/// here; then those in its range below i, whose terms those particles computed earlier and
-/// left at i's slots in the order they were processed, which is list order (so their count
-/// says where they end in the list); then those in its range above i, computed here, each
-/// leaving the opposite term for j; then those above the range, computed here. The opposite
-/// term is exact: the minimum-image separation of (j, i) is the negated one of (i, j) bit for
-/// bit (IEEE subtraction and rounding to nearest are odd), so |d|, the overlap and d / |d| come
-/// out the same but for the sign; coincident centres (|d| = 0) take n = x on both sides.
+/// ([`sphere_pair_term`]) in list order, as the generic loop does, starting from +0. Its list
+/// (sorted, and symmetric: j is in i's list when i is in j's) holds the entries below its
+/// range, summed first, in a pass over the range before the pairs; then those in its range
+/// below i, whose terms those particles added to i's force when they were processed, in
+/// index order, which is list order; then those in its range above i, computed here, each
+/// adding the opposite term to j's force; then those above the range, computed here. The
+/// opposite term is exact: the minimum-image separation of (j, i) is the negated one of
+/// (i, j) bit for bit (IEEE subtraction and rounding to nearest are odd), so |d|, the overlap
+/// and d / |d| come out the same but for the sign; coincident centres (|d| = 0) take n = x on
+/// both sides.
 ///
 /// Against the per-particle loop it replaced (same packings bit for bit), `porelab bench
 /// packing`, engine CPU s, means of seeds 1-2, one thread: N = 1000 3.63 -> 3.32, N = 10000
 /// 40.76 -> 38.91; two threads, N = 10000, wall s: 37.59 -> 32.91. Skipping the pairs apart
 /// by a branch instead (built-in scene, seed 1, CPU s): N = 1000 3.07-3.10 against 3.04-3.11,
-/// N = 10000 39.1-39.2 against 35.7-36.6. Writes `force`; returns (deepest overlap, largest
-/// |force|).
+/// N = 10000 39.1-39.2 against 35.7-36.6. The opposite terms went first to a buffer of one
+/// slot per list entry (24 bytes each, the largest array of the descent) and were summed at
+/// j's turn; adding them to j's force at once gives the same sums in the same order without
+/// it (session 14, figures in README "Benchmark"). Writes `force`; returns (deepest overlap,
+/// largest |force|).
 fn sphere_forces_pairwise(
     p: &Packing,
     props: &[species::Props],
@@ -382,32 +388,29 @@ fn sphere_forces_pairwise(
     let radius = |j: usize| equal_radius.unwrap_or_else(|| props[spc[j]].r);
     let one_range = |(k, (force, s)): (usize, (&mut [Vector3<f64>], &mut RangeScratch))| {
         let (lo, hi) = (k * range_len, k * range_len + force.len());
-        let RangeScratch { received, arrived } = s;
-        // Every slot read below was written before in this call: no clearing (the buffer is
-        // as long as the lists' buffer, megabytes at N = 10000, and this runs every
-        // iteration).
-        if received.len() < lists.slots() {
-            received.resize(lists.slots(), Vector3::zeros());
-        }
-        arrived.clear();
-        arrived.resize(hi - lo, 0);
+        let summed = &mut s.summed;
+        summed.clear();
+        summed.resize(hi - lo, 0);
         let (mut deepest, mut residual) = (0.0f64, 0.0f64);
-        for (i, f_out) in (lo..hi).zip(force.iter_mut()) {
-            let (xi, ri) = (p.positions[i], props[spc[i]].r);
-            let (list, base) = (&lists[i], lists.slot(i));
+        // The entries below the range, first in every list (none in the first range).
+        for (i, (f_out, done)) in (lo..hi).zip(force.iter_mut().zip(summed.iter_mut())) {
             let mut f = Vector3::zeros();
-            let mut k = 0;
-            while k < list.len() && list[k] < lo {
-                let (t, overlap, _) = sphere_pair_term(p, &xi, ri, list[k], radius(list[k]));
-                deepest = deepest.max(overlap);
-                f += t;
-                k += 1;
+            if lo > 0 {
+                let (xi, ri) = (&p.positions[i], props[spc[i]].r);
+                for &j in lists[i].iter().take_while(|&&j| j < lo) {
+                    let (t, overlap, _) = sphere_pair_term(p, xi, ri, j, radius(j));
+                    deepest = deepest.max(overlap);
+                    f += t;
+                    *done += 1;
+                }
             }
-            let below = arrived[i - lo] as usize;
-            for t in &received[base..base + below] {
-                f += *t;
-            }
-            k += below;
+            *f_out = f;
+        }
+        for i in lo..hi {
+            let (xi, ri) = (p.positions[i], props[spc[i]].r);
+            let list = &lists[i];
+            let mut f = force[i - lo];
+            let mut k = summed[i - lo] as usize;
             debug_assert!(list[..k].iter().all(|&j| j < i) && list[k..].iter().all(|&j| j > i));
             while k < list.len() && list[k] < hi {
                 let j = list[k];
@@ -416,9 +419,8 @@ fn sphere_forces_pairwise(
                 deepest = deepest.max(overlap);
                 f += t;
                 // The opposite term (the same one for coincident centres).
-                let at = lists.slot(j) + arrived[j - lo] as usize;
-                arrived[j - lo] += 1;
-                received[at] = if apart { -t } else { t };
+                force[j - lo] += if apart { -t } else { t };
+                summed[j - lo] += 1;
             }
             for &j in &list[k..] {
                 let (t, overlap, _) = sphere_pair_term(p, &xi, ri, j, radius(j));
@@ -426,7 +428,7 @@ fn sphere_forces_pairwise(
                 f += t;
             }
             residual = residual.max(f.norm());
-            *f_out = f;
+            force[i - lo] = f;
         }
         (deepest, residual)
     };
