@@ -14,7 +14,9 @@ use nalgebra::{Matrix3, SymmetricEigen, UnitQuaternion, Vector3};
 use rayon::prelude::*;
 pub use sampled::{sampled_overlap, SampledOverlap};
 
+pub mod height_map;
 mod sampled;
+pub mod slab;
 
 /// Rotation (rad) of the retried contact query of [`pair_gaps`] when the solver does not
 /// converge (`crate::contact::contact_perturbed`): changes a gap by at most 1e-6 x the
