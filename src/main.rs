@@ -86,6 +86,9 @@ enum BenchWhat {
     /// Packing (MCM): seconds to jam against N, density and contacts, one and two threads,
     /// and the reached packing fraction against the try budget.
     Packing(porelab::packing::bench::BenchArgs),
+    /// Deposition: trial moves per second for spheres, platelets and needles, and the share
+    /// of pair tests settled by each prefilter.
+    Deposition(porelab::deposition::bench::BenchArgs),
 }
 
 fn main() -> ExitCode {
@@ -131,6 +134,9 @@ fn main() -> ExitCode {
             }
             BenchWhat::Packing(args) => {
                 porelab::packing::bench::run_bench(&args).map(|_| ExitCode::SUCCESS)
+            }
+            BenchWhat::Deposition(args) => {
+                porelab::deposition::bench::run(&args).map(|_| ExitCode::SUCCESS)
             }
         },
     };

@@ -14,6 +14,7 @@
 //!
 //! Lengths in metres, energies in joules, everywhere.
 
+pub mod bench;
 pub mod cells;
 pub mod energy;
 pub mod engine;

@@ -9,6 +9,7 @@ mod brownian_equilibrium;
 mod brownian_scenes;
 mod common;
 mod contact;
+mod deposition;
 mod drag;
 mod elliptic_cases;
 mod field_analytic;
@@ -37,6 +38,13 @@ pub fn runner_for(id: &str) -> Option<Runner> {
         "303" => Some(contact::case_303),
         "304" => Some(contact::case_304),
         "305" => Some(contact::case_305),
+        "601" => Some(deposition::case_601),
+        "602" => Some(deposition::case_602),
+        "603" => Some(deposition::case_603),
+        "604" => Some(deposition::case_604),
+        "605" => Some(deposition::case_605),
+        "606" => Some(deposition::case_606),
+        "607" => Some(deposition::case_607),
         "501" => Some(packing::case_501),
         "502" => Some(packing::case_502),
         "503" => Some(packing::case_503),
