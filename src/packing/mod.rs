@@ -224,6 +224,33 @@ impl McmParams {
                 return invalid(format!("{name} = {v}: must be positive and finite"));
             }
         }
+        // eq. 2.10: a move by beta times an overlap leaves |1 - beta| of it, so from beta = 2 on
+        // no move reduces an overlap and a "jammed" end would mean no compression at all.
+        if self.beta >= 2.0 {
+            return invalid(format!(
+                "beta = {}: must be below 2 (a move of beta times the overlap leaves |1 - beta| \
+                 of it; eq. 2.10, typically 0.5, over-relaxation up to about 1.5)",
+                self.beta
+            ));
+        }
+        // One compression step must leave free volume: Delta V below the start box's volume
+        // minus the particles' volume (otherwise the first step, and every halving of it,
+        // fails and the run ends at phi0 having compressed nothing).
+        // (A particle table that has no volume is reported by its own check below.)
+        // (No per-particle table is built here: n may be refused for its memory later.)
+        let mean_volume = match &self.particles {
+            Some(p) => p.total_volume().unwrap_or(f64::NAN) / self.n as f64,
+            None => particle_volume(self.length),
+        };
+        let free_per_particle = mean_volume * (1.0 / self.phi0 - 1.0);
+        if self.delta_v_per_particle >= free_per_particle {
+            return invalid(format!(
+                "delta_v_per_particle = {} D^3: must be below the free volume per particle of \
+                 the start, {free_per_particle:.4} D^3 (mean particle volume x (1/phi0 - 1), \
+                 phi0 = {})",
+                self.delta_v_per_particle, self.phi0
+            ));
+        }
         if let Some(b) = self.stage_budget_per_particle {
             if !(b.is_finite() && b >= self.tries_per_particle) {
                 return invalid(format!(
