@@ -160,7 +160,7 @@ impl McmParams {
     /// relaxation ([`Scheme::Relax`], FIRE initial step 0.1) from Delta V = 0.001 N halved 4
     /// times with 2000 N tries per step and at most 25000 N moves in all, which settles the
     /// contact network. The stage budget bounds the moves per particle, which otherwise grow with
-    /// N as the relaxation creeps on near jamming (README "Creep near jamming").
+    /// N as the relaxation creeps on near jamming (README.md at commit 2c48ccd, "Creep near jamming").
     pub fn jammed_spheres(n: usize, seed: u64) -> McmParams {
         let relax = Stage {
             scheme: Scheme::Relax,
@@ -1130,7 +1130,7 @@ fn random_sequential_addition(
 /// follow the index order, and every neighbour list read nearby memory; the compression
 /// scales positions and keeps the order coherent. The relaxation renumbers its own copy at
 /// every step already. Built-in sphere scene, seed 1, one thread, ns of CPU per move without
-/// / with the renumbering (same session; the trajectories differ, so the moves do too):
+/// / with the renumbering (measured in one run; the trajectories differ, so the moves do too):
 /// N = 1000 133, 133 / 141, 136; 2000 143, 139 / 138, 135; 5000 145, 152 / 138, 140; 10000
 /// 150, 147 / 142, 146; 20000 164 / 139 (101.1 against 86.3 CPU s). Without it the cost of a
 /// move grows with N as the arrays outgrow the cache; with it the cost is flat. Below 5000

@@ -1,7 +1,7 @@
 //! Brownian capture scenes (thesis 003, sections 6.3–6.4): TOML schema -> experiment -> files.
 //!
 //! Every key has the thesis default of section 6.3 unless noted; the schema is documented in
-//! README ("Brownian scenes"). `experiment` selects what runs:
+//! README ("Scene files"). `experiment` selects what runs:
 //! - `"capture"`: capture fraction against time per start region for every combination of the
 //!   `[sweep]` lists (alpha, particle radius, aspect ratio), `run.runs` runs each;
 //! - `"cascade"`: the cascade estimate, random and/or optimal (section 6.4.5);

@@ -49,7 +49,7 @@
 //! s4_trials = 2000                 # trial directions of the S4 maximisation (eq. 4.17)
 //! ```
 //!
-//! Outputs in the output folder (README, "Packing outputs"): `final.xyz` (extended XYZ),
+//! Outputs in the output folder (README, "Output formats"): `final.xyz` (extended XYZ),
 //! `summary.json`, `phi_history.csv`, `gr.csv`, and `checkpoint.json`, written atomically after
 //! every compression step. When `checkpoint.json` is present, `porelab run` resumes from it
 //! (after checking that it was written by the same scene) and reaches bitwise the same
@@ -832,7 +832,7 @@ fn describe_particles(p: &Particles) -> String {
 }
 
 /// The XYZ columns of one particle shape: type name, OVITO Aspherical Shape, radius (bounding
-/// radius for non-rods), cylinder length and Superquadric Roundness (README lists them).
+/// radius for non-rods), cylinder length and Superquadric Roundness (README "Output formats" lists them).
 fn xyz_columns(s: &ContactShape) -> (&'static str, [f64; 3], f64, f64, [f64; 2]) {
     match *s {
         ContactShape::Sphere { radius } => ("S", [radius; 3], radius, 0.0, [1.0, 1.0]),
