@@ -106,11 +106,8 @@ fn main() -> ExitCode {
         Command::Shape(args) => porelab::shape::cli::run_shape(&args),
         Command::Drag(args) => porelab::hydro::cli::run_drag(&args),
         Command::Run {
-            show: Some(name),
-            ..
-        } => {
-            porelab::scene::cli_show(&name).map(|_| ExitCode::SUCCESS)
-        }
+            show: Some(name), ..
+        } => porelab::scene::cli_show(&name).map(|_| ExitCode::SUCCESS),
         Command::Run {
             scene,
             builtin,

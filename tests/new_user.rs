@@ -25,7 +25,12 @@ fn text(b: &[u8]) -> String {
 /// Asserts exit status 2 with one stderr line containing every `needle`; returns stderr.
 fn refused(o: &Output, needles: &[&str]) -> String {
     let err = text(&o.stderr);
-    assert_eq!(o.status.code(), Some(2), "expected a refusal, got {:?}: {err}", o.status);
+    assert_eq!(
+        o.status.code(),
+        Some(2),
+        "expected a refusal, got {:?}: {err}",
+        o.status
+    );
     for n in needles {
         assert!(err.contains(n), "message lacks {n:?}: {err}");
     }
@@ -61,11 +66,18 @@ fn validate_with_no_cases_fails() {
 #[test]
 fn packing_that_cannot_compress_is_refused() {
     let d = scratch("absurd-packing");
-    let o = run_scene(&d, "kind = \"packing\"\n[mcm]\ndelta_v_per_particle = 1e6\n", &[]);
+    let o = run_scene(
+        &d,
+        "kind = \"packing\"\n[mcm]\ndelta_v_per_particle = 1e6\n",
+        &[],
+    );
     refused(&o, &["delta_v_per_particle = 1000000", "free volume"]);
     let o = run_scene(&d, "kind = \"packing\"\n[mcm]\nbeta = 100.0\n", &[]);
     refused(&o, &["beta = 100", "below 2"]);
-    assert!(!d.join("out").exists(), "a refused scene left its output folder");
+    assert!(
+        !d.join("out").exists(),
+        "a refused scene left its output folder"
+    );
 }
 
 #[test]
@@ -83,7 +95,11 @@ fn bench_field_with_no_oracle_sample_is_refused() {
 fn memory_and_threads_are_checked_up_front() {
     let d = scratch("expensive");
     if porelab::scene::available_memory_bytes().is_some() {
-        let o = run_scene(&d, "kind = \"packing\"\n[particles]\nn = 100000000000\n", &[]);
+        let o = run_scene(
+            &d,
+            "kind = \"packing\"\n[particles]\nn = 100000000000\n",
+            &[],
+        );
         refused(&o, &["n = 100000000000", "bytes", "memory available"]);
     } else {
         eprintln!("skipped the memory check: /proc/meminfo is not readable here");
@@ -126,10 +142,19 @@ fn messages_name_the_key_value_and_rule() {
             !err.contains("Mie epsilon") && !err.contains("0x0") && !err.contains("Table 6.1"),
             "{err}"
         );
-        assert!(!d.join("out").exists(), "refused scene left a folder: {scene}");
+        assert!(
+            !d.join("out").exists(),
+            "refused scene left a folder: {scene}"
+        );
     }
     let o = porelab()
-        .args(["drag", "--semi-axes", "1e-300,1,1e300", "--viscosity", "1e-3"])
+        .args([
+            "drag",
+            "--semi-axes",
+            "1e-300,1,1e300",
+            "--viscosity",
+            "1e-3",
+        ])
         .output()
         .unwrap();
     let err = refused(&o, &["semi-axes", "smallest / largest"]);
@@ -198,14 +223,27 @@ fn contact_far_apart_is_finite_and_zero_length_rods_are_spheres() {
     // L = 0: the sphere-sphere gap |(2, 0.5, 0)| - 1, as `porelab shape` treats it as a sphere.
     let gap = lines[3]["gap"].as_f64().unwrap();
     let exact = (4.25f64).sqrt() - 1.0;
-    assert!((gap - exact).abs() <= 4.0 * f64::EPSILON, "{gap} vs {exact}");
+    assert!(
+        (gap - exact).abs() <= 4.0 * f64::EPSILON,
+        "{gap} vs {exact}"
+    );
     let o = porelab()
-        .args(["shape", "spherocylinder", "--radius", "0.5", "--length", "0"])
+        .args([
+            "shape",
+            "spherocylinder",
+            "--radius",
+            "0.5",
+            "--length",
+            "0",
+        ])
         .output()
         .unwrap();
     let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
     let vol = v["volume"].as_f64().unwrap();
-    assert!((vol - std::f64::consts::PI / 6.0).abs() <= 2.0 * f64::EPSILON, "{vol}");
+    assert!(
+        (vol - std::f64::consts::PI / 6.0).abs() <= 2.0 * f64::EPSILON,
+        "{vol}"
+    );
 }
 
 #[test]
@@ -236,7 +274,11 @@ fn brownian_summary_spells_choices_as_the_scene_does() {
                  [hydrodynamics]\nmobility = \"free-draining\"\n";
     let o = run_scene(&d, scene, &["--threads", "1"]);
     assert!(o.status.success(), "{}", text(&o.stderr));
-    assert!(text(&o.stdout).contains("alpha = 90.0 deg"), "{}", text(&o.stdout));
+    assert!(
+        text(&o.stdout).contains("alpha = 90.0 deg"),
+        "{}",
+        text(&o.stdout)
+    );
     let s: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(d.join("out/summary.json")).unwrap())
             .unwrap();

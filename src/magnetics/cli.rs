@@ -136,9 +136,7 @@ pub fn run_field(args: &FieldArgs) -> Result<ExitCode> {
     let stdout = std::io::stdout();
     let mut out = std::io::BufWriter::new(stdout.lock());
     // Units in the column names, as in every porelab table.
-    let mut header = String::from(
-        "x_m,y_m,z_m,Hx_A_per_m,Hy_A_per_m,Hz_A_per_m,Bx_T,By_T,Bz_T",
-    );
+    let mut header = String::from("x_m,y_m,z_m,Hx_A_per_m,Hy_A_per_m,Hz_A_per_m,Bx_T,By_T,Bz_T");
     if args.gradient {
         for i in ["x", "y", "z"] {
             for j in ["x", "y", "z"] {

@@ -233,24 +233,6 @@ impl McmParams {
                 self.beta
             ));
         }
-        // One compression step must leave free volume: Delta V below the start box's volume
-        // minus the particles' volume (otherwise the first step, and every halving of it,
-        // fails and the run ends at phi0 having compressed nothing).
-        // (A particle table that has no volume is reported by its own check below.)
-        // (No per-particle table is built here: n may be refused for its memory later.)
-        let mean_volume = match &self.particles {
-            Some(p) => p.total_volume().unwrap_or(f64::NAN) / self.n as f64,
-            None => particle_volume(self.length),
-        };
-        let free_per_particle = mean_volume * (1.0 / self.phi0 - 1.0);
-        if self.delta_v_per_particle >= free_per_particle {
-            return invalid(format!(
-                "delta_v_per_particle = {} D^3: must be below the free volume per particle of \
-                 the start, {free_per_particle:.4} D^3 (mean particle volume x (1/phi0 - 1), \
-                 phi0 = {})",
-                self.delta_v_per_particle, self.phi0
-            ));
-        }
         if let Some(b) = self.stage_budget_per_particle {
             if !(b.is_finite() && b >= self.tries_per_particle) {
                 return invalid(format!(
@@ -288,6 +270,23 @@ impl McmParams {
                     );
                 }
             }
+        }
+        // One compression step must leave free volume: Delta V below the start box's volume
+        // minus the particles' volume (otherwise the first step, and every halving of it,
+        // fails and the run ends at phi0 having compressed nothing).
+        // (No per-particle table is built here: n may be refused for its memory later.)
+        let mean_volume = match &self.particles {
+            Some(p) => p.total_volume().unwrap_or(f64::NAN) / self.n as f64,
+            None => particle_volume(self.length),
+        };
+        let free_per_particle = mean_volume * (1.0 / self.phi0 - 1.0);
+        if self.delta_v_per_particle >= free_per_particle {
+            return invalid(format!(
+                "delta_v_per_particle = {} D^3: must be below the free volume per particle of \
+                 the start, {free_per_particle:.4} D^3 (mean particle volume x (1/phi0 - 1), \
+                 phi0 = {})",
+                self.delta_v_per_particle, self.phi0
+            ));
         }
         if self.final_stage.is_some() {
             self.stage_params(1)

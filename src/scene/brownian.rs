@@ -448,9 +448,16 @@ impl Scene {
                  strength forces.mie_epsilon_kT is in units of kB T; or set forces.mie = false)"
             ));
         }
-        let key = if self.sweep.radius_m.is_empty() { "particles.radius_m" } else { "sweep.radius_m" };
+        let key = if self.sweep.radius_m.is_empty() {
+            "particles.radius_m"
+        } else {
+            "sweep.radius_m"
+        };
         if !(c.radius_m.is_finite() && c.radius_m > 0.0) {
-            return invalid(format!("{key} = {:e} m: must be positive and finite", c.radius_m));
+            return invalid(format!(
+                "{key} = {:e} m: must be positive and finite",
+                c.radius_m
+            ));
         }
         let count = self.particle_count();
         if count == 0 {

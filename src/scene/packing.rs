@@ -1165,7 +1165,8 @@ fn read_checkpoint(path: &Path, scene: &PackingScene) -> Result<(McmState, f64)>
         path: path.display().to_string(),
         msg,
     };
-    let text = std::fs::read(path).map_err(|e| file_err(format!("cannot read the checkpoint: {e}")))?;
+    let text =
+        std::fs::read(path).map_err(|e| file_err(format!("cannot read the checkpoint: {e}")))?;
     let c: Checkpoint = serde_json::from_slice(&text)
         .map_err(|e| file_err(format!("not a packing checkpoint: {e}")))?;
     if c.format != 2 {
