@@ -47,6 +47,9 @@ enum Command {
         /// List the built-in scenes.
         #[arg(long)]
         list: bool,
+        /// Print the built-in scene of this name (TOML) to start a scene file from.
+        #[arg(long, value_name = "NAME")]
+        show: Option<String>,
         /// Output folder (default target/porelab/run/<scene name>/).
         #[arg(long)]
         out: Option<std::path::PathBuf>,
@@ -106,9 +109,13 @@ fn main() -> ExitCode {
         Command::Shape(args) => porelab::shape::cli::run_shape(&args),
         Command::Drag(args) => porelab::hydro::cli::run_drag(&args),
         Command::Run {
+            show: Some(name), ..
+        } => porelab::scene::cli_show(&name).map(|_| ExitCode::SUCCESS),
+        Command::Run {
             scene,
             builtin,
             list,
+            show: None,
             out,
             threads,
             quiet,

@@ -1,4 +1,4 @@
-//! Stress tests of the Brownian-dynamics engine (issue 4, section 5): a time step too large for
+//! Stress tests of the Brownian-dynamics engine: a time step too large for
 //! the repulsion is refused (or sub-stepped) and never blows up; initial overlaps and a failed
 //! Cholesky factorisation name the offending pair; results do not depend on the thread count;
 //! dense hydrodynamic runs stay finite; the cylinder field plugs in as a force source.

@@ -6,7 +6,7 @@
 //!
 //! Asserted: no wrong sign is ever returned (a result whose sign differs from delta's); the
 //! gap agrees with delta to 1e-9 of the length scale when returned; the non-convergence rate
-//! (queries returning Err) is below the goal 1e-4 in the extreme sweeps (5e4 pairs
+//! (queries returning Err) is below 1e-4 (the robustness target) in the extreme sweeps (5e4 pairs
 //! without samples, 5e3 with k-d tree starts) and zero on the mild sweep (exponents 2-4,
 //! aspect 1:3). Reported: rates per sweep, worst gap error, the worst cases. The prefilter
 //! verdicts of
@@ -138,7 +138,7 @@ fn newton_raphson_stress() {
     );
     assert_eq!(w1 + w2 + w3, 0, "a wrong sign was returned");
     let rate = f1 as f64 / n1 as f64;
-    // the goal: non-convergence rate below 1e-4 (measured 0 of 5e4 on 2026-11-24)
+    // robustness target: non-convergence rate below 1e-4 (measured 0 of 5e4 on 2026-11-24)
     assert!(
         rate < 1e-4,
         "non-convergence rate {rate:.1e} above the goal 1e-4"

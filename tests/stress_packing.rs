@@ -281,7 +281,7 @@ fn tight_wedges_end_inside_and_overlap_free() {
     assert!(failures.is_empty(), "{failures:#?}");
 }
 
-/// Work-precision of the MCM (issue 5, benchmark): packing fraction reached against the try
+/// Work-precision of the MCM (benchmark): packing fraction reached against the try
 /// budget per compression step, plain schedule (beta 0.5) and over-relaxed (beta 1.3), for
 /// MCM_N spheres (default 500), printing tries, seconds and phi per budget.
 #[test]

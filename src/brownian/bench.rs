@@ -516,8 +516,9 @@ fn run_single_thread(args: &BenchArgs, sizes: &[usize]) -> Result<()> {
          eta = {VISCOSITY} Pa s, dt = {DT:e} s, Mie(30,15) eps = 100 kB T, volume fraction \
          {VOLUME_FRACTION}; timing budget {budget} s (wall clock) per point"
     );
-    let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("target/porelab");
-    std::fs::create_dir_all(&dir)?;
+    // Under the working folder, like every other output (not the build's source path).
+    let dir = std::path::Path::new("target/porelab");
+    std::fs::create_dir_all(dir)?;
 
     // 1. Throughput.
     let tp = throughput(sizes, budget)?;

@@ -121,7 +121,7 @@ impl Simulation {
 
     /// Human-readable list of the terms that are built and used.
     pub fn active_terms(&self) -> Vec<String> {
-        let mut t = vec![format!("mobility: {:?}", self.hydrodynamics)];
+        let mut t = vec![format!("mobility: {}", self.hydrodynamics.scene_name())];
         if self.params.temperature > 0.0 {
             t.push(match self.hydrodynamics {
                 Hydrodynamics::FreeDraining => "noise: independent (no HI)".to_string(),

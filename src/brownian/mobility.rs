@@ -22,6 +22,17 @@ pub enum Hydrodynamics {
     Rpy,
 }
 
+impl Hydrodynamics {
+    /// The name a scene file uses for it (`[hydrodynamics] mobility`).
+    pub fn scene_name(self) -> &'static str {
+        match self {
+            Hydrodynamics::FreeDraining => "free-draining",
+            Hydrodynamics::Oseen => "oseen",
+            Hydrodynamics::Rpy => "rpy",
+        }
+    }
+}
+
 /// Stokes mobility 1 / (6 pi eta a) of one sphere (m/(N s)).
 pub fn stokes_mobility(viscosity: f64, radius: f64) -> Result<f64> {
     if !(viscosity.is_finite() && viscosity > 0.0) {

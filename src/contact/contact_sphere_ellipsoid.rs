@@ -33,7 +33,7 @@ pub fn closest_point_ellipsoid(p: &Vector3<f64>, a: &[f64; 3]) -> (Vector3<f64>,
     if !inside {
         lo = 0.0;
         let amax = a.iter().cloned().fold(0.0, f64::max);
-        hi = amax * p.norm();
+        hi = amax * super::norm_no_overflow(p);
     } else {
         let m = (0..3)
             .min_by(|&i, &j| a[i].partial_cmp(&a[j]).unwrap())
@@ -96,7 +96,7 @@ pub fn contact_sphere_ellipsoid(c: &Vector3<f64>, r: f64, pb: &Pose, axes: [f64;
     );
     let nu = pb.orientation * nu_local.normalize();
     let normal = -nu;
-    let dist = (x - p).norm();
+    let dist = super::norm_no_overflow(&(x - p));
     let gap = if inside { -dist - r } else { dist - r };
     Contact {
         point_a: c + r * normal,

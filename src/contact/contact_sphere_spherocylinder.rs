@@ -33,7 +33,7 @@ pub fn contact_sphere_spherocylinder(
     let s1 = pb.position + 0.5 * lb * u;
     let q = closest_point_segment(c, &s0, &s1);
     let d = q - c;
-    let dist = d.norm();
+    let dist = super::norm_no_overflow(&d);
     let normal = if dist > 0.0 {
         d / dist
     } else {

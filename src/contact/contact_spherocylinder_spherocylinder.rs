@@ -125,7 +125,7 @@ pub fn contact_spherocylinder_spherocylinder(
     let (q0, q1) = (pb.position - 0.5 * lb * ub, pb.position + 0.5 * lb * ub);
     let (_, _, p, q) = closest_points_segments(&p0, &p1, &q0, &q1);
     let d = q - p;
-    let dist = d.norm();
+    let dist = super::norm_no_overflow(&d);
     let normal = if dist > 0.0 {
         d / dist
     } else {

@@ -173,6 +173,21 @@ pub enum ContactShape {
     },
 }
 
+/// |v| without the overflow or underflow of the squares: the plain norm (bit for bit) when it
+/// is finite and not a spurious 0, else the norm of v scaled by its largest component (pairs
+/// 1e160 apart still get a finite gap, normal and points).
+pub fn norm_no_overflow(v: &Vector3<f64>) -> f64 {
+    let n = v.norm();
+    if n.is_finite() && (n > 0.0 || *v == Vector3::zeros()) {
+        return n;
+    }
+    let m = v.amax();
+    if !(m.is_finite() && m > 0.0) {
+        return n;
+    }
+    m * (v / m).norm()
+}
+
 fn positive(v: f64, what: &str) -> ContactResult<()> {
     if v.is_finite() && v > 0.0 {
         Ok(())
@@ -190,7 +205,14 @@ impl ContactShape {
             ContactShape::Sphere { radius } => positive(radius, "radius"),
             ContactShape::Spherocylinder { radius, length } => {
                 positive(radius, "radius")?;
-                positive(length, "length")
+                // L = 0 is a sphere, as in `shape::Spherocylinder` (the segment is a point).
+                if length.is_finite() && length >= 0.0 {
+                    Ok(())
+                } else {
+                    Err(ContactError::Invalid(format!(
+                        "length = {length}: must be finite and >= 0 (0 is a sphere)"
+                    )))
+                }
             }
             ContactShape::Ellipsoid { semi_axes } => {
                 for (k, a) in semi_axes.iter().enumerate() {

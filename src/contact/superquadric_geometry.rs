@@ -29,7 +29,7 @@ fn integer_exponent(p: f64) -> Option<u32> {
 /// a^b by binary powering in the order of `f64::powi` (compiler-builtins' `__powidf2`: square
 /// a, multiply the set bits of b into the result from the lowest), so bitwise the same value
 /// (tested below), but inlined: the call to `__powidf2` took 9% of a gamma = 5 superball
-/// packing (perf, session 9); inlined, 50 superballs of gamma 5 (case 509's schedule) took
+/// packing (perf); inlined, 50 superballs of gamma 5 (case 509's schedule) took
 /// 19.46 against 20.13 CPU s (means of 4 runs, same final.xyz).
 #[inline]
 fn powi_inline(mut a: f64, mut b: u32) -> f64 {

@@ -46,6 +46,20 @@ pub fn principal_resistances(semi_axes: [f64; 3], viscosity: f64) -> Result<[f64
     check_viscosity(viscosity)?;
     check_axes(&semi_axes)?;
     let s = semi_axes.iter().cloned().fold(0.0, f64::max);
+    // eq. A11 takes R_F and R_D of the squared axis ratios; a ratio below sqrt(MIN_POSITIVE)
+    // squares to a subnormal or 0, where Carlson's integrals are undefined or lose all digits.
+    let smallest = semi_axes.iter().cloned().fold(f64::INFINITY, f64::min);
+    let min_ratio = f64::MIN_POSITIVE.sqrt();
+    if smallest / s < min_ratio {
+        return invalid(format!(
+            "semi-axes ({:e}, {:e}, {:e}) m: smallest / largest = {:e} must be at least {min_ratio:.3e} \
+             (the squared axis ratios of seed 000 eq. A11 must be normal f64 numbers)",
+            semi_axes[0],
+            semi_axes[1],
+            semi_axes[2],
+            smallest / s
+        ));
+    }
     let q = semi_axes.map(|x| (x / s) * (x / s));
     let rf = carlson_rf(q[0], q[1], q[2])?;
     let mut out = [0.0; 3];

@@ -11,15 +11,31 @@ use std::path::Path;
 /// reader never sees a half-written file.
 pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<()> {
     let dir = path.parent().unwrap_or_else(|| Path::new("."));
-    std::fs::create_dir_all(dir)?;
+    create_dir(dir)?;
     let name = path
         .file_name()
         .map(|n| n.to_string_lossy().into_owned())
         .unwrap_or_default();
     let tmp = dir.join(format!(".{name}.tmp{}", std::process::id()));
-    std::fs::write(&tmp, bytes)?;
-    std::fs::rename(&tmp, path)?;
+    let named = |p: &Path, what: &str, e: std::io::Error| Error::File {
+        path: p.display().to_string(),
+        msg: format!("cannot {what}: {e}"),
+    };
+    std::fs::write(&tmp, bytes).map_err(|e| named(&tmp, "write", e))?;
+    std::fs::rename(&tmp, path).map_err(|e| {
+        let _ = std::fs::remove_file(&tmp);
+        named(path, "write (rename from its temporary file)", e)
+    })?;
     Ok(())
+}
+
+/// `create_dir_all` whose error names the folder (an output folder that is a file, or under
+/// a path that cannot hold folders, such as /proc).
+pub fn create_dir(dir: &Path) -> Result<()> {
+    std::fs::create_dir_all(dir).map_err(|e| Error::File {
+        path: dir.display().to_string(),
+        msg: format!("cannot create the output folder: {e}"),
+    })
 }
 
 /// Parses "x,y,z" into three finite numbers; `option` names the option in the error.

@@ -2,7 +2,7 @@
 //! orthorhombic cell (a periodic cubic box, or the bounding box of a cylinder, periodic along
 //! its axis only).
 //!
-//! Header line 2 (README, "Packing scenes and outputs", lists every column):
+//! Header line 2 (README, "Output formats", lists every column):
 //! `Lattice="Lx 0 0 0 Ly 0 0 0 Lz" Origin="x0 y0 z0" pbc="T T T"
 //! Properties=species:S:1:pos:R:3:orientation:R:4:aspherical_shape:R:3:radius:R:1:cylinder_length:R:1:roundness:R:2`
 //! plus any `key=value` pairs the caller adds. Orientation is the body-to-world unit quaternion

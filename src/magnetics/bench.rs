@@ -77,6 +77,12 @@ pub fn run(args: &BenchArgs) -> Result<()> {
     if args.points == 0 {
         return crate::error::invalid("--points must be at least 1");
     }
+    if args.sample == 0 {
+        // With no point checked the reported error would be 0 with nothing checked.
+        return crate::error::invalid(
+            "--sample 0: at least one point must be checked against the oracle",
+        );
+    }
     let (r, l) = (1.0, 2.0);
     let cyl = Cylinder::new(r, l)?;
     let pts = random_points(args.points, 20261124);
@@ -158,8 +164,9 @@ pub fn run(args: &BenchArgs) -> Result<()> {
     for (name, gradient, rate) in &oracle_rates {
         println!("  {name:<13} gradient={gradient:<5} {rate:.3e} points/s");
     }
-    let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("target/porelab");
-    std::fs::create_dir_all(&dir)?;
+    // Under the working folder, like every other output (not the build's source path).
+    let dir = std::path::Path::new("target/porelab");
+    std::fs::create_dir_all(dir)?;
     let path = dir.join("bench-field.csv");
     crate::io::write_atomic(&path, csv.as_bytes())?;
     println!("wrote {}", path.display());

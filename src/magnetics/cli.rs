@@ -1,8 +1,8 @@
 //! `porelab field`: the field of one posed cylinder at the points of a CSV file.
 //!
-//! Input: CSV with header `x,y,z` (m). Output on stdout: CSV with header
-//! `x,y,z,Hx,Hy,Hz,Bx,By,Bz` (A/m, T) and, with `--gradient`, nine more columns
-//! `dHx_dx,...,dHz_dz` (A/m^2), 17 significant digits. Bad input is one line on stderr naming
+//! Input: CSV with header `x,y,z` or `x_m,y_m,z_m` (m). Output on stdout: CSV with header
+//! `x_m,y_m,z_m,Hx_A_per_m,Hy_A_per_m,Hz_A_per_m,Bx_T,By_T,Bz_T` and, with `--gradient`, nine
+//! more columns `dHx_dx_A_per_m2,...,dHz_dz_A_per_m2`, 17 significant digits. Bad input is one line on stderr naming
 //! the problem (and the CSV line) with exit status 2 (see `main.rs`).
 
 use super::{Cylinder, Magnet};
@@ -57,9 +57,9 @@ pub fn read_points(path: &std::path::Path) -> Result<Vec<Vector3<f64>>> {
         .next()
         .ok_or_else(|| file_err("empty file: expected header x,y,z".into()))?;
     let cols: Vec<&str> = header.split(',').map(str::trim).collect();
-    if cols != ["x", "y", "z"] {
+    if cols != ["x", "y", "z"] && cols != ["x_m", "y_m", "z_m"] {
         return Err(file_err(format!(
-            "line 1: header must be x,y,z (metres), found '{header}'"
+            "line 1: header must be x,y,z or x_m,y_m,z_m (metres), found '{header}'"
         )));
     }
     let mut points = Vec::new();
@@ -135,9 +135,14 @@ pub fn run_field(args: &FieldArgs) -> Result<ExitCode> {
     }
     let stdout = std::io::stdout();
     let mut out = std::io::BufWriter::new(stdout.lock());
-    let mut header = String::from("x,y,z,Hx,Hy,Hz,Bx,By,Bz");
+    // Units in the column names, as in every porelab table.
+    let mut header = String::from("x_m,y_m,z_m,Hx_A_per_m,Hy_A_per_m,Hz_A_per_m,Bx_T,By_T,Bz_T");
     if args.gradient {
-        header.push_str(",dHx_dx,dHx_dy,dHx_dz,dHy_dx,dHy_dy,dHy_dz,dHz_dx,dHz_dy,dHz_dz");
+        for i in ["x", "y", "z"] {
+            for j in ["x", "y", "z"] {
+                header.push_str(&format!(",dH{i}_d{j}_A_per_m2"));
+            }
+        }
     }
     writeln!(out, "{header}")?;
     for row in rows {

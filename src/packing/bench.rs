@@ -25,7 +25,7 @@
 //!    from 4000 N moves to unbounded, seeds 1..=`--seeds`: packing fraction and contacts
 //!    reached against the moves spent.
 //!
-//! Peer (issue 5): PackingGeneration (force-biased + Lubachevsky-Stillinger) jams N = 1000
+//! Peer: PackingGeneration (force-biased + Lubachevsky-Stillinger) jams N = 1000
 //! spheres to phi = 0.637 with about 5.6 contacts in about 8 s and N = 10000 to 0.639 in about
 //! 110 s on this class of machine; it is not installed here, so only porelab is timed.
 //!
@@ -56,8 +56,8 @@ pub struct BenchArgs {
 }
 
 const SIZES: [usize; 8] = [250, 500, 1000, 2000, 5000, 10000, 20000, 40000];
-/// The sizes from which a move costs the same (session 9: moves per CPU second 6.0-6.4e6 up
-/// to N = 2000, 5.1-5.2e6 from 5000 on): the fit over them is the asymptotic exponent.
+/// The sizes from which a move costs the same (measured with commit fcc0f8b: moves per CPU
+/// second 6.0-6.4e6 up to N = 2000, 5.1-5.2e6 from 5000 on): the fit over them is the asymptotic exponent.
 const LARGE_N: usize = 5000;
 const SEED: u64 = 1;
 /// Contact cut-offs for the extrapolation to zero (thesis sec. 2.2.5: 1e-8 ... 1e-5).
@@ -115,7 +115,8 @@ struct Timed {
 }
 
 impl Timed {
-    /// The issue's goal for N = 1000 spheres: phi >= 0.635 with >= 5.5 contacts.
+    /// The target for N = 1000 spheres, PackingGeneration's quoted result (bench docs above):
+    /// phi >= 0.635 with >= 5.5 contacts.
     fn meets_goal(&self) -> bool {
         self.phi >= 0.635 && self.contacts0 >= 5.5
     }
@@ -175,7 +176,7 @@ fn ns_per_move(engine_cpu_seconds: f64, moves_per_particle: f64, n: usize) -> f6
     1e9 * engine_cpu_seconds / (moves_per_particle * n as f64)
 }
 
-/// For every pair of swept sizes N and 10 N (the issue's scaling goal: T(10 N) <= 10 T(N)),
+/// For every pair of swept sizes N and 10 N (linear scaling would give T(10 N) <= 10 T(N)),
 /// the engine CPU ratio and its two factors: T(10 N) / T(N) = 10 x (moves per particle ratio)
 /// x (CPU seconds per move ratio). `sweep` rows: (N, CPU s, moves per particle, engine CPU s).
 fn tenfold_steps(sweep: &[(f64, f64, f64, f64)]) -> Vec<String> {
@@ -256,7 +257,7 @@ pub fn run_bench(args: &BenchArgs) -> Result<()> {
             row(&format!("spheres s{seed}"), n, 1, r);
             runs.push(r);
         }
-        // The issue's two sizes; the relaxation's force loop goes to the pool only from
+        // PackingGeneration's two quoted sizes; the relaxation's force loop goes to the pool only from
         // relax::PARALLEL_MIN_PARTICLES (5000) on, so at N = 1000 the second thread serves the
         // analysis alone.
         if n == 1000 || n == 10000 {

@@ -160,7 +160,7 @@ impl McmParams {
     /// relaxation ([`Scheme::Relax`], FIRE initial step 0.1) from Delta V = 0.001 N halved 4
     /// times with 2000 N tries per step and at most 25000 N moves in all, which settles the
     /// contact network. The stage budget bounds the moves per particle, which otherwise grow with
-    /// N as the relaxation creeps on near jamming (README "Creep near jamming").
+    /// N as the relaxation creeps on near jamming (README.md at commit 2c48ccd, "Creep near jamming").
     pub fn jammed_spheres(n: usize, seed: u64) -> McmParams {
         let relax = Stage {
             scheme: Scheme::Relax,
@@ -224,6 +224,15 @@ impl McmParams {
                 return invalid(format!("{name} = {v}: must be positive and finite"));
             }
         }
+        // eq. 2.10: a move by beta times an overlap leaves |1 - beta| of it, so from beta = 2 on
+        // no move reduces an overlap and a "jammed" end would mean no compression at all.
+        if self.beta >= 2.0 {
+            return invalid(format!(
+                "beta = {}: must be below 2 (a move of beta times the overlap leaves |1 - beta| \
+                 of it; eq. 2.10, typically 0.5, over-relaxation up to about 1.5)",
+                self.beta
+            ));
+        }
         if let Some(b) = self.stage_budget_per_particle {
             if !(b.is_finite() && b >= self.tries_per_particle) {
                 return invalid(format!(
@@ -261,6 +270,23 @@ impl McmParams {
                     );
                 }
             }
+        }
+        // One compression step must leave free volume: Delta V below the start box's volume
+        // minus the particles' volume (otherwise the first step, and every halving of it,
+        // fails and the run ends at phi0 having compressed nothing).
+        // (No per-particle table is built here: n may be refused for its memory later.)
+        let mean_volume = match &self.particles {
+            Some(p) => p.total_volume().unwrap_or(f64::NAN) / self.n as f64,
+            None => particle_volume(self.length),
+        };
+        let free_per_particle = mean_volume * (1.0 / self.phi0 - 1.0);
+        if self.delta_v_per_particle >= free_per_particle {
+            return invalid(format!(
+                "delta_v_per_particle = {} D^3: must be below the free volume per particle of \
+                 the start, {free_per_particle:.4} D^3 (mean particle volume x (1/phi0 - 1), \
+                 phi0 = {})",
+                self.delta_v_per_particle, self.phi0
+            ));
         }
         if self.final_stage.is_some() {
             self.stage_params(1)
@@ -1103,7 +1129,7 @@ fn random_sequential_addition(
 /// follow the index order, and every neighbour list read nearby memory; the compression
 /// scales positions and keeps the order coherent. The relaxation renumbers its own copy at
 /// every step already. Built-in sphere scene, seed 1, one thread, ns of CPU per move without
-/// / with the renumbering (same session; the trajectories differ, so the moves do too):
+/// / with the renumbering (measured in one run; the trajectories differ, so the moves do too):
 /// N = 1000 133, 133 / 141, 136; 2000 143, 139 / 138, 135; 5000 145, 152 / 138, 140; 10000
 /// 150, 147 / 142, 146; 20000 164 / 139 (101.1 against 86.3 CPU s). Without it the cost of a
 /// move grows with N as the arrays outgrow the cache; with it the cost is flat. Below 5000

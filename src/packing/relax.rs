@@ -372,7 +372,7 @@ struct RangeScratch {
 /// N = 10000 39.1-39.2 against 35.7-36.6. The opposite terms went first to a buffer of one
 /// slot per list entry (24 bytes each, the largest array of the descent) and were summed at
 /// j's turn; adding them to j's force at once gives the same sums in the same order without
-/// it (session 14, figures in README "Benchmark"). Writes `force`; returns (deepest overlap,
+/// it (benches/RESULTS.md, packing). Writes `force`; returns (deepest overlap,
 /// largest |force|).
 fn sphere_forces_pairwise(
     p: &Packing,

@@ -227,7 +227,7 @@ fn wall_overlaps_are_removed_by_virtual_particles() {
 
 #[test]
 fn cylinder_run_is_overlap_free_and_inside() {
-    // (The revised scheme at dt = 0.1 compacts little within 100 N tries; README.)
+    // (The revised scheme at dt = 0.1 compacts little within 100 N tries; README.md at commit 2c48ccd.)
     for (length, scheme) in [(0.0, Scheme::Original), (1.0, Scheme::Original)] {
         let mut prm = quick(60, length, 8, scheme, 0.05, 3, 100.0);
         prm.container = Container::Cylinder { diameter: 3.5 };
@@ -366,8 +366,8 @@ fn small_superball_packing_is_overlap_free_by_the_sampled_check() {
 }
 
 /// A dense polydisperse packing (diameters 0.5-1.5, one species per particle, original scheme
-/// with beta 1.3 to compact hard, then optionally the collective relaxation) ends overlap-free by the brute-force check (issue 5,
-/// stress: dense polydisperse mixtures).
+/// with beta 1.3 to compact hard, then optionally the collective relaxation) ends overlap-free by the brute-force check (a
+/// stress test of dense polydisperse mixtures).
 #[test]
 fn dense_polydisperse_spheres_end_overlap_free() {
     use crate::contact::ContactShape as C;

@@ -1,7 +1,7 @@
 //! Brownian capture scenes (thesis 003, sections 6.3–6.4): TOML schema -> experiment -> files.
 //!
 //! Every key has the thesis default of section 6.3 unless noted; the schema is documented in
-//! README ("Brownian scenes"). `experiment` selects what runs:
+//! README ("Scene files"). `experiment` selects what runs:
 //! - `"capture"`: capture fraction against time per start region for every combination of the
 //!   `[sweep]` lists (alpha, particle radius, aspect ratio), `run.runs` runs each;
 //! - `"cascade"`: the cascade estimate, random and/or optimal (section 6.4.5);
@@ -24,7 +24,7 @@ use crate::error::{invalid, Error, Result};
 use crate::io::write_atomic;
 use indicatif::{ProgressBar, ProgressStyle};
 use nalgebra::Vector3;
-use serde::Deserialize;
+use serde::{Deserialize, Serialize};
 use std::fmt::Write as _;
 use std::path::Path;
 use std::time::Instant;
@@ -104,7 +104,7 @@ fn d_experiment() -> ExperimentKind {
 }
 
 /// String choices of the schema: serde rejects any other value, naming it and the choices.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize, Serialize)]
 #[serde(rename_all = "kebab-case")]
 enum ExperimentKind {
     Capture,
@@ -126,7 +126,7 @@ enum MomentLaw {
     Langevin,
 }
 
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize, Serialize)]
 #[serde(rename_all = "kebab-case")]
 enum PlacementKind {
     TopSide,
@@ -134,7 +134,7 @@ enum PlacementKind {
     Block,
 }
 
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize, Serialize)]
 #[serde(rename_all = "kebab-case")]
 enum MagnetizationKind {
     StonerWohlfarth,
@@ -395,6 +395,29 @@ struct Combo {
 }
 
 impl Scene {
+    /// Particles of one run.
+    fn particle_count(&self) -> usize {
+        let p = &self.particles;
+        match p.placement {
+            PlacementKind::TopSide => p.n_top + p.n_side,
+            PlacementKind::Uniform => p.n.unwrap_or(100),
+            PlacementKind::Block => p.n.unwrap_or(500),
+        }
+    }
+
+    /// Estimated memory of the runs in flight: with hydrodynamic interactions the 3N x 3N
+    /// mobility and its factor (2 x 72 N^2 bytes), plus about 1 kB a particle, per parallel run.
+    fn memory_estimate_bytes(&self, threads: usize) -> f64 {
+        let n = self.particle_count() as f64;
+        let hi = if self.hydrodynamics.mobility == MobilityKind::FreeDraining {
+            0.0
+        } else {
+            2.0 * 72.0 * n * n
+        };
+        let parallel = (self.run.runs as f64).min(threads.max(1) as f64);
+        parallel * (hi + 1024.0 * n)
+    }
+
     fn combos(&self) -> Vec<Combo> {
         let or = |v: &Vec<f64>, d: f64| if v.is_empty() { vec![d] } else { v.clone() };
         let mut out = Vec::new();
@@ -415,8 +438,37 @@ impl Scene {
     /// The experiment for one sweep point.
     fn experiment(&self, c: Combo) -> Result<CaptureExperiment> {
         let r = &self.run;
-        let params = Params::new(self.fluid.temperature_K, self.fluid.viscosity_Pa_s, r.dt_s)?;
         let p = &self.particles;
+        // Checked here by key, before a derived quantity (the Mie energy in J, the Table 6.1
+        // lookup, an empty mobility matrix) could report the problem under another name.
+        let t = self.fluid.temperature_K;
+        if self.forces.mie && !(t.is_finite() && t > 0.0) {
+            return invalid(format!(
+                "fluid.temperature_K = {t}: must be positive and finite (the Mie repulsion's \
+                 strength forces.mie_epsilon_kT is in units of kB T; or set forces.mie = false)"
+            ));
+        }
+        let key = if self.sweep.radius_m.is_empty() {
+            "particles.radius_m"
+        } else {
+            "sweep.radius_m"
+        };
+        if !(c.radius_m.is_finite() && c.radius_m > 0.0) {
+            return invalid(format!(
+                "{key} = {:e} m: must be positive and finite",
+                c.radius_m
+            ));
+        }
+        let count = self.particle_count();
+        if count == 0 {
+            return invalid(match p.placement {
+                PlacementKind::TopSide => {
+                    "particles.n_top = 0 and particles.n_side = 0: need at least one particle"
+                }
+                _ => "particles.n = 0: need at least one particle",
+            });
+        }
+        let params = Params::new(t, self.fluid.viscosity_Pa_s, r.dt_s)?;
         let moment_magnitude = match p.moment_A_m2 {
             Some(m) => m,
             None => table_6_1_moment(c.radius_m)?,
@@ -550,14 +602,19 @@ fn progress(total: u64, quiet: bool, what: &str) -> ProgressBar {
 /// Runs a Brownian scene and writes its outputs to `out`.
 pub fn run_scene(text: &str, origin: &str, out: &Path, opts: &RunOptions) -> Result<()> {
     let scene = parse(text, origin)?;
-    std::fs::create_dir_all(out)?;
     let started = Instant::now();
     let combos = scene.combos();
     // Build (and so validate) every sweep point before running anything.
     let exps = combos
         .iter()
         .map(|c| scene.experiment(*c))
-        .collect::<Result<Vec<_>>>()?;
+        .collect::<Result<Vec<_>>>()
+        .map_err(|e| match e {
+            Error::InvalidInput(m) if !m.starts_with(origin) => {
+                Error::InvalidInput(format!("{origin}: {m}"))
+            }
+            other => other,
+        })?;
     let first = &exps[0];
     let terms = if scene.experiment == ExperimentKind::CaptureVolume {
         vec!["force on a moment aligned with the local field (eq. 6.20); no dynamics".to_string()]
@@ -569,15 +626,28 @@ pub fn run_scene(text: &str, origin: &str, out: &Path, opts: &RunOptions) -> Res
             )?
             .active_terms()
     };
+    let threads = opts.threads.unwrap_or_else(rayon::current_num_threads);
+    super::check_memory(
+        origin,
+        &format!(
+            "{} particles per run, mobility \"{}\", {} runs in parallel",
+            scene.particle_count(),
+            first.hydrodynamics.scene_name(),
+            threads.min(scene.run.runs as usize)
+        ),
+        scene.memory_estimate_bytes(threads),
+    )?;
+    // Only now, with every sweep point built: a refused scene leaves no empty folder behind.
+    crate::io::create_dir(out)?;
     if !opts.quiet {
         eprintln!("porelab run {origin}: {}", scene.title);
-        eprintln!("  experiment: {:?}", scene.experiment);
+        eprintln!("  experiment: {}", serde_json::json!(scene.experiment));
         eprintln!("  active terms: {}", terms.join("; "));
     }
     let mut summary = serde_json::json!({
         "scene": origin,
         "title": scene.title,
-        "experiment": format!("{:?}", scene.experiment),
+        "experiment": scene.experiment,
         "porelab_version": env!("CARGO_PKG_VERSION"),
         "seed": scene.run.seed,
         "runs": scene.run.runs,
@@ -590,8 +660,8 @@ pub fn run_scene(text: &str, origin: &str, out: &Path, opts: &RunOptions) -> Res
             "b_T": scene.field.b_T,
             "cylinder_diameter_m": scene.cylinder.diameter_m,
             "saturation_A_per_m": scene.cylinder.saturation_a_per_m,
-            "magnetization": format!("{:?}", scene.cylinder.magnetization),
-            "placement": format!("{:?}", scene.particles.placement),
+            "magnetization": scene.cylinder.magnetization,
+            "placement": scene.particles.placement,
             "region_gap_m": scene.particles.region_gap_m,
             "region_thickness_m": scene.particles.region_thickness_m,
         },
@@ -781,13 +851,12 @@ fn run_capture(
     pb.finish_and_clear();
     write_atomic(&out.join("capture.csv"), csv.as_bytes())?;
     write_atomic(&out.join("positions.csv"), pos_csv.as_bytes())?;
-    if !opts.quiet {
-        for f in &finals {
-            eprintln!(
-                "  L/D = {}, R = {} m, alpha = {} deg: {}",
-                f["aspect_ratio"], f["radius_m"], f["alpha_deg"], f["final"]
-            );
-        }
+    // The results on stdout (even with --quiet, which hides progress), the report on stderr.
+    for f in &finals {
+        println!(
+            "L/D = {}, R = {} m, alpha = {} deg: {}",
+            f["aspect_ratio"], f["radius_m"], f["alpha_deg"], f["final"]
+        );
     }
     Ok(serde_json::Value::Array(finals))
 }
@@ -857,12 +926,10 @@ fn run_cascades(
     }
     pb.finish_and_clear();
     write_atomic(&out.join("cascade.csv"), csv.as_bytes())?;
-    if !opts.quiet {
-        eprintln!(
-            "  time to 90% capture: {}",
-            serde_json::Value::Object(summary.clone())
-        );
-    }
+    println!(
+        "time to 90% capture: {}",
+        serde_json::Value::Object(summary.clone())
+    );
     Ok(serde_json::Value::Object(summary))
 }
 

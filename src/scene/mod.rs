@@ -89,6 +89,70 @@ pub fn run_text(text: &str, origin: &str, out_stem: &str, opts: &RunOptions) -> 
     }
 }
 
+/// `porelab run --show NAME`: prints the built-in scene's TOML to stdout, to start a scene
+/// file from (`porelab run --show packing-spheres > my.toml`).
+pub fn cli_show(name: &str) -> Result<()> {
+    let all = builtins();
+    match all.iter().find(|b| b.name == name) {
+        Some(b) => {
+            print!("{}", b.toml);
+            Ok(())
+        }
+        None => {
+            let names: Vec<_> = all.iter().map(|b| b.name).collect();
+            invalid(format!(
+                "--show {name}: no built-in scene of that name (known: {})",
+                names.join(", ")
+            ))
+        }
+    }
+}
+
+/// Most worker threads `--threads` accepts per core: more only add start-up and switching
+/// cost (results do not depend on the count), and thousands of threads stall the machine.
+pub const MAX_THREADS_PER_CORE: usize = 8;
+
+/// Refuses a `--threads` of 0 or above [`MAX_THREADS_PER_CORE`] per available core.
+pub fn check_threads(threads: Option<usize>) -> Result<()> {
+    let Some(t) = threads else { return Ok(()) };
+    let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
+    let max = MAX_THREADS_PER_CORE * cores;
+    if t == 0 || t > max {
+        return invalid(format!(
+            "--threads {t}: must be between 1 and {max} ({MAX_THREADS_PER_CORE} per core, \
+             {cores} cores here); results do not depend on it"
+        ));
+    }
+    Ok(())
+}
+
+/// Memory this machine can give a run, in bytes: `MemAvailable` of /proc/meminfo (None where
+/// that cannot be read, e.g. off Linux).
+pub fn available_memory_bytes() -> Option<f64> {
+    let text = std::fs::read_to_string("/proc/meminfo").ok()?;
+    let line = text.lines().find(|l| l.starts_with("MemAvailable:"))?;
+    let kib: f64 = line.split_whitespace().nth(1)?.parse().ok()?;
+    Some(kib * 1024.0)
+}
+
+/// Refuses, before anything is allocated, a run whose estimated memory (`bytes`, from `what`,
+/// which names the keys and the estimate) exceeds what the machine has available.
+pub fn check_memory(origin: &str, what: &str, bytes: f64) -> Result<()> {
+    let Some(avail) = available_memory_bytes() else {
+        return Ok(());
+    };
+    if bytes > avail {
+        return invalid(format!(
+            "{origin}: {what} needs about {:.3e} bytes ({:.1} GB), more than the {:.1} GB of \
+             memory available here: make the run smaller",
+            bytes,
+            bytes / 1e9,
+            avail / 1e9
+        ));
+    }
+    Ok(())
+}
+
 /// `porelab run`: a scene file, or a built-in scene by name, or the list of built-ins.
 pub fn cli_run(
     file: Option<&Path>,
@@ -96,6 +160,7 @@ pub fn cli_run(
     list: bool,
     opts: &RunOptions,
 ) -> Result<()> {
+    check_threads(opts.threads)?;
     if list {
         for b in builtins() {
             println!("{:<28} {}", b.name, b.about);

@@ -49,7 +49,7 @@
 //! s4_trials = 2000                 # trial directions of the S4 maximisation (eq. 4.17)
 //! ```
 //!
-//! Outputs in the output folder (README, "Packing outputs"): `final.xyz` (extended XYZ),
+//! Outputs in the output folder (README, "Output formats"): `final.xyz` (extended XYZ),
 //! `summary.json`, `phi_history.csv`, `gr.csv`, and `checkpoint.json`, written atomically after
 //! every compression step. When `checkpoint.json` is present, `porelab run` resumes from it
 //! (after checking that it was written by the same scene) and reaches bitwise the same
@@ -336,6 +336,18 @@ pub fn parse_scene(text: &str, origin: &str) -> Result<PackingScene> {
                         .into(),
                 );
             };
+            // Thesis Fig. 2.3: the right triangular prism 0 <= y <= x tan(alpha), x <= l_w.
+            if !(angle.is_finite() && angle > 0.0 && angle < 90.0) {
+                return bad(format!(
+                    "container.angle_deg = {angle}: must be in (0, 90) degrees (the wedge is the \
+                     right triangular prism 0 <= y <= x tan(alpha), thesis Fig. 2.3)"
+                ));
+            }
+            if !(length.is_finite() && length > 0.0) {
+                return bad(format!(
+                    "container.length = {length}: must be positive and finite (D)"
+                ));
+            }
             Container::Wedge {
                 length,
                 angle_rad: angle.to_radians(),
@@ -440,10 +452,14 @@ fn bad_particles(origin: &str) -> impl Fn(String) -> Result<(usize, f64, Option<
 
 /// True when every particle is a sphere (rattlers have fewer than 4 contacts, else 5).
 fn all_spheres(p: &McmParams) -> bool {
-    p.particles()
-        .shapes
-        .iter()
-        .all(|s| matches!(s, ContactShape::Sphere { .. }))
+    match &p.particles {
+        // Equal particles: no table of n entries is built before the memory check.
+        None => p.length == 0.0,
+        Some(t) => t
+            .shapes
+            .iter()
+            .all(|s| matches!(s, ContactShape::Sphere { .. })),
+    }
 }
 
 /// The particles of a scene: (n, cylinder length, None) for the single-shape keys
@@ -658,7 +674,14 @@ fn run_scene_limited(
     }
     let scene = parse_scene(text, origin)?;
     let prm = &scene.params;
-    std::fs::create_dir_all(out)?;
+    // Upper estimate: a 40000-sphere run holds about 30 MB (750 bytes a particle: state,
+    // neighbour lists, the relaxation's arrays); 2 kB a particle leaves room for rods' longer
+    // lists and the analysis.
+    super::check_memory(
+        origin,
+        &format!("particles n = {} (about 2 kB per particle)", prm.n),
+        2048.0 * prm.n as f64,
+    )?;
     let ckpt_path = out.join("checkpoint.json");
     let (mut state, mut seconds) = if ckpt_path.exists() {
         let c = read_checkpoint(&ckpt_path, &scene)?;
@@ -676,6 +699,8 @@ fn run_scene_limited(
         let start = packing::random_start_of(prm.container, prm.particles(), prm.phi0, prm.seed)?;
         (McmState::new(start, prm)?, 0.0)
     };
+    // Only now, with the scene and its start checked: a refused scene leaves no empty folder.
+    crate::io::create_dir(out)?;
     if !opts.quiet {
         eprintln!(
             "packing: {} particles ({}), {:?} scheme (eq. {}), {}, seed {}; stages: {}",
@@ -761,8 +786,9 @@ fn run_scene_limited(
             scene.rattler_min_contacts
         );
     }
+    // The result on stdout (even with --quiet, which hides progress), the report on stderr.
+    println!("{summary}");
     if !opts.quiet {
-        eprintln!("{summary}");
         eprintln!("outputs in {}", out.display());
     }
     Ok(())
@@ -806,7 +832,7 @@ fn describe_particles(p: &Particles) -> String {
 }
 
 /// The XYZ columns of one particle shape: type name, OVITO Aspherical Shape, radius (bounding
-/// radius for non-rods), cylinder length and Superquadric Roundness (README lists them).
+/// radius for non-rods), cylinder length and Superquadric Roundness (README "Output formats" lists them).
 fn xyz_columns(s: &ContactShape) -> (&'static str, [f64; 3], f64, f64, [f64; 2]) {
     match *s {
         ContactShape::Sphere { radius } => ("S", [radius; 3], radius, 0.0, [1.0, 1.0]),
@@ -926,6 +952,10 @@ pub fn measure(
 struct Summary<'a> {
     scene: &'a str,
     title: &'a str,
+    porelab_version: &'static str,
+    /// Worker threads of the run (the analysis and the relaxation's force loop); the results
+    /// do not depend on it.
+    threads: usize,
     shape: &'static str,
     n: usize,
     /// Equal spheres / spherocylinders of diameter 1 only.
@@ -1032,6 +1062,8 @@ fn write_outputs(
     let s = Summary {
         scene: origin,
         title: &scene.title,
+        porelab_version: env!("CARGO_PKG_VERSION"),
+        threads: rayon::current_num_threads(),
         shape: match p.particles.shapes.as_slice() {
             [one] => one.name(),
             _ => "mixture",
@@ -1045,7 +1077,9 @@ fn write_outputs(
         compression_steps: state.history.len(),
         failed_steps: state.failed_steps,
         total_tries: state.total_tries,
-        jammed: state.finished == Some(true),
+        // Ended by its schedule after compressing at all: a run whose every step failed
+        // (Delta V too large for the start) did not jam, it did nothing.
+        jammed: state.finished == Some(true) && !state.history.is_empty(),
         stage_budget_spent: state.stage_budget_spent,
         seconds,
     };
@@ -1131,7 +1165,8 @@ fn read_checkpoint(path: &Path, scene: &PackingScene) -> Result<(McmState, f64)>
         path: path.display().to_string(),
         msg,
     };
-    let text = std::fs::read(path)?;
+    let text =
+        std::fs::read(path).map_err(|e| file_err(format!("cannot read the checkpoint: {e}")))?;
     let c: Checkpoint = serde_json::from_slice(&text)
         .map_err(|e| file_err(format!("not a packing checkpoint: {e}")))?;
     if c.format != 2 {

@@ -70,17 +70,17 @@ pub fn cli_validate(ids: &[String], all: bool) -> Result<ExitCode> {
     let cases = discover(&root)?;
     let selected = select(&cases, ids, all)?;
     if selected.is_empty() {
+        // Zero work is a failure, not a pass (a wrong PORELAB_ROOT or id finds nothing).
         let skipped = cases.len();
-        println!(
-            "no cases to run under {}{}",
+        return crate::error::invalid(format!(
+            "no validation cases to run under {}{}: nothing was checked",
             root.join("validation").display(),
             if skipped > 0 {
-                format!(" ({skipped} slow cases skipped; use --all)")
+                format!(" ({skipped} cases not selected; slow ones need --all)")
             } else {
-                String::new()
+                " (no NNN-slug/case.toml folders; check PORELAB_ROOT)".to_string()
             }
-        );
-        return Ok(ExitCode::SUCCESS);
+        ));
     }
     let n = selected.len();
     eprintln!(

@@ -648,7 +648,7 @@ const SEEDS_510: u64 = 2;
 /// 679); the try budget is given only for the original scheme, "typically 10^5" for N = 500
 /// (200 N), denser with more tries (lines 384-386). The budget stays at 200 N because no
 /// converged budget exists for either scheme up to 3200 N (at N = 100, doubling moves the
-/// six-seed mean by more than 0.2%, the rule fixed before measuring; table in README, case 510).
+/// six-seed mean by more than 0.2%, the rule fixed before measuring; table in README.md at commit 2c48ccd, case 510).
 fn params_510(scheme: Scheme, seed: u64) -> McmParams {
     thesis_schedule(N_510, LENGTH_510, scheme, seed, 200.0)
 }
