@@ -490,3 +490,123 @@ pub fn case_607(ctx: &CaseContext) -> Result<Vec<Row>> {
     }
     Ok(rows)
 }
+
+/// Case 608: core packing fraction of monodisperse spheres deposited from the Table B1
+/// colour (mean over runs), against the band between random loose packing and sequential
+/// gravitational deposition; rows also give each run's value for review.
+pub fn case_608(ctx: &CaseContext) -> Result<Vec<Row>> {
+    let t = ctx.expected_table()?;
+    non_empty(&t)?;
+    let seed = required_seed(ctx, "case 608 needs a seed")?;
+    let mut rows = Vec::new();
+    for i in 0..t.len() {
+        let text = format!(
+            "kind = \"deposition\"\nseed = {seed}\nruns = {}\n[film]\nparticles = {}\n\
+             box_side_m = {}\nsolids_percent = {}\n[[species]]\nname = \"sphere\"\n\
+             semi_axes_m = [{r}, {r}, {r}]\n",
+            t.f64(i, "runs")? as usize,
+            t.f64(i, "particles")? as usize,
+            t.f64(i, "box_side_m")?,
+            t.f64(i, "solids_percent")?,
+            r = t.f64(i, "radius_m")?,
+        );
+        let scene = crate::scene::deposition::parse_scene(&text, "case 608")?;
+        use rayon::prelude::*;
+        let phis: Vec<f64> = (0..scene.runs)
+            .into_par_iter()
+            .map(|k| {
+                let r = scene.run_one(k, |_, _, _| {})?;
+                r.measures.core_porosity.map(|p| 1.0 - p).ok_or_else(|| {
+                    Error::Validation("case 608: layer too thin for a core porosity".into())
+                })
+            })
+            .collect::<Result<_>>()?;
+        let mean = phis.iter().sum::<f64>() / phis.len() as f64;
+        let (lo, hi) = (t.f64(i, "band_low")?, t.f64(i, "band_high")?);
+        let list: Vec<String> = phis.iter().map(|p| format!("{p:.4}")).collect();
+        rows.push(Row::new(
+            format!(
+                "{} runs: mean core packing fraction (runs {})",
+                phis.len(),
+                list.join(" ")
+            ),
+            mean,
+            0.5 * (lo + hi),
+            0.5 * (hi - lo),
+        ));
+    }
+    Ok(rows)
+}
+
+/// Case 901: seed 000 Fig. 3, platelets of fixed diameter: the layer porosity falls from
+/// aspect ratio 1 to a minimum and rises again. Rows: the aspect ratio of the minimum of the
+/// mean porosity (band), and the rise from the minimum to the largest aspect ratio and to
+/// aspect 1, each in units of its standard error (band from 3 up).
+pub fn case_901(ctx: &CaseContext) -> Result<Vec<Row>> {
+    let t = ctx.expected_table()?;
+    non_empty(&t)?;
+    let seed = required_seed(ctx, "case 901 needs a seed")?;
+    let mut points = Vec::new();
+    for i in 0..t.len() {
+        let ar = t.f64(i, "aspect_ratio")?;
+        let a = t.f64(i, "diameter_m")? / 2.0;
+        let text = format!(
+            "kind = \"deposition\"\nseed = {}\nruns = {}\n[film]\nparticles = {}\n\
+             solids_percent = {}\n[[species]]\nname = \"clay\"\nsemi_axes_m = [{a}, {a}, {}]\n",
+            seed + i as u64,
+            t.f64(i, "runs")? as usize,
+            t.f64(i, "particles")? as usize,
+            t.f64(i, "solids_percent")?,
+            a / ar
+        );
+        let scene = crate::scene::deposition::parse_scene(&text, "case 901")?;
+        use rayon::prelude::*;
+        let p: Vec<f64> = (0..scene.runs)
+            .into_par_iter()
+            .map(|k| {
+                scene
+                    .run_one(k, |_, _, _| {})
+                    .map(|r| r.measures.layer_porosity)
+            })
+            .collect::<Result<_>>()?;
+        let n = p.len() as f64;
+        let m = p.iter().sum::<f64>() / n;
+        let se = (p.iter().map(|x| (x - m) * (x - m)).sum::<f64>() / (n - 1.0) / n).sqrt();
+        points.push((ar, m, se));
+    }
+    let (k_min, &(ar_min, p_min, se_min)) = points
+        .iter()
+        .enumerate()
+        .min_by(|a, b| a.1 .1.partial_cmp(&b.1 .1).unwrap())
+        .unwrap();
+    let list: Vec<String> = points
+        .iter()
+        .map(|(a, m, s)| format!("{a}: {m:.4}+-{s:.4}"))
+        .collect();
+    let mut rows = vec![Row::new(
+        format!("aspect ratio of the minimum ({})", list.join(", ")),
+        ar_min,
+        1.65,
+        0.35,
+    )];
+    let rise = |k: usize| {
+        let (_, m, s) = points[k];
+        (m - p_min) / (s * s + se_min * se_min).sqrt()
+    };
+    let last = points.len() - 1;
+    // Bands [3, 1003]: a rise of at least three standard errors.
+    rows.push(Row::new(
+        format!("rise from the minimum to aspect {} (z)", points[last].0),
+        rise(last),
+        503.0,
+        500.0,
+    ));
+    rows.push(Row::new(
+        format!("rise from the minimum to aspect {} (z)", points[0].0),
+        rise(0),
+        503.0,
+        500.0,
+    ));
+    let _ = k_min;
+    Ok(rows)
+}

@@ -45,6 +45,8 @@ pub fn runner_for(id: &str) -> Option<Runner> {
         "605" => Some(deposition::case_605),
         "606" => Some(deposition::case_606),
         "607" => Some(deposition::case_607),
+        "608" => Some(deposition::case_608),
+        "901" => Some(deposition::case_901),
         "501" => Some(packing::case_501),
         "502" => Some(packing::case_502),
         "503" => Some(packing::case_503),
