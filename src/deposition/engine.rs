@@ -83,7 +83,7 @@ impl DepositionParams {
         }
         if self.stop_window == 0 || self.stop_window > 10_000_000 {
             return invalid(format!(
-                "stop_window = {}: must be 1 to 100000",
+                "stop_window = {}: must be 1 to 10000000",
                 self.stop_window
             ));
         }

@@ -79,102 +79,34 @@ pub fn pair_overlaps(
 mod tests {
     use super::*;
 
+    /// Overlap of two copies of `g` (identity orientation) scaled by `sa`, `sb`, centres `d` apart.
+    fn ov(g: &Grain, sa: f64, sb: f64, d: [f64; 3], c: &mut PrefilterCounts) -> bool {
+        let q = UnitQuaternion::identity();
+        pair_overlaps(g, &q, sa, g, &q, sb, &Vector3::from(d), c)
+    }
+
     #[test]
     fn spheres_touching_do_not_overlap_and_closer_ones_do() {
         let g = Grain::new([1.0; 3], 0, 2.0, 1.0, 1.0).unwrap();
-        let q = UnitQuaternion::identity();
         let mut c = PrefilterCounts::default();
-        assert!(!pair_overlaps(
-            &g,
-            &q,
-            1.0,
-            &g,
-            &q,
-            1.0,
-            &Vector3::new(2.0, 0.0, 0.0),
-            &mut c
-        ));
-        assert!(pair_overlaps(
-            &g,
-            &q,
-            1.0,
-            &g,
-            &q,
-            1.0,
-            &Vector3::new(1.999, 0.0, 0.0),
-            &mut c
-        ));
+        assert!(!ov(&g, 1.0, 1.0, [2.0, 0.0, 0.0], &mut c));
+        assert!(ov(&g, 1.0, 1.0, [1.999, 0.0, 0.0], &mut c));
         assert_eq!(c.bounding_spheres, 1);
         assert_eq!(c.sphere_pairs, 1);
         // Scaled by 0.5 and 1.5 the two spheres touch at 2.
-        assert!(!pair_overlaps(
-            &g,
-            &q,
-            0.5,
-            &g,
-            &q,
-            1.5,
-            &Vector3::new(2.0, 0.0, 0.0),
-            &mut c
-        ));
-        assert!(pair_overlaps(
-            &g,
-            &q,
-            0.5,
-            &g,
-            &q,
-            1.5,
-            &Vector3::new(1.99, 0.0, 0.0),
-            &mut c
-        ));
+        assert!(!ov(&g, 0.5, 1.5, [2.0, 0.0, 0.0], &mut c));
+        assert!(ov(&g, 0.5, 1.5, [1.99, 0.0, 0.0], &mut c));
     }
 
     #[test]
     fn ellipsoids_side_by_side_touch_at_the_sum_of_their_axes() {
         let g = Grain::new([2.0, 1.0, 0.5], 0, 2.0, 1.0, 1.0).unwrap();
-        let q = UnitQuaternion::identity();
         let mut c = PrefilterCounts::default();
         // Along y the two touch at 2 b = 2.
-        assert!(!pair_overlaps(
-            &g,
-            &q,
-            1.0,
-            &g,
-            &q,
-            1.0,
-            &Vector3::new(0.0, 2.001, 0.0),
-            &mut c
-        ));
-        assert!(pair_overlaps(
-            &g,
-            &q,
-            1.0,
-            &g,
-            &q,
-            1.0,
-            &Vector3::new(0.0, 1.999, 0.0),
-            &mut c
-        ));
-        // Along z at 2 c = 1, scaled by 2 about their centres they touch at 2.
-        assert!(!pair_overlaps(
-            &g,
-            &q,
-            2.0,
-            &g,
-            &q,
-            2.0,
-            &Vector3::new(0.0, 0.0, 2.001),
-            &mut c
-        ));
-        assert!(pair_overlaps(
-            &g,
-            &q,
-            2.0,
-            &g,
-            &q,
-            2.0,
-            &Vector3::new(0.0, 0.0, 1.999),
-            &mut c
-        ));
+        assert!(!ov(&g, 1.0, 1.0, [0.0, 2.001, 0.0], &mut c));
+        assert!(ov(&g, 1.0, 1.0, [0.0, 1.999, 0.0], &mut c));
+        // Along z at 2 c = 1; scaled by 2 about their centres they touch at 2.
+        assert!(!ov(&g, 2.0, 2.0, [0.0, 0.0, 2.001], &mut c));
+        assert!(ov(&g, 2.0, 2.0, [0.0, 0.0, 1.999], &mut c));
     }
 }
