@@ -12,6 +12,7 @@ pub mod contact;
 pub mod error;
 pub mod hydro;
 pub mod io;
+pub mod lbm;
 pub mod magnetics;
 pub mod packing;
 pub mod reference;
