@@ -86,6 +86,9 @@ enum BenchWhat {
     /// Packing (MCM): seconds to jam against N, density and contacts, one and two threads,
     /// and the reached packing fraction against the try budget.
     Packing(porelab::packing::bench::BenchArgs),
+    /// Lattice Boltzmann: MLUPS per lattice, collision and forcing against the measured
+    /// memory-bandwidth limit and the lbmpy peer.
+    Lbm(porelab::lbm::bench::BenchArgs),
 }
 
 fn main() -> ExitCode {
@@ -132,6 +135,7 @@ fn main() -> ExitCode {
             BenchWhat::Packing(args) => {
                 porelab::packing::bench::run_bench(&args).map(|_| ExitCode::SUCCESS)
             }
+            BenchWhat::Lbm(args) => porelab::lbm::bench::run(&args).map(|_| ExitCode::SUCCESS),
         },
     };
     match result {

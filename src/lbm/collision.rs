@@ -8,7 +8,6 @@
 //! omega+ = 1/tau (the viscosity, eq. 8: nu = (tau - 1/2)/3), the odd part at omega-; each
 //! source part carries its factor (1 - omega/2). BGK is omega- = omega+.
 
-use super::forcing::CellState;
 use super::lattice::Lattice;
 
 /// A collision operator: its two rates (even, odd).
@@ -80,50 +79,93 @@ impl Collision for Trt {
     }
 }
 
-/// Relaxes one cell's populations `f` in place towards the equilibrium of `s`, with the source
-/// term when `FORCED`.
+/// Macroscopic state of a run of cells (structure of arrays, one entry per cell).
+#[derive(Debug, Clone, Default)]
+pub struct RowState {
+    pub rho: Vec<f64>,
+    pub u: [Vec<f64>; 3],
+    pub a: [Vec<f64>; 3],
+    pub inv_eps: Vec<f64>,
+}
+
+impl RowState {
+    pub fn with_len(n: usize) -> RowState {
+        let v = || vec![0.0; n];
+        RowState {
+            rho: v(),
+            u: [v(), v(), v()],
+            a: [v(), v(), v()],
+            inv_eps: v(),
+        }
+    }
+}
+
+/// Relaxes the run of `n` cells whose incoming populations are `inp(q)` (a slice of n each)
+/// and writes the post-collision populations to `out(q)`, with the source term when `FORCED`.
+/// The loops run over the cells innermost, so they vectorise.
 #[inline(always)]
-pub fn relax<L: Lattice, C: Collision, const FORCED: bool>(
+pub fn relax_run<'a, L: Lattice, C: Collision, const FORCED: bool>(
     coll: &C,
-    rho: f64,
-    s: &CellState,
-    f: &mut L::Pop,
+    s: &RowState,
+    n: usize,
+    inp: impl Fn(usize) -> &'a [f64],
+    mut out: impl FnMut(usize, usize, &mut dyn FnMut(&mut [f64], &mut [f64])),
 ) {
-    let f = f.as_mut();
     let wp = coll.omega_plus();
     let wm = coll.omega_minus();
     let sp = 1.0 - 0.5 * wp;
     let sm = 1.0 - 0.5 * wm;
-    let u = s.u;
-    let a = s.a;
-    let uu = (u[0] * u[0] + u[1] * u[1] + u[2] * u[2]) * s.inv_eps;
-    let ua = u[0] * a[0] + u[1] * a[1] + u[2] * a[2];
-    // rest population: even only
-    let w0r = L::W[0] * rho;
-    let mut d0 = -wp * (f[0] - w0r * (1.0 - 1.5 * uu));
-    if FORCED {
-        d0 += sp * w0r * (-3.0 * ua);
+    let rho = &s.rho[..n];
+    let (ux, uy, uz) = (&s.u[0][..n], &s.u[1][..n], &s.u[2][..n]);
+    let (ax, ay, az) = (&s.a[0][..n], &s.a[1][..n], &s.a[2][..n]);
+    let ie = &s.inv_eps[..n];
+    // rest population: even part only
+    {
+        let w0 = L::W[0];
+        let f0 = &inp(0)[..n];
+        out(0, 0, &mut |o, _| {
+            let o = &mut o[..n];
+            for i in 0..n {
+                let uu = (ux[i] * ux[i] + uy[i] * uy[i] + uz[i] * uz[i]) * ie[i];
+                let wr = w0 * rho[i];
+                let mut d = -wp * (f0[i] - wr * (1.0 - 1.5 * uu));
+                if FORCED {
+                    let ua = ux[i] * ax[i] + uy[i] * ay[i] + uz[i] * az[i];
+                    d += sp * wr * (-3.0 * ua);
+                }
+                o[i] = f0[i] + d;
+            }
+        });
     }
-    f[0] += d0;
     let mut q = 1;
     while q < L::Q {
         let c = L::C[q];
         let (cx, cy, cz) = (c[0] as f64, c[1] as f64, c[2] as f64);
-        let wr = L::W[q] * rho;
-        let cu = cx * u[0] + cy * u[1] + cz * u[2];
-        let ep = wr * (1.0 + 4.5 * cu * cu * s.inv_eps - 1.5 * uu);
-        let em = wr * 3.0 * cu;
-        let fp = 0.5 * (f[q] + f[q + 1]);
-        let fm = 0.5 * (f[q] - f[q + 1]);
-        let mut dp = -wp * (fp - ep);
-        let mut dm = -wm * (fm - em);
-        if FORCED {
-            let ca = cx * a[0] + cy * a[1] + cz * a[2];
-            dp += sp * wr * (9.0 * cu * ca * s.inv_eps - 3.0 * ua);
-            dm += sm * wr * 3.0 * ca;
-        }
-        f[q] += dp + dm;
-        f[q + 1] += dp - dm;
+        let w = L::W[q];
+        let fq = &inp(q)[..n];
+        let fo = &inp(q + 1)[..n];
+        out(q, q + 1, &mut |oq, oo| {
+            let (oq, oo) = (&mut oq[..n], &mut oo[..n]);
+            for i in 0..n {
+                let uu = (ux[i] * ux[i] + uy[i] * uy[i] + uz[i] * uz[i]) * ie[i];
+                let wr = w * rho[i];
+                let cu = cx * ux[i] + cy * uy[i] + cz * uz[i];
+                let ep = wr * (1.0 + 4.5 * cu * cu * ie[i] - 1.5 * uu);
+                let em = wr * 3.0 * cu;
+                let fp = 0.5 * (fq[i] + fo[i]);
+                let fm = 0.5 * (fq[i] - fo[i]);
+                let mut dp = -wp * (fp - ep);
+                let mut dm = -wm * (fm - em);
+                if FORCED {
+                    let ua = ux[i] * ax[i] + uy[i] * ay[i] + uz[i] * az[i];
+                    let ca = cx * ax[i] + cy * ay[i] + cz * az[i];
+                    dp += sp * wr * (9.0 * cu * ca * ie[i] - 3.0 * ua);
+                    dm += sm * wr * 3.0 * ca;
+                }
+                oq[i] = fq[i] + dp + dm;
+                oo[i] = fo[i] + dp - dm;
+            }
+        });
         q += 2;
     }
 }

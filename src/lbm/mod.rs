@@ -7,10 +7,13 @@
 //! choice. Everything inside is in lattice units (dx = dt = 1, rho ~ 1); [`units`] converts at
 //! the boundary and refuses unstable parameters.
 
+pub mod bench;
+pub mod choice;
 pub mod collision;
 pub mod forcing;
 pub mod geometry;
 pub mod lattice;
+pub mod problems;
 pub mod solver;
 
 pub use collision::{Bgk, Collision, Trt};

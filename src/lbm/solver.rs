@@ -11,7 +11,7 @@
 //! is the same at any thread count; sums (mass, mean velocity) are taken per plane and added
 //! in plane order.
 
-use super::collision::{equilibrium, relax, Collision};
+use super::collision::{equilibrium, relax_run, Collision, RowState};
 use super::forcing::Forcing;
 use super::geometry::{Dims, Geometry};
 use super::lattice::{opposite, Lattice};
@@ -158,41 +158,76 @@ impl<L: Lattice, C: Collision, F: Forcing> Solver<L, C, F> {
         }
     }
 
+    /// Density, momentum and the forcing's state of the run [x0, x1) of row (y, z) from the
+    /// pulled populations `buf`, into `st` (entries 0..x1 - x0).
+    #[inline(always)]
+    fn row_state(force: &F, d: &Dims, buf: &[f64], z: usize, y: usize, x0: usize, x1: usize, st: &mut RowState) {
+        let n = x1 - x0;
+        let nx = d.nx;
+        let (rho, j) = (&mut st.rho[..n], &mut st.a);
+        rho.fill(0.0);
+        for jc in j.iter_mut() {
+            jc[..n].fill(0.0);
+        }
+        for q in 0..L::Q {
+            let c = L::C[q];
+            let (cx, cy, cz) = (c[0] as f64, c[1] as f64, c[2] as f64);
+            let f = &buf[q * nx + x0..q * nx + x1];
+            let [jx, jy, jz] = j;
+            let (jx, jy, jz) = (&mut jx[..n], &mut jy[..n], &mut jz[..n]);
+            for i in 0..n {
+                rho[i] += f[i];
+                jx[i] += cx * f[i];
+                jy[i] += cy * f[i];
+                jz[i] += cz * f[i];
+            }
+        }
+        let base = (z * d.ny + y) * nx + x0;
+        for i in 0..n {
+            let s = force.state(base + i, st.rho[i], [st.a[0][i], st.a[1][i], st.a[2][i]]);
+            for k in 0..3 {
+                st.u[k][i] = s.u[k];
+                st.a[k][i] = s.a[k];
+            }
+            st.inv_eps[i] = s.inv_eps;
+        }
+    }
+
     /// One time step: stream, bounce back, collide.
     pub fn step(&mut self) {
         let d = self.dims();
         let plane = L::Q * d.nx * d.ny;
         let nx = d.nx;
-        let nxy = d.nx * d.ny;
+        let ny = d.ny;
         let (src, geom, coll, force) = (&self.f, &self.geometry, &self.collision, &self.forcing);
         self.g
             .par_chunks_mut(plane)
             .enumerate()
             .for_each_init(
-                || vec![0.0; L::Q * nx],
-                |buf, (z, out)| {
-                    for y in 0..d.ny {
+                || (vec![0.0; L::Q * nx], RowState::with_len(nx)),
+                |(buf, st), (z, out)| {
+                    for y in 0..ny {
                         Self::pull_row(src, geom, z, y, buf);
-                        let r = z * d.ny + y;
-                        for &(x0, x1) in geom.runs(r) {
-                            for x in x0 as usize..x1 as usize {
-                                let mut p = L::Pop::default();
-                                let pa = p.as_mut();
-                                for q in 0..L::Q {
-                                    pa[q] = buf[q * nx + x];
-                                }
-                                let (rho, j) = density_momentum::<L>(&p);
-                                let cell = z * nxy + y * nx + x;
-                                let s = force.state(cell, rho, j);
-                                if F::ACTIVE {
-                                    relax::<L, C, true>(coll, rho, &s, &mut p);
+                        for &(x0, x1) in geom.runs(z * ny + y) {
+                            let (x0, x1) = (x0 as usize, x1 as usize);
+                            Self::row_state(force, &d, buf, z, y, x0, x1, st);
+                            let buf: &[f64] = buf;
+                            let inp = |q: usize| &buf[q * nx + x0..q * nx + x1];
+                            let put = |q: usize, o: usize, k: &mut dyn FnMut(&mut [f64], &mut [f64])| {
+                                // o = q + 1 (or q = o = 0): two disjoint rows of the plane
+                                let (lo, hi) = out.split_at_mut((q + 1) * ny * nx);
+                                let a = &mut lo[(q * ny + y) * nx + x0..(q * ny + y) * nx + x1];
+                                if o == q {
+                                    k(a, &mut []);
                                 } else {
-                                    relax::<L, C, false>(coll, rho, &s, &mut p);
+                                    let off = ((o - q - 1) * ny + y) * nx;
+                                    k(a, &mut hi[off + x0..off + x1]);
                                 }
-                                let pa = p.as_ref();
-                                for q in 0..L::Q {
-                                    out[(q * d.ny + y) * nx + x] = pa[q];
-                                }
+                            };
+                            if F::ACTIVE {
+                                relax_run::<L, C, true>(coll, st, x1 - x0, inp, put);
+                            } else {
+                                relax_run::<L, C, false>(coll, st, x1 - x0, inp, put);
                             }
                         }
                     }
