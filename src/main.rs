@@ -61,6 +61,8 @@ enum Command {
         #[arg(long, default_value_t = 10.0)]
         checkpoint_every: f64,
     },
+    /// Permeability of a periodic particle configuration (extended XYZ) by lattice Boltzmann.
+    Permeability(porelab::lbm::pore::PermeabilityArgs),
     /// Work-precision benchmarks.
     Bench {
         #[command(subcommand)]
@@ -105,6 +107,9 @@ fn main() -> ExitCode {
         Command::Contact(args) => porelab::contact::cli::run_contact(&args),
         Command::Shape(args) => porelab::shape::cli::run_shape(&args),
         Command::Drag(args) => porelab::hydro::cli::run_drag(&args),
+        Command::Permeability(args) => {
+            porelab::lbm::pore::cli_permeability(&args).map(|_| ExitCode::SUCCESS)
+        }
         Command::Run {
             scene,
             builtin,

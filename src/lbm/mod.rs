@@ -13,6 +13,7 @@ pub mod collision;
 pub mod forcing;
 pub mod geometry;
 pub mod lattice;
+pub mod pore;
 pub mod problems;
 pub mod solver;
 
