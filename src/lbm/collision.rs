@@ -86,6 +86,9 @@ pub struct RowState {
     pub u: [Vec<f64>; 3],
     pub a: [Vec<f64>; 3],
     pub inv_eps: Vec<f64>,
+    /// u.u / eps and u.a, shared by every direction.
+    pub uu: Vec<f64>,
+    pub ua: Vec<f64>,
 }
 
 impl RowState {
@@ -96,21 +99,29 @@ impl RowState {
             u: [v(), v(), v()],
             a: [v(), v(), v()],
             inv_eps: v(),
+            uu: v(),
+            ua: v(),
         }
     }
 }
 
-/// Relaxes the run of `n` cells whose incoming populations are `inp(q)` (a slice of n each)
-/// and writes the post-collision populations to `out(q)`, with the source term when `FORCED`.
-/// The loops run over the cells innermost, so they vectorise.
+/// Relaxes the run [x0, x1) of one row: incoming populations in `inp` (q-major rows of `nx`),
+/// post-collision populations written to row `y` of the z-plane `out` (q-major planes of
+/// ny x nx), with the source term when `FORCED`. The loops run over the cells innermost, so
+/// they vectorise.
+#[allow(clippy::too_many_arguments)]
 #[inline(always)]
-pub fn relax_run<'a, L: Lattice, C: Collision, const FORCED: bool>(
+pub fn relax_run<L: Lattice, C: Collision, const FORCED: bool>(
     coll: &C,
     s: &RowState,
-    n: usize,
-    inp: impl Fn(usize) -> &'a [f64],
-    mut out: impl FnMut(usize, usize, &mut dyn FnMut(&mut [f64], &mut [f64])),
+    inp: &[f64],
+    nx: usize,
+    (x0, x1): (usize, usize),
+    out: &mut [f64],
+    ny: usize,
+    y: usize,
 ) {
+    let n = x1 - x0;
     let wp = coll.omega_plus();
     let wm = coll.omega_minus();
     let sp = 1.0 - 0.5 * wp;
@@ -118,54 +129,49 @@ pub fn relax_run<'a, L: Lattice, C: Collision, const FORCED: bool>(
     let rho = &s.rho[..n];
     let (ux, uy, uz) = (&s.u[0][..n], &s.u[1][..n], &s.u[2][..n]);
     let (ax, ay, az) = (&s.a[0][..n], &s.a[1][..n], &s.a[2][..n]);
-    let ie = &s.inv_eps[..n];
+    let (ie, uu, ua) = (&s.inv_eps[..n], &s.uu[..n], &s.ua[..n]);
+    let row = |q: usize| (q * ny + y) * nx + x0;
     // rest population: even part only
     {
         let w0 = L::W[0];
-        let f0 = &inp(0)[..n];
-        out(0, 0, &mut |o, _| {
-            let o = &mut o[..n];
-            for i in 0..n {
-                let uu = (ux[i] * ux[i] + uy[i] * uy[i] + uz[i] * uz[i]) * ie[i];
-                let wr = w0 * rho[i];
-                let mut d = -wp * (f0[i] - wr * (1.0 - 1.5 * uu));
-                if FORCED {
-                    let ua = ux[i] * ax[i] + uy[i] * ay[i] + uz[i] * az[i];
-                    d += sp * wr * (-3.0 * ua);
-                }
-                o[i] = f0[i] + d;
+        let f0 = &inp[x0..x1];
+        let o = &mut out[row(0)..row(0) + n];
+        for i in 0..n {
+            let wr = w0 * rho[i];
+            let mut d = -wp * (f0[i] - wr * (1.0 - 1.5 * uu[i]));
+            if FORCED {
+                d += sp * wr * (-3.0 * ua[i]);
             }
-        });
+            o[i] = f0[i] + d;
+        }
     }
     let mut q = 1;
     while q < L::Q {
         let c = L::C[q];
         let (cx, cy, cz) = (c[0] as f64, c[1] as f64, c[2] as f64);
         let w = L::W[q];
-        let fq = &inp(q)[..n];
-        let fo = &inp(q + 1)[..n];
-        out(q, q + 1, &mut |oq, oo| {
-            let (oq, oo) = (&mut oq[..n], &mut oo[..n]);
-            for i in 0..n {
-                let uu = (ux[i] * ux[i] + uy[i] * uy[i] + uz[i] * uz[i]) * ie[i];
-                let wr = w * rho[i];
-                let cu = cx * ux[i] + cy * uy[i] + cz * uz[i];
-                let ep = wr * (1.0 + 4.5 * cu * cu * ie[i] - 1.5 * uu);
-                let em = wr * 3.0 * cu;
-                let fp = 0.5 * (fq[i] + fo[i]);
-                let fm = 0.5 * (fq[i] - fo[i]);
-                let mut dp = -wp * (fp - ep);
-                let mut dm = -wm * (fm - em);
-                if FORCED {
-                    let ua = ux[i] * ax[i] + uy[i] * ay[i] + uz[i] * az[i];
-                    let ca = cx * ax[i] + cy * ay[i] + cz * az[i];
-                    dp += sp * wr * (9.0 * cu * ca * ie[i] - 3.0 * ua);
-                    dm += sm * wr * 3.0 * ca;
-                }
-                oq[i] = fq[i] + dp + dm;
-                oo[i] = fo[i] + dp - dm;
+        let fq = &inp[q * nx + x0..q * nx + x1];
+        let fo = &inp[(q + 1) * nx + x0..(q + 1) * nx + x1];
+        let (lo, hi) = out.split_at_mut(row(q + 1));
+        let oq = &mut lo[row(q)..row(q) + n];
+        let oo = &mut hi[..n];
+        for i in 0..n {
+            let wr = w * rho[i];
+            let cu = cx * ux[i] + cy * uy[i] + cz * uz[i];
+            let ep = wr * (1.0 + 4.5 * cu * cu * ie[i] - 1.5 * uu[i]);
+            let em = wr * 3.0 * cu;
+            let fp = 0.5 * (fq[i] + fo[i]);
+            let fm = 0.5 * (fq[i] - fo[i]);
+            let mut dp = -wp * (fp - ep);
+            let mut dm = -wm * (fm - em);
+            if FORCED {
+                let ca = cx * ax[i] + cy * ay[i] + cz * az[i];
+                dp += sp * wr * (9.0 * cu * ca * ie[i] - 3.0 * ua[i]);
+                dm += sm * wr * 3.0 * ca;
             }
-        });
+            oq[i] = fq[i] + dp + dm;
+            oo[i] = fo[i] + dp - dm;
+        }
         q += 2;
     }
 }

@@ -190,7 +190,57 @@ impl<L: Lattice, C: Collision, F: Forcing> Solver<L, C, F> {
                 st.a[k][i] = s.a[k];
             }
             st.inv_eps[i] = s.inv_eps;
+            st.uu[i] = (s.u[0] * s.u[0] + s.u[1] * s.u[1] + s.u[2] * s.u[2]) * s.inv_eps;
+            st.ua[i] = s.u[0] * s.a[0] + s.u[1] * s.a[1] + s.u[2] * s.a[2];
         }
+    }
+
+    /// Stream, bounce back and collide the z-plane `z` into `out` (its Q x ny x nx chunk).
+    #[allow(clippy::too_many_arguments)]
+    #[inline(always)]
+    fn plane_body(
+        src: &[f64],
+        geom: &Geometry,
+        coll: &C,
+        force: &F,
+        z: usize,
+        out: &mut [f64],
+        buf: &mut [f64],
+        st: &mut RowState,
+    ) {
+        let d = geom.dims;
+        for y in 0..d.ny {
+            Self::pull_row(src, geom, z, y, buf);
+            for &(x0, x1) in geom.runs(z * d.ny + y) {
+                let (x0, x1) = (x0 as usize, x1 as usize);
+                Self::row_state(force, &d, buf, z, y, x0, x1, st);
+                if F::ACTIVE {
+                    relax_run::<L, C, true>(coll, st, buf, d.nx, (x0, x1), out, d.ny, y);
+                } else {
+                    relax_run::<L, C, false>(coll, st, buf, d.nx, (x0, x1), out, d.ny, y);
+                }
+            }
+        }
+    }
+
+    /// [`Self::plane_body`] compiled for AVX2 + FMA (chosen at run time where the CPU has them).
+    ///
+    /// # Safety
+    /// The caller must have checked that the CPU supports avx2 and fma.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2,fma")]
+    #[allow(clippy::too_many_arguments)]
+    unsafe fn plane_avx2(
+        src: &[f64],
+        geom: &Geometry,
+        coll: &C,
+        force: &F,
+        z: usize,
+        out: &mut [f64],
+        buf: &mut [f64],
+        st: &mut RowState,
+    ) {
+        Self::plane_body(src, geom, coll, force, z, out, buf, st)
     }
 
     /// One time step: stream, bounce back, collide.
@@ -198,7 +248,8 @@ impl<L: Lattice, C: Collision, F: Forcing> Solver<L, C, F> {
         let d = self.dims();
         let plane = L::Q * d.nx * d.ny;
         let nx = d.nx;
-        let ny = d.ny;
+        #[cfg(target_arch = "x86_64")]
+        let avx2 = is_x86_feature_detected!("avx2") && is_x86_feature_detected!("fma");
         let (src, geom, coll, force) = (&self.f, &self.geometry, &self.collision, &self.forcing);
         self.g
             .par_chunks_mut(plane)
@@ -206,31 +257,13 @@ impl<L: Lattice, C: Collision, F: Forcing> Solver<L, C, F> {
             .for_each_init(
                 || (vec![0.0; L::Q * nx], RowState::with_len(nx)),
                 |(buf, st), (z, out)| {
-                    for y in 0..ny {
-                        Self::pull_row(src, geom, z, y, buf);
-                        for &(x0, x1) in geom.runs(z * ny + y) {
-                            let (x0, x1) = (x0 as usize, x1 as usize);
-                            Self::row_state(force, &d, buf, z, y, x0, x1, st);
-                            let buf: &[f64] = buf;
-                            let inp = |q: usize| &buf[q * nx + x0..q * nx + x1];
-                            let put = |q: usize, o: usize, k: &mut dyn FnMut(&mut [f64], &mut [f64])| {
-                                // o = q + 1 (or q = o = 0): two disjoint rows of the plane
-                                let (lo, hi) = out.split_at_mut((q + 1) * ny * nx);
-                                let a = &mut lo[(q * ny + y) * nx + x0..(q * ny + y) * nx + x1];
-                                if o == q {
-                                    k(a, &mut []);
-                                } else {
-                                    let off = ((o - q - 1) * ny + y) * nx;
-                                    k(a, &mut hi[off + x0..off + x1]);
-                                }
-                            };
-                            if F::ACTIVE {
-                                relax_run::<L, C, true>(coll, st, x1 - x0, inp, put);
-                            } else {
-                                relax_run::<L, C, false>(coll, st, x1 - x0, inp, put);
-                            }
-                        }
+                    #[cfg(target_arch = "x86_64")]
+                    if avx2 {
+                        // SAFETY: avx2 and fma were detected above.
+                        unsafe { Self::plane_avx2(src, geom, coll, force, z, out, buf, st) };
+                        return;
                     }
+                    Self::plane_body(src, geom, coll, force, z, out, buf, st)
                 },
             );
         std::mem::swap(&mut self.f, &mut self.g);
