@@ -77,24 +77,3 @@ fn mass_conserved_and_thread_independent() {
     assert_eq!(a.populations(), b.populations());
 }
 
-#[test]
-#[ignore]
-fn debug_porous() {
-    let h = 32;
-    let tau = 1.0;
-    let nu = (tau - 0.5) / 3.0;
-    let k = 0.1 * (h * h) as f64;
-    let g = 1e-4 * nu / k;
-    let ch = problems::Channel { h, g, wall_u: 0.0, porous: Some((0.1, k, false)) };
-    let ctl = SteadyControl { check_every: 5000, tol: 1e-13, max_steps: 100_000 };
-    let geom_ctl = ctl;
-    let _ = geom_ctl;
-    let d = Dims::new(1, h + 2, 1).unwrap();
-    let geom = Geometry::new::<D3Q19>(d, channel_mask(d), |_| [0.0; 3]).unwrap();
-    let mut p = Porous::clear(d.cells(), nu, [g, 0.0, 0.0], false);
-    for c in 0..d.cells() { p.set(c, 0.1, k).unwrap(); }
-    let mut s = Solver::<D3Q19, _, _>::new(geom, Trt::magic(tau), p).unwrap();
-    let st = run_steady(&mut s, ctl, |n, r| eprintln!("{n} {r:e}")).unwrap();
-    eprintln!("{:?}", &st.fields.u.iter().map(|u| u[0]).collect::<Vec<_>>()[..5]);
-    let _ = ch;
-}

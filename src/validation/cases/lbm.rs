@@ -79,21 +79,25 @@ fn plain_channel_error(
 ) -> Result<f64> {
     let nu = nu_of(tau);
     let hf = h as f64;
-    dispatch(
-        lat,
-        coll,
-        tau,
-        ChannelError {
-            channel: Channel {
-                h,
-                g,
-                wall_u: 0.0,
-                porous: None,
-            },
-            ctl,
-            exact: Box::new(move |y| poiseuille(y, hf, g, nu)),
-        },
-    )
+    channel_error(lat, coll, tau, (h, g, None), ctl, Box::new(move |y| poiseuille(y, hf, g, nu)))
+}
+
+/// The relative L2 error of the steady channel (h, g, porous medium) against `exact`.
+fn channel_error(
+    lat: LatticeKind,
+    coll: CollisionKind,
+    tau: f64,
+    (h, g, porous): (usize, f64, Option<(f64, f64, bool)>),
+    ctl: SteadyControl,
+    exact: Box<dyn Fn(f64) -> f64>,
+) -> Result<f64> {
+    let channel = Channel {
+        h,
+        g,
+        wall_u: 0.0,
+        porous,
+    };
+    dispatch(lat, coll, tau, ChannelError { channel, ctl, exact })
 }
 
 /// Case 801: BGK plane Poiseuille, order of the L2 error between H and 2H (expected 2).
@@ -172,21 +176,8 @@ pub fn case_803(ctx: &CaseContext) -> Result<Vec<Row>> {
             let nu = nu_of(tau);
             // same peak velocity (~ g K / nu) at every resolution
             let g = g_scale * nu / k;
-            dispatch(
-                lat,
-                coll,
-                tau,
-                ChannelError {
-                    channel: Channel {
-                        h,
-                        g,
-                        wall_u: 0.0,
-                        porous: Some((eps, k, false)),
-                    },
-                    ctl: STEADY,
-                    exact: Box::new(move |y| brinkman_poiseuille(y, hf, g, nu, eps, k)),
-                },
-            )
+            let exact = Box::new(move |y| brinkman_poiseuille(y, hf, g, nu, eps, k));
+            channel_error(lat, coll, tau, (h, g, Some((eps, k, false))), STEADY, exact)
         };
         let (e1, e2) = (err(h)?, err(2 * h)?);
         let order = (e1 / e2).log2();
