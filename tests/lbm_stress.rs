@@ -16,7 +16,9 @@ const CTL: SteadyControl = SteadyControl {
 
 #[test]
 fn tau_near_half_is_refused() {
-    let e = Units::from_tau(1e-5, 1e-6, 1000.0, 0.501).unwrap_err().to_string();
+    let e = Units::from_tau(1e-5, 1e-6, 1000.0, 0.501)
+        .unwrap_err()
+        .to_string();
     assert!(e.contains("tau = 0.501") && e.contains("unstable"), "{e}");
     assert!(Units::from_tau(1e-5, 1e-6, 1000.0, 0.6).is_ok());
 }
@@ -26,8 +28,16 @@ fn high_mach_is_refused_before_and_during_a_run() {
     let e = check_mach(0.3, "peak").unwrap_err().to_string();
     assert!(e.contains("Mach 0.520"), "{e}");
     // a channel driven so hard that the flow passes Mach 0.3: the run stops with the reason
-    let ch = Channel { h: 16, g: 1e-2, wall_u: 0.0, porous: None };
-    let e = ch.steady::<D3Q19, _>(Trt::magic(1.0), CTL).unwrap_err().to_string();
+    let ch = Channel {
+        h: 16,
+        g: 1e-2,
+        wall_u: 0.0,
+        porous: None,
+    };
+    let e = ch
+        .steady::<D3Q19, _>(Trt::magic(1.0), CTL)
+        .unwrap_err()
+        .to_string();
     assert!(e.contains("Mach") || e.contains("non-finite"), "{e}");
 }
 
@@ -50,7 +60,12 @@ fn extreme_porous_media_stay_finite() {
         let nu = 1.0 / 6.0;
         let g = 1e-4 * nu / k;
         for forch in [true, false] {
-            let ch = Channel { h, g, wall_u: 0.0, porous: Some((eps, k, forch)) };
+            let ch = Channel {
+                h,
+                g,
+                wall_u: 0.0,
+                porous: Some((eps, k, forch)),
+            };
             let (prof, st) = ch.steady::<D3Q19, _>(Trt::magic(1.0), CTL).unwrap();
             assert!(st.fields.u.iter().flatten().all(|v| v.is_finite()));
             assert!(st.fields.rho.iter().all(|v| v.is_finite()));
@@ -58,7 +73,10 @@ fn extreme_porous_media_stay_finite() {
                 let y = channel_coordinate(h / 2 + 1);
                 let want = brinkman_poiseuille(y, h as f64, g, nu, eps, k);
                 let got = prof[h / 2];
-                assert!((got / want - 1.0).abs() < 0.05, "eps {eps} Da {da}: {got} vs {want}");
+                assert!(
+                    (got / want - 1.0).abs() < 0.05,
+                    "eps {eps} Da {da}: {got} vs {want}"
+                );
             }
         }
     }
@@ -81,8 +99,9 @@ fn lattice_too_large_is_refused_naming_the_size() {
 fn all_solid_mask_has_no_flow_path() {
     let d = Dims::new(4, 4, 4).unwrap();
     let g = Geometry::new::<D3Q19>(d, vec![true; 64], |_| [0.0; 3]).unwrap();
-    let e = porelab::lbm::problems::permeability::<D3Q19, _>(g, Trt::magic(1.0), 1e-6, CTL, |_, _| {})
-        .unwrap_err()
-        .to_string();
+    let e =
+        porelab::lbm::problems::permeability::<D3Q19, _>(g, Trt::magic(1.0), 1e-6, CTL, |_, _| {})
+            .unwrap_err()
+            .to_string();
     assert!(e.contains("permeability is 0"), "{e}");
 }

@@ -8,7 +8,9 @@ use std::process::Command;
 
 #[test]
 fn vtk_fields_read_by_meshio() {
-    let probe = Command::new("python3").args(["-c", "import meshio"]).output();
+    let probe = Command::new("python3")
+        .args(["-c", "import meshio"])
+        .output();
     match probe {
         Err(e) => {
             eprintln!("SKIPPED vtk_fields_read_by_meshio: python3 not runnable ({e})");
@@ -18,7 +20,10 @@ fn vtk_fields_read_by_meshio() {
             eprintln!(
                 "SKIPPED vtk_fields_read_by_meshio: python3 cannot import meshio ({}); \
                  `pip install meshio` enables this test",
-                String::from_utf8_lossy(&o.stderr).lines().last().unwrap_or("")
+                String::from_utf8_lossy(&o.stderr)
+                    .lines()
+                    .last()
+                    .unwrap_or("")
             );
             return;
         }
@@ -29,9 +34,14 @@ fn vtk_fields_read_by_meshio() {
     let mut mask = sphere_array_mask(6, 1.6);
     mask.truncate(d.cells());
     let geom = Geometry::new::<D3Q19>(d, mask.clone(), |_| [0.0; 3]).unwrap();
-    let mut s =
-        Solver::<D3Q19, _, _>::new(geom, Trt::magic(0.9), BodyForce { g: [1e-4, 3e-5, -2e-5] })
-            .unwrap();
+    let mut s = Solver::<D3Q19, _, _>::new(
+        geom,
+        Trt::magic(0.9),
+        BodyForce {
+            g: [1e-4, 3e-5, -2e-5],
+        },
+    )
+    .unwrap();
     s.run(20);
     let f = s.fields();
     let solid: Vec<f64> = mask.iter().map(|&b| if b { 1.0 } else { 0.0 }).collect();
@@ -62,12 +72,20 @@ fn vtk_fields_read_by_meshio() {
         .output()
         .unwrap();
     let _ = std::fs::remove_dir_all(&dir);
-    assert!(out.status.success(), "meshio failed: {}", String::from_utf8_lossy(&out.stderr));
+    assert!(
+        out.status.success(),
+        "meshio failed: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
     let text = String::from_utf8_lossy(&out.stdout);
     let mut lines = text.lines();
     assert_eq!(
         lines.next().unwrap(),
-        format!("cells {} points {}", d.cells(), (nx + 1) * (ny + 1) * (nz + 1))
+        format!(
+            "cells {} points {}",
+            d.cells(),
+            (nx + 1) * (ny + 1) * (nz + 1)
+        )
     );
     let mut fluid_moving = 0;
     for (i, l) in lines.enumerate() {

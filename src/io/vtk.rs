@@ -61,17 +61,23 @@ pub fn image_data(
 
 fn finite(name: &str, cell: usize, x: f64) -> Result<()> {
     if !x.is_finite() {
-        return invalid(format!("VTK field {name}: cell {cell} holds {x}, not a finite number"));
+        return invalid(format!(
+            "VTK field {name}: cell {cell} holds {x}, not a finite number"
+        ));
     }
     Ok(())
 }
 
 fn check(name: &str, len: usize, cells: usize) -> Result<()> {
     if name.is_empty() || name.contains(char::is_whitespace) {
-        return invalid(format!("VTK field name `{name}` must be non-empty without spaces"));
+        return invalid(format!(
+            "VTK field name `{name}` must be non-empty without spaces"
+        ));
     }
     if len != cells {
-        return invalid(format!("VTK field {name} has {len} values for {cells} cells"));
+        return invalid(format!(
+            "VTK field {name} has {len} values for {cells} cells"
+        ));
     }
     Ok(())
 }
@@ -85,5 +91,8 @@ pub fn write_image_data(
     origin: [f64; 3],
     fields: &[CellField],
 ) -> Result<()> {
-    super::write_atomic(path, image_data(title, dims, spacing, origin, fields)?.as_bytes())
+    super::write_atomic(
+        path,
+        image_data(title, dims, spacing, origin, fields)?.as_bytes(),
+    )
 }

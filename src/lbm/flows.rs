@@ -67,6 +67,5 @@ pub fn drag_coefficient(permeability: f64, radius: f64, solid_fraction: f64) -> 
 /// two terms are Hasimoto's (1959).
 pub fn sangani_acrivos_sc(c: f64) -> f64 {
     let t = c.cbrt();
-    1.0 / (1.0 - 1.7601 * t + c - 1.5593 * c * c + 3.9799 * c * c * t * t
-        - 3.0734 * c * c * c * t)
+    1.0 / (1.0 - 1.7601 * t + c - 1.5593 * c * c + 3.9799 * c * c * t * t - 3.0734 * c * c * c * t)
 }

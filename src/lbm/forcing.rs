@@ -103,10 +103,10 @@ impl Porous {
     /// Sets porosity `eps` (0 < eps <= 1) and permeability `k` (lattice units, > 0; infinity
     /// for no drag) of one cell. Returns the rule broken, if any.
     pub fn set(&mut self, cell: usize, eps: f64, k: f64) -> Result<(), String> {
-        if !(eps > 0.0 && eps <= 1.0) {
+        if eps.is_nan() || eps <= 0.0 || eps > 1.0 {
             return Err(format!("porosity eps = {eps}: must be in (0, 1]"));
         }
-        if !(k > 0.0) || k.is_nan() {
+        if k.is_nan() || k <= 0.0 {
             return Err(format!("permeability K = {k} (lattice units): must be > 0"));
         }
         self.eps[cell] = eps;

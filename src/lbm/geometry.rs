@@ -134,7 +134,8 @@ impl Geometry {
                         let up_cell = dims.cell(up[0], up[1], up[2]);
                         if solid[up_cell] {
                             let uw = wall_velocity(up_cell);
-                            let cu = c[0] as f64 * uw[0] + c[1] as f64 * uw[1] + c[2] as f64 * uw[2];
+                            let cu =
+                                c[0] as f64 * uw[0] + c[1] as f64 * uw[1] + c[2] as f64 * uw[2];
                             links.push(Link {
                                 x: x as u32,
                                 q: q as u8,

@@ -22,8 +22,8 @@ pub use forcing::{BodyForce, Forcing, Porous, Unforced};
 pub use geometry::{Dims, Geometry};
 pub use lattice::{Lattice, D3Q15, D3Q19};
 pub use solver::{Fields, Solver};
-pub mod steady;
-pub mod units;
 pub mod flows;
+pub mod steady;
 #[cfg(test)]
 mod tests;
+pub mod units;

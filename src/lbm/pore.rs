@@ -83,10 +83,10 @@ pub fn voxelise(cell: &Cell, particles: &[XyzParticle], n: usize) -> Result<Voxe
     }
     let dx = cell.lengths[0] / n as f64;
     let mut ext = [n; 3];
-    for k in 1..3 {
+    for (k, e) in ext.iter_mut().enumerate().skip(1) {
         let m = cell.lengths[k] / dx;
-        ext[k] = m.round() as usize;
-        if ext[k] == 0 || (m - ext[k] as f64).abs() > 1e-6 * m {
+        *e = m.round() as usize;
+        if *e == 0 || (m - *e as f64).abs() > 1e-6 * m {
             return invalid(format!(
                 "box edge {k} = {} is {m} cells of dx = {dx}: must be a whole number of cells \
                  (choose the resolution so that the edges are commensurate)",
@@ -113,7 +113,9 @@ pub fn voxelise(cell: &Cell, particles: &[XyzParticle], n: usize) -> Result<Voxe
         let br = p.shape.bounding_radius();
         let rel = p.centre - org;
         // cell index range of the bounding cube, unwrapped; each index is wrapped below
-        let lo: Vec<i64> = (0..3).map(|k| ((rel[k] - br) / dx).floor() as i64).collect();
+        let lo: Vec<i64> = (0..3)
+            .map(|k| ((rel[k] - br) / dx).floor() as i64)
+            .collect();
         let hi: Vec<i64> = (0..3).map(|k| ((rel[k] + br) / dx).ceil() as i64).collect();
         for iz in lo[2]..=hi[2] {
             for iy in lo[1]..=hi[1] {
@@ -178,7 +180,9 @@ impl Job for PoreJob {
         });
         let r = permeability::<L, C>(self.geom, coll, self.g, self.ctl, |steps, res| {
             if let Some(b) = &bar {
-                b.set_message(format!("step {steps}: residual {res:.2e} (stop at {tol:.0e})"));
+                b.set_message(format!(
+                    "step {steps}: residual {res:.2e} (stop at {tol:.0e})"
+                ));
                 b.tick();
             }
         });
@@ -277,7 +281,10 @@ pub fn cli_permeability(a: &PermeabilityArgs) -> Result<()> {
     })?;
     let (cell, parts) = xyz::parse(&text, &a.packing.display().to_string())?;
     if !(a.force.is_finite() && a.force > 0.0) {
-        return invalid(format!("--force = {}: must be positive and finite", a.force));
+        return invalid(format!(
+            "--force = {}: must be positive and finite",
+            a.force
+        ));
     }
     super::units::check_tau(a.tau)?;
     let o = PoreOptions {
@@ -319,7 +326,10 @@ pub fn cli_permeability(a: &PermeabilityArgs) -> Result<()> {
             r.run.residual,
             if r.run.converged { "" } else { " (NOT converged)" }
         );
-        println!("  {}", describe(o.tau, r.run.u_max, v.v_over_s.map_or(1.0, |s| s / v.dx)));
+        println!(
+            "  {}",
+            describe(o.tau, r.run.u_max, v.v_over_s.map_or(1.0, |s| s / v.dx))
+        );
         println!("  Re (mean velocity, length V/S) = {:.3e}", r.re);
         if let Some(s) = v.v_over_s {
             println!(
@@ -367,7 +377,10 @@ mod tests {
         let n = 16;
         let r = 0.3;
         let v = voxelise(&Cell::cubic(1.0), &[sphere([0.5; 3], r)], n).unwrap();
-        assert_eq!(v.solid, super::super::flows::sphere_array_mask(n, r * n as f64));
+        assert_eq!(
+            v.solid,
+            super::super::flows::sphere_array_mask(n, r * n as f64)
+        );
         let w = voxelise(&Cell::cubic(1.0), &[sphere([0.0; 3], r)], n).unwrap();
         let d = v.dims;
         for c in 0..d.cells() {
@@ -386,7 +399,11 @@ mod tests {
             collision: CollisionKind::Trt,
             tau: 1.0,
             g: 1e-6,
-            ctl: SteadyControl { check_every: 10, tol: 1e-6, max_steps: 10 },
+            ctl: SteadyControl {
+                check_every: 10,
+                tol: 1e-6,
+                max_steps: 10,
+            },
             quiet: true,
         };
         let e = pore_permeability(&v, &o).unwrap_err().to_string();

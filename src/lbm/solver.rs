@@ -160,8 +160,18 @@ impl<L: Lattice, C: Collision, F: Forcing> Solver<L, C, F> {
 
     /// Density, momentum and the forcing's state of the run [x0, x1) of row (y, z) from the
     /// pulled populations `buf`, into `st` (entries 0..x1 - x0).
+    #[allow(clippy::too_many_arguments)]
     #[inline(always)]
-    fn row_state(force: &F, d: &Dims, buf: &[f64], z: usize, y: usize, x0: usize, x1: usize, st: &mut RowState) {
+    fn row_state(
+        force: &F,
+        d: &Dims,
+        buf: &[f64],
+        z: usize,
+        y: usize,
+        x0: usize,
+        x1: usize,
+        st: &mut RowState,
+    ) {
         let n = x1 - x0;
         let nx = d.nx;
         let (rho, j) = (&mut st.rho[..n], &mut st.a);
@@ -251,21 +261,18 @@ impl<L: Lattice, C: Collision, F: Forcing> Solver<L, C, F> {
         #[cfg(target_arch = "x86_64")]
         let avx2 = is_x86_feature_detected!("avx2") && is_x86_feature_detected!("fma");
         let (src, geom, coll, force) = (&self.f, &self.geometry, &self.collision, &self.forcing);
-        self.g
-            .par_chunks_mut(plane)
-            .enumerate()
-            .for_each_init(
-                || (vec![0.0; L::Q * nx], RowState::with_len(nx)),
-                |(buf, st), (z, out)| {
-                    #[cfg(target_arch = "x86_64")]
-                    if avx2 {
-                        // SAFETY: avx2 and fma were detected above.
-                        unsafe { Self::plane_avx2(src, geom, coll, force, z, out, buf, st) };
-                        return;
-                    }
-                    Self::plane_body(src, geom, coll, force, z, out, buf, st)
-                },
-            );
+        self.g.par_chunks_mut(plane).enumerate().for_each_init(
+            || (vec![0.0; L::Q * nx], RowState::with_len(nx)),
+            |(buf, st), (z, out)| {
+                #[cfg(target_arch = "x86_64")]
+                if avx2 {
+                    // SAFETY: avx2 and fma were detected above.
+                    unsafe { Self::plane_avx2(src, geom, coll, force, z, out, buf, st) };
+                    return;
+                }
+                Self::plane_body(src, geom, coll, force, z, out, buf, st)
+            },
+        );
         std::mem::swap(&mut self.f, &mut self.g);
         self.steps += 1;
     }
@@ -332,7 +339,9 @@ impl<L: Lattice, C: Collision, F: Forcing> Solver<L, C, F> {
                     for &(x0, x1) in self.geometry.runs(z * d.ny + y) {
                         for q in 0..L::Q {
                             let base = (q * d.ny + y) * d.nx;
-                            s += pl[base + x0 as usize..base + x1 as usize].iter().sum::<f64>();
+                            s += pl[base + x0 as usize..base + x1 as usize]
+                                .iter()
+                                .sum::<f64>();
                         }
                     }
                 }
@@ -354,12 +363,11 @@ pub fn density_momentum<L: Lattice>(p: &L::Pop) -> (f64, [f64; 3]) {
     let p = p.as_ref();
     let mut rho = 0.0;
     let mut j = [0.0; 3];
-    for q in 0..L::Q {
-        let c = L::C[q];
-        rho += p[q];
-        j[0] += c[0] as f64 * p[q];
-        j[1] += c[1] as f64 * p[q];
-        j[2] += c[2] as f64 * p[q];
+    for (c, &f) in L::C.iter().zip(p) {
+        rho += f;
+        j[0] += c[0] as f64 * f;
+        j[1] += c[1] as f64 * f;
+        j[2] += c[2] as f64 * f;
     }
     (rho, j)
 }

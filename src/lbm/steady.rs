@@ -38,7 +38,7 @@ pub fn run_steady<L: Lattice, C: Collision, F: Forcing>(
     ctl: SteadyControl,
     mut progress: impl FnMut(u64, f64),
 ) -> Result<Steady> {
-    if ctl.check_every == 0 || !(ctl.tol > 0.0) {
+    if ctl.check_every == 0 || ctl.tol.is_nan() || ctl.tol <= 0.0 {
         return invalid(format!(
             "steady control: check_every = {} must be >= 1 and tol = {} > 0",
             ctl.check_every, ctl.tol

@@ -2,11 +2,7 @@ use super::flows::*;
 use super::steady::{run_steady, SteadyControl};
 use super::*;
 
-fn channel<L: Lattice, C: Collision>(
-    h: usize,
-    coll: C,
-    g: f64,
-) -> Solver<L, C, BodyForce> {
+fn channel<L: Lattice, C: Collision>(h: usize, coll: C, g: f64) -> Solver<L, C, BodyForce> {
     let d = Dims::new(1, h + 2, 1).unwrap();
     let geom = Geometry::new::<L>(d, channel_mask(d), |_| [0.0; 3]).unwrap();
     Solver::new(geom, coll, BodyForce { g: [g, 0.0, 0.0] }).unwrap()
@@ -15,7 +11,7 @@ fn channel<L: Lattice, C: Collision>(
 fn ctl() -> SteadyControl {
     SteadyControl {
         check_every: 500,
-        tol: 1e-13,
+        tol: 1e-12,
         max_steps: 400_000,
     }
 }
@@ -62,7 +58,14 @@ fn mass_conserved_and_thread_independent() {
     let d = Dims::new(n, n, n).unwrap();
     let geom = Geometry::new::<D3Q15>(d, sphere_array_mask(n, 3.3), |_| [0.0; 3]).unwrap();
     let mk = || {
-        let mut s = Solver::<D3Q15, _, _>::new(geom.clone(), Trt::magic(0.8), BodyForce { g: [1e-4, 2e-5, 0.0] }).unwrap();
+        let mut s = Solver::<D3Q15, _, _>::new(
+            geom.clone(),
+            Trt::magic(0.8),
+            BodyForce {
+                g: [1e-4, 2e-5, 0.0],
+            },
+        )
+        .unwrap();
         s.init(|c| (1.0 + 0.01 * ((c % 7) as f64), [0.01, 0.0, 0.0]));
         s
     };
@@ -71,9 +74,11 @@ fn mass_conserved_and_thread_independent() {
     a.run(50);
     let m1 = a.mass();
     assert!((m1 - m0).abs() < 1e-12 * m0, "{m0} {m1}");
-    let one = rayon::ThreadPoolBuilder::new().num_threads(1).build().unwrap();
+    let one = rayon::ThreadPoolBuilder::new()
+        .num_threads(1)
+        .build()
+        .unwrap();
     let mut b = mk();
     one.install(|| b.run(50));
     assert_eq!(a.populations(), b.populations());
 }
-

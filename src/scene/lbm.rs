@@ -162,7 +162,10 @@ impl Job for SceneRun {
             let mask = sphere_array_mask(n, radius);
             let geom = Geometry::new::<L>(d, mask.clone(), |_| [0.0; 3])?;
             let p = permeability::<L, C>(geom, coll, self.g, self.ctl, |s, r| {
-                eprint!("\rstep {s}: residual {r:.2e} (stop at {:.0e})   ", self.ctl.tol)
+                eprint!(
+                    "\rstep {s}: residual {r:.2e} (stop at {:.0e})   ",
+                    self.ctl.tol
+                )
             })?;
             eprintln!();
             let porosity_field = mask.iter().map(|&s| if s { 0.0 } else { 1.0 }).collect();
@@ -205,7 +208,12 @@ pub fn run_scene(text: &str, origin: &str, out: &Path, opts: &RunOptions) -> Res
     if sc.cells < 4 {
         return invalid(format!("cells = {}: must be >= 4", sc.cells));
     }
-    let u = Units::from_tau(sc.length_m / sc.cells as f64, sc.nu_m2_s, sc.rho_kg_m3, sc.tau)?;
+    let u = Units::from_tau(
+        sc.length_m / sc.cells as f64,
+        sc.nu_m2_s,
+        sc.rho_kg_m3,
+        sc.tau,
+    )?;
     let g = u.accel_to_lattice(sc.acceleration_m_s2);
     let wall_u = u.velocity_to_lattice(sc.wall_velocity_m_s);
     let nu = u.nu_lattice();
@@ -221,7 +229,9 @@ pub fn run_scene(text: &str, origin: &str, out: &Path, opts: &RunOptions) -> Res
                 return invalid(format!("porosity = {eps}: must be in (0, 1]"));
             }
             if !(k_si > 0.0 && k_si.is_finite()) {
-                return invalid(format!("permeability_m2 = {k_si}: must be positive and finite"));
+                return invalid(format!(
+                    "permeability_m2 = {k_si}: must be positive and finite"
+                ));
             }
             if sc.wall_velocity_m_s != 0.0 {
                 return invalid("wall_velocity_m_s: only flow = \"channel\" has a moving wall");
@@ -328,7 +338,7 @@ pub fn run_scene(text: &str, origin: &str, out: &Path, opts: &RunOptions) -> Res
         );
     } else {
         let mut csv = String::from("y_m,u_m_s,u_exact_m_s\n");
-        for y in 1..=sc.cells {
+        for (y, v) in vel.iter().enumerate().take(sc.cells + 1).skip(1) {
             let yc = channel_coordinate(y);
             let exact = match porous {
                 None => Some(g * yc * (h - yc) / (2.0 * nu) + wall_u * yc / h),
@@ -338,7 +348,7 @@ pub fn run_scene(text: &str, origin: &str, out: &Path, opts: &RunOptions) -> Res
             csv += &format!(
                 "{},{},{}\n",
                 yc * u.dx,
-                vel[y][0],
+                v[0],
                 exact.map_or(String::new(), |e| u.velocity_to_si(e).to_string())
             );
         }

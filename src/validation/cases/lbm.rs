@@ -79,7 +79,14 @@ fn plain_channel_error(
 ) -> Result<f64> {
     let nu = nu_of(tau);
     let hf = h as f64;
-    channel_error(lat, coll, tau, (h, g, None), ctl, Box::new(move |y| poiseuille(y, hf, g, nu)))
+    channel_error(
+        lat,
+        coll,
+        tau,
+        (h, g, None),
+        ctl,
+        Box::new(move |y| poiseuille(y, hf, g, nu)),
+    )
 }
 
 /// The relative L2 error of the steady channel (h, g, porous medium) against `exact`.
@@ -97,7 +104,16 @@ fn channel_error(
         wall_u: 0.0,
         porous,
     };
-    dispatch(lat, coll, tau, ChannelError { channel, ctl, exact })
+    dispatch(
+        lat,
+        coll,
+        tau,
+        ChannelError {
+            channel,
+            ctl,
+            exact,
+        },
+    )
 }
 
 /// Case 801: BGK plane Poiseuille, order of the L2 error between H and 2H (expected 2).
@@ -113,7 +129,11 @@ pub fn case_801(ctx: &CaseContext) -> Result<Vec<Row>> {
         let e1 = plain_channel_error(lat, coll, tau, h, g, STEADY)?;
         let e2 = plain_channel_error(lat, coll, tau, 2 * h, g, STEADY)?;
         let order = (e1 / e2).log2();
-        eprintln!("801 {} {} tau={tau} H={h}: L2 {e1:.3e} -> {e2:.3e}, order {order:.4}", lat.name(), coll.name());
+        eprintln!(
+            "801 {} {} tau={tau} H={h}: L2 {e1:.3e} -> {e2:.3e}, order {order:.4}",
+            lat.name(),
+            coll.name()
+        );
         rows.push(Row::new(
             format!("{} {} tau={tau} H={h}->{}", lat.name(), coll.name(), 2 * h),
             order,
@@ -134,7 +154,11 @@ pub fn case_802(ctx: &CaseContext) -> Result<Vec<Row>> {
         let tau = t.f64(i, "tau")?;
         let h = t.f64(i, "h")? as usize;
         let e = plain_channel_error(lat, coll, tau, h, t.f64(i, "g_lattice")?, TIGHT)?;
-        eprintln!("802 {} {} tau={tau} H={h}: L2 {e:.3e}", lat.name(), coll.name());
+        eprintln!(
+            "802 {} {} tau={tau} H={h}: L2 {e:.3e}",
+            lat.name(),
+            coll.name()
+        );
         rows.push(Row::new(
             format!("{} {} tau={tau} H={h}", lat.name(), coll.name()),
             e,
@@ -187,7 +211,12 @@ pub fn case_803(ctx: &CaseContext) -> Result<Vec<Row>> {
             coll.name()
         );
         rows.push(Row::new(
-            format!("{} {} eps={eps} Da={da:e} H={h}->{}", lat.name(), coll.name(), 2 * h),
+            format!(
+                "{} {} eps={eps} Da={da:e} H={h}->{}",
+                lat.name(),
+                coll.name(),
+                2 * h
+            ),
             order,
             t.f64(i, "expected_order")?,
             1.0,
@@ -224,9 +253,24 @@ pub fn case_804(ctx: &CaseContext) -> Result<Vec<Row>> {
         let k = 2.0 * std::f64::consts::PI / n as f64;
         let td = 1.0 / (4.0 * nu * k * k);
         let (t1, t2) = ((0.1 * td).ceil() as u64, (1.1 * td).ceil() as u64);
-        let got = dispatch(lat, coll, tau, TaylorGreen { n, u0: t.f64(i, "u0")?, t1, t2 })?;
+        let got = dispatch(
+            lat,
+            coll,
+            tau,
+            TaylorGreen {
+                n,
+                u0: t.f64(i, "u0")?,
+                t1,
+                t2,
+            },
+        )?;
         let want = t.f64(i, "expected_nu")?;
-        eprintln!("804 {} {} tau={tau} n={n}: nu {got:.6e} vs {want:.6e} ({:.2e})", lat.name(), coll.name(), got / want - 1.0);
+        eprintln!(
+            "804 {} {} tau={tau} n={n}: nu {got:.6e} vs {want:.6e} ({:.2e})",
+            lat.name(),
+            coll.name(),
+            got / want - 1.0
+        );
         rows.push(Row::new(
             format!("{} {} tau={tau} n={n}", lat.name(), coll.name()),
             got,
@@ -282,7 +326,17 @@ fn sphere_array_k(
 ) -> Result<(f64, f64, f64)> {
     let radius = n as f64 * (3.0 * phi / (4.0 * std::f64::consts::PI)).cbrt();
     let g = g16 * (16.0 / n as f64).powi(3);
-    dispatch(lat, coll, tau, SphereArray { n, radius, g, ctl: ARRAY_CTL })
+    dispatch(
+        lat,
+        coll,
+        tau,
+        SphereArray {
+            n,
+            radius,
+            g,
+            ctl: ARRAY_CTL,
+        },
+    )
 }
 
 /// Case 808: Darcy's law. Rows "force": k at force g against k at g_ref (ratio 1, low Re);
@@ -305,7 +359,10 @@ pub fn case_808(ctx: &CaseContext) -> Result<Vec<Row>> {
             lat.name(),
             coll.name()
         );
-        eprintln!("808 {label}: k {k_ref:.6e} -> {k:.6e} ratio {:.6} (Re {re_ref:.2e}, {re:.2e})", k / k_ref);
+        eprintln!(
+            "808 {label}: k {k_ref:.6e} -> {k:.6e} ratio {:.6} (Re {re_ref:.2e}, {re:.2e})",
+            k / k_ref
+        );
         if t.str(i, "kind")? == "report" {
             continue;
         }
@@ -331,20 +388,30 @@ pub fn case_806_807(ctx: &CaseContext) -> Result<Vec<Row>> {
             // the table against the dilute series (an input check, not the code under test)
             let sa = sangani_acrivos_sc(phi);
             if (sa / want - 1.0).abs() > 2e-3 {
-                problems.push(format!("table K({phi}) = {want} differs from Sangani-Acrivos {sa:.4}"));
+                problems.push(format!(
+                    "table K({phi}) = {want} differs from Sangani-Acrivos {sa:.4}"
+                ));
             }
         }
         let mut errs = Vec::new();
         for col in ["n_coarse", "n_fine"] {
             if t.f64(i, col)?.is_nan() {
-                return Err(Error::Validation(format!("{}: {col} missing", t.path().display())));
+                return Err(Error::Validation(format!(
+                    "{}: {col} missing",
+                    t.path().display()
+                )));
             }
             let n = t.f64(i, col)? as usize;
             let radius = n as f64 * (3.0 * phi / (4.0 * std::f64::consts::PI)).cbrt();
             let (k, _, re) = sphere_array_k(lat, coll, tau, n, phi, t.f64(i, "g16_lattice")?)?;
             // K from the nominal radius and solid fraction (the staircase is the error measured)
             let kd = drag_coefficient(k, radius, phi);
-            eprintln!("806 {} {} phi={phi} n={n}: K {kd:.4} vs {want} ({:+.2}%), Re {re:.2e}", lat.name(), coll.name(), 100.0 * (kd / want - 1.0));
+            eprintln!(
+                "806 {} {} phi={phi} n={n}: K {kd:.4} vs {want} ({:+.2}%), Re {re:.2e}",
+                lat.name(),
+                coll.name(),
+                100.0 * (kd / want - 1.0)
+            );
             errs.push((kd / want - 1.0).abs());
             if col == "n_fine" {
                 rows.push(Row::new(
@@ -360,7 +427,12 @@ pub fn case_806_807(ctx: &CaseContext) -> Result<Vec<Row>> {
     }
     // the staircase error of one sphere is not monotone in n; its RMS over the table must fall
     let rms = |s: f64| (s / t.len() as f64).sqrt();
-    eprintln!("{}: RMS relative error {:.3e} (coarse) -> {:.3e} (fine)", ctx.id, rms(sq[0]), rms(sq[1]));
+    eprintln!(
+        "{}: RMS relative error {:.3e} (coarse) -> {:.3e} (fine)",
+        ctx.id,
+        rms(sq[0]),
+        rms(sq[1])
+    );
     if sq[1] >= sq[0] {
         problems.push(format!(
             "the RMS error over the table did not fall with resolution ({:.2e} -> {:.2e})",
