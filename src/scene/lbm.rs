@@ -363,3 +363,62 @@ pub fn run_scene(text: &str, origin: &str, out: &Path, opts: &RunOptions) -> Res
     println!("  wrote {}", out.display());
     Ok(())
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn builtins_parse_and_unknown_keys_are_named() {
+        for b in builtins() {
+            let s: LbmScene = toml::from_str(b.toml).unwrap_or_else(|e| panic!("{}: {e}", b.name));
+            assert_eq!(s.kind, "lbm");
+        }
+        let bad = format!("{}\nviscosity = 1.0\n", builtins()[0].toml);
+        let e = toml::from_str::<LbmScene>(&bad).unwrap_err().to_string();
+        assert!(e.contains("viscosity"), "{e}");
+        let tmp = std::env::temp_dir().join(format!("porelab-lbm-scene-{}", std::process::id()));
+        let e = run_scene(
+            &builtins()[0]
+                .toml
+                .replace("flow = \"channel\"", "flow = \"pipe\""),
+            "test",
+            &tmp,
+            &RunOptions::default(),
+        )
+        .unwrap_err()
+        .to_string();
+        assert!(e.contains("flow = \"pipe\""), "{e}");
+        let e = run_scene(
+            &builtins()[0]
+                .toml
+                .replace("acceleration_m_s2 = 1e-3", "acceleration_m_s2 = 10.0"),
+            "test",
+            &tmp,
+            &RunOptions::default(),
+        )
+        .unwrap_err()
+        .to_string();
+        assert!(e.contains("Mach"), "{e}");
+    }
+
+    /// The channel builtin reproduces its own closed-form column (TRT: exact parabola).
+    #[test]
+    fn channel_builtin_profile_matches_poiseuille() {
+        let tmp = std::env::temp_dir().join(format!("porelab-lbm-ch-{}", std::process::id()));
+        run_scene(
+            builtins()[0].toml,
+            "builtin:lbm-channel",
+            &tmp,
+            &RunOptions::default(),
+        )
+        .unwrap();
+        let text = std::fs::read_to_string(tmp.join("profile.csv")).unwrap();
+        for l in text.lines().skip(1) {
+            let v: Vec<f64> = l.split(',').map(|t| t.parse().unwrap()).collect();
+            assert!((v[1] - v[2]).abs() < 1e-8 * v[2].abs(), "{l}");
+        }
+        assert!(tmp.join("fields.vtk").is_file() && tmp.join("summary.json").is_file());
+        let _ = std::fs::remove_dir_all(&tmp);
+    }
+}
