@@ -65,6 +65,24 @@ impl Job for ChannelError {
     }
 }
 
+/// Runs `f(table, row, lattice, collision, tau)` for every row of the case's expected.csv and
+/// collects the rows it returns.
+fn per_row(
+    ctx: &CaseContext,
+    mut f: impl FnMut(&Table, usize, LatticeKind, CollisionKind, f64) -> Result<Option<Row>>,
+) -> Result<Vec<Row>> {
+    let t = ctx.expected_table()?;
+    non_empty(&t)?;
+    let mut rows = Vec::new();
+    for i in 0..t.len() {
+        let (lat, coll) = kinds(&t, i)?;
+        if let Some(r) = f(&t, i, lat, coll, t.f64(i, "tau")?)? {
+            rows.push(r);
+        }
+    }
+    Ok(rows)
+}
+
 fn nu_of(tau: f64) -> f64 {
     (tau - 0.5) / 3.0
 }
@@ -118,12 +136,7 @@ fn channel_error(
 
 /// Case 801: BGK plane Poiseuille, order of the L2 error between H and 2H (expected 2).
 pub fn case_801(ctx: &CaseContext) -> Result<Vec<Row>> {
-    let t = ctx.expected_table()?;
-    non_empty(&t)?;
-    let mut rows = Vec::new();
-    for i in 0..t.len() {
-        let (lat, coll) = kinds(&t, i)?;
-        let tau = t.f64(i, "tau")?;
+    per_row(ctx, |t, i, lat, coll, tau| {
         let h = t.f64(i, "h_coarse")? as usize;
         let g = t.f64(i, "g_lattice")?;
         let e1 = plain_channel_error(lat, coll, tau, h, g, STEADY)?;
@@ -134,24 +147,18 @@ pub fn case_801(ctx: &CaseContext) -> Result<Vec<Row>> {
             lat.name(),
             coll.name()
         );
-        rows.push(Row::new(
+        Ok(Some(Row::new(
             format!("{} {} tau={tau} H={h}->{}", lat.name(), coll.name(), 2 * h),
             order,
             t.f64(i, "expected_order")?,
             1.0,
-        ));
-    }
-    Ok(rows)
+        )))
+    })
 }
 
 /// Case 802: TRT (Lambda = 3/16) plane Poiseuille is exact: relative L2 error 0.
 pub fn case_802(ctx: &CaseContext) -> Result<Vec<Row>> {
-    let t = ctx.expected_table()?;
-    non_empty(&t)?;
-    let mut rows = Vec::new();
-    for i in 0..t.len() {
-        let (lat, coll) = kinds(&t, i)?;
-        let tau = t.f64(i, "tau")?;
+    per_row(ctx, |t, i, lat, coll, tau| {
         let h = t.f64(i, "h")? as usize;
         let e = plain_channel_error(lat, coll, tau, h, t.f64(i, "g_lattice")?, TIGHT)?;
         eprintln!(
@@ -159,14 +166,13 @@ pub fn case_802(ctx: &CaseContext) -> Result<Vec<Row>> {
             lat.name(),
             coll.name()
         );
-        rows.push(Row::new(
+        Ok(Some(Row::new(
             format!("{} {} tau={tau} H={h}", lat.name(), coll.name()),
             e,
             t.f64(i, "expected_rel_l2")?,
             1.0,
-        ));
-    }
-    Ok(rows)
+        )))
+    })
 }
 
 /// Cells across the Brinkman wall layer sqrt(K/eps) that case 803 requires at its coarse grid.
@@ -174,12 +180,7 @@ const MIN_LAYER_CELLS: f64 = 4.0;
 
 /// Case 803: Guo-Zhao porous Poiseuille against the Brinkman solution; order between H, 2H.
 pub fn case_803(ctx: &CaseContext) -> Result<Vec<Row>> {
-    let t = ctx.expected_table()?;
-    non_empty(&t)?;
-    let mut rows = Vec::new();
-    for i in 0..t.len() {
-        let (lat, coll) = kinds(&t, i)?;
-        let tau = t.f64(i, "tau")?;
+    per_row(ctx, |t, i, lat, coll, tau| {
         let eps = t.f64(i, "eps")?;
         let da = t.f64(i, "darcy")?;
         let h = t.f64(i, "h_coarse")? as usize;
@@ -210,7 +211,7 @@ pub fn case_803(ctx: &CaseContext) -> Result<Vec<Row>> {
             lat.name(),
             coll.name()
         );
-        rows.push(Row::new(
+        Ok(Some(Row::new(
             format!(
                 "{} {} eps={eps} Da={da:e} H={h}->{}",
                 lat.name(),
@@ -220,9 +221,8 @@ pub fn case_803(ctx: &CaseContext) -> Result<Vec<Row>> {
             order,
             t.f64(i, "expected_order")?,
             1.0,
-        ));
-    }
-    Ok(rows)
+        )))
+    })
 }
 
 struct TaylorGreen {
@@ -241,12 +241,7 @@ impl Job for TaylorGreen {
 
 /// Case 804: Taylor-Green decay; the recovered viscosity against nu = (tau - 1/2)/3.
 pub fn case_804(ctx: &CaseContext) -> Result<Vec<Row>> {
-    let t = ctx.expected_table()?;
-    non_empty(&t)?;
-    let mut rows = Vec::new();
-    for i in 0..t.len() {
-        let (lat, coll) = kinds(&t, i)?;
-        let tau = t.f64(i, "tau")?;
+    per_row(ctx, |t, i, lat, coll, tau| {
         let n = t.f64(i, "n")? as usize;
         let nu = nu_of(tau);
         // t1 = one tenth, t2 = one e-fold of the energy decay time 1/(4 nu k^2)
@@ -271,14 +266,13 @@ pub fn case_804(ctx: &CaseContext) -> Result<Vec<Row>> {
             coll.name(),
             got / want - 1.0
         );
-        rows.push(Row::new(
+        Ok(Some(Row::new(
             format!("{} {} tau={tau} n={n}", lat.name(), coll.name()),
             got,
             want,
             want,
-        ));
-    }
-    Ok(rows)
+        )))
+    })
 }
 
 struct SphereArray {
