@@ -13,6 +13,7 @@ pub mod deposition;
 pub mod error;
 pub mod hydro;
 pub mod io;
+pub mod lbm;
 pub mod magnetics;
 pub mod packing;
 pub mod reference;

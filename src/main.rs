@@ -64,6 +64,8 @@ enum Command {
         #[arg(long, default_value_t = 10.0)]
         checkpoint_every: f64,
     },
+    /// Permeability of a periodic particle configuration (extended XYZ) by lattice Boltzmann.
+    Permeability(porelab::lbm::pore::PermeabilityArgs),
     /// Work-precision benchmarks.
     Bench {
         #[command(subcommand)]
@@ -92,6 +94,9 @@ enum BenchWhat {
     /// Deposition: trial moves per second for spheres, platelets and needles, and the share
     /// of pair tests settled by each prefilter.
     Deposition(porelab::deposition::bench::BenchArgs),
+    /// Lattice Boltzmann: MLUPS per lattice, collision and forcing against the measured
+    /// memory-bandwidth limit and the lbmpy peer.
+    Lbm(porelab::lbm::bench::BenchArgs),
 }
 
 fn main() -> ExitCode {
@@ -108,6 +113,9 @@ fn main() -> ExitCode {
         Command::Contact(args) => porelab::contact::cli::run_contact(&args),
         Command::Shape(args) => porelab::shape::cli::run_shape(&args),
         Command::Drag(args) => porelab::hydro::cli::run_drag(&args),
+        Command::Permeability(args) => {
+            porelab::lbm::pore::cli_permeability(&args).map(|_| ExitCode::SUCCESS)
+        }
         Command::Run {
             show: Some(name), ..
         } => porelab::scene::cli_show(&name).map(|_| ExitCode::SUCCESS),
@@ -145,6 +153,7 @@ fn main() -> ExitCode {
             BenchWhat::Deposition(args) => {
                 porelab::deposition::bench::run(&args).map(|_| ExitCode::SUCCESS)
             }
+            BenchWhat::Lbm(args) => porelab::lbm::bench::run(&args).map(|_| ExitCode::SUCCESS),
         },
     };
     match result {

@@ -11,6 +11,7 @@
 
 pub mod brownian;
 pub mod deposition;
+pub mod lbm;
 pub mod packing;
 
 use crate::error::{invalid, Error, Result};
@@ -28,6 +29,7 @@ pub fn builtins() -> Vec<Builtin> {
     let mut v = brownian::builtins();
     v.extend(packing::builtins());
     v.extend(deposition::builtins());
+    v.extend(lbm::builtins());
     v.sort_by_key(|b| b.name);
     v
 }
@@ -55,6 +57,9 @@ pub struct RunOptions {
     pub checkpoint_every_seconds: Option<f64>,
 }
 
+/// The values of a scene's `kind`, as error messages list them.
+const KNOWN_KINDS: &str = "\"brownian\", \"packing\", \"deposition\", \"lbm\"";
+
 /// The engine a scene names, read from its top-level `kind` key.
 fn scene_kind(text: &str, origin: &str) -> Result<String> {
     let value: toml::Table = toml::from_str(text).map_err(|e| Error::File {
@@ -64,10 +69,10 @@ fn scene_kind(text: &str, origin: &str) -> Result<String> {
     match value.get("kind") {
         Some(toml::Value::String(s)) => Ok(s.clone()),
         Some(other) => invalid(format!(
-            "{origin}: key `kind` = {other}: must be a string, \"brownian\" or \"packing\""
+            "{origin}: key `kind` = {other}: must be a string, one of {KNOWN_KINDS}"
         )),
         None => invalid(format!(
-            "{origin}: missing top-level key `kind` (\"brownian\" or \"packing\")"
+            "{origin}: missing top-level key `kind` (one of {KNOWN_KINDS})"
         )),
     }
 }
@@ -83,8 +88,9 @@ pub fn run_text(text: &str, origin: &str, out_stem: &str, opts: &RunOptions) -> 
         "brownian" => brownian::run_scene(text, origin, &out, opts),
         "packing" => packing::run_scene(text, origin, &out, opts),
         "deposition" => deposition::run_scene(text, origin, &out, opts),
+        "lbm" => lbm::run_scene(text, origin, &out, opts),
         other => invalid(format!(
-            "{origin}: kind = \"{other}\": unknown engine (known: \"brownian\", \"packing\")"
+            "{origin}: kind = \"{other}\": unknown engine (known: {KNOWN_KINDS})"
         )),
     }
 }

@@ -14,6 +14,7 @@ mod drag;
 mod elliptic_cases;
 mod field_analytic;
 mod field_oracle;
+mod lbm;
 mod packing;
 mod packing_confined;
 mod shapes;
@@ -87,6 +88,13 @@ pub fn runner_for(id: &str) -> Option<Runner> {
         "420" => Some(brownian_chains::case_420),
         "421" => Some(brownian_chains::case_421),
         "422" => Some(brownian_capture::case_422),
+        "801" => Some(lbm::case_801),
+        "802" => Some(lbm::case_802),
+        "803" => Some(lbm::case_803),
+        "804" => Some(lbm::case_804),
+        "808" => Some(lbm::case_808),
+        "806" => Some(lbm::case_806_807),
+        "807" => Some(lbm::case_806_807),
         _ => None,
     }
 }

@@ -1,0 +1,227 @@
+//! `porelab bench lbm`: million lattice updates per second (MLUPS) of the fused kernel for
+//! each lattice and collision, plain and porous, at one and two threads, against the memory
+//! bandwidth measured by a STREAM-type triad on the same machine in the same run, and against
+//! the peer lbmpy (benches/peer_lbmpy.py) run in the same measurement when python finds it.
+
+use super::choice::{dispatch, CollisionKind, Job, LatticeKind};
+use super::geometry::{Dims, Geometry};
+use super::{BodyForce, Collision, Lattice, Porous, Solver};
+use crate::error::{invalid, Result};
+use std::time::Instant;
+
+#[derive(Debug, Clone, clap::Args)]
+pub struct BenchArgs {
+    /// Cube edges to measure.
+    #[arg(long, value_delimiter = ',', default_values_t = vec![64, 128])]
+    pub sizes: Vec<usize>,
+    /// Thread counts.
+    #[arg(long, value_delimiter = ',', default_values_t = vec![1, 2])]
+    pub threads: Vec<usize>,
+    /// Seconds of stepping per measurement (at least 3 steps are timed).
+    #[arg(long, default_value_t = 2.0)]
+    pub seconds: f64,
+    /// Skip the lbmpy peer.
+    #[arg(long)]
+    pub no_peer: bool,
+    /// Output CSV (default target/porelab/bench/lbm.csv).
+    #[arg(long)]
+    pub out: Option<std::path::PathBuf>,
+}
+
+/// Bytes moved per cell update by a two-array pull kernel: read and write Q doubles, plus the
+/// write-allocate read of the destination (counted, as the triad below counts it).
+pub fn bytes_per_update(q: usize) -> f64 {
+    3.0 * 8.0 * q as f64
+}
+
+/// STREAM-type triad a = b + s c over arrays far larger than the caches; GB/s counting
+/// 4 x 8 bytes per element (2 reads, 1 write, 1 write-allocate read), best of 5.
+pub fn triad_gb_per_s(threads: usize) -> Result<f64> {
+    use rayon::prelude::*;
+    let n = 1 << 25; // 3 arrays x 256 MiB
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .build()
+        .map_err(|e| crate::Error::InvalidInput(format!("thread pool: {e}")))?;
+    pool.install(|| {
+        let mut a = vec![0.0f64; n];
+        let b = vec![1.0f64; n];
+        let c = vec![2.0f64; n];
+        let chunk = n / (threads * 8).max(1);
+        let mut best = f64::INFINITY;
+        for rep in 0..5 {
+            let s = 0.5 + rep as f64;
+            let t = Instant::now();
+            a.par_chunks_mut(chunk)
+                .zip(b.par_chunks(chunk))
+                .zip(c.par_chunks(chunk))
+                .for_each(|((a, b), c)| {
+                    for i in 0..a.len() {
+                        a[i] = b[i] + s * c[i];
+                    }
+                });
+            best = best.min(t.elapsed().as_secs_f64());
+        }
+        std::hint::black_box(&a);
+        Ok(4.0 * 8.0 * n as f64 / best / 1e9)
+    })
+}
+
+struct Measure {
+    n: usize,
+    porous: bool,
+    seconds: f64,
+}
+
+impl Job for Measure {
+    type Out = Result<f64>;
+    fn run<L: Lattice, C: Collision>(self, coll: C) -> Result<f64> {
+        let d = Dims::new(self.n, self.n, self.n)?;
+        let geom = Geometry::open::<L>(d);
+        let g = [1e-6, 0.0, 0.0];
+        if self.porous {
+            let nu = (1.0 / coll.omega_plus() - 0.5) / 3.0;
+            let mut p = Porous::clear(d.cells(), nu, g, true);
+            for c in 0..d.cells() {
+                p.set(c, 0.4 + 0.5 * ((c % 13) as f64 / 13.0), 1e-2)
+                    .map_err(crate::Error::InvalidInput)?;
+            }
+            time_steps(Solver::<L, C, Porous>::new(geom, coll, p)?, self.seconds)
+        } else {
+            time_steps(
+                Solver::<L, C, BodyForce>::new(geom, coll, BodyForce { g })?,
+                self.seconds,
+            )
+        }
+    }
+}
+
+fn time_steps<L: Lattice, C: Collision, F: super::Forcing>(
+    mut s: Solver<L, C, F>,
+    seconds: f64,
+) -> Result<f64> {
+    s.step(); // warm-up
+    let t = Instant::now();
+    let mut steps = 0u64;
+    while steps < 3 || t.elapsed().as_secs_f64() < seconds {
+        s.step();
+        steps += 1;
+    }
+    let dt = t.elapsed().as_secs_f64();
+    Ok(s.dims().cells() as f64 * steps as f64 / dt / 1e6)
+}
+
+/// MLUPS of one configuration on `threads` threads.
+pub fn mlups(
+    lat: LatticeKind,
+    coll: CollisionKind,
+    porous: bool,
+    n: usize,
+    threads: usize,
+    seconds: f64,
+) -> Result<f64> {
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .build()
+        .map_err(|e| crate::Error::InvalidInput(format!("thread pool: {e}")))?;
+    pool.install(|| dispatch(lat, coll, 1.0, Measure { n, porous, seconds }))
+}
+
+/// lbmpy's MLUPS for (lattice, collision, n, threads), run by benches/peer_lbmpy.py; None with
+/// the reason when python or lbmpy is missing.
+pub fn peer_mlups(
+    lat: LatticeKind,
+    coll: CollisionKind,
+    n: usize,
+    threads: usize,
+    seconds: f64,
+) -> std::result::Result<f64, String> {
+    let script = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("benches/peer_lbmpy.py");
+    let out = std::process::Command::new("python3")
+        .arg(&script)
+        .args([
+            "--stencil",
+            lat.name(),
+            "--method",
+            match coll {
+                CollisionKind::Bgk => "srt",
+                CollisionKind::Trt => "trt",
+            },
+            "--n",
+            &n.to_string(),
+            "--seconds",
+            &seconds.to_string(),
+        ])
+        .env("OMP_NUM_THREADS", threads.to_string())
+        .output()
+        .map_err(|e| format!("python3 not runnable: {e}"))?;
+    if !out.status.success() {
+        return Err(String::from_utf8_lossy(&out.stderr).trim().to_string());
+    }
+    let text = String::from_utf8_lossy(&out.stdout);
+    text.lines()
+        .find_map(|l| l.strip_prefix("MLUPS "))
+        .and_then(|v| v.trim().parse().ok())
+        .ok_or_else(|| format!("peer printed no MLUPS line: {text}"))
+}
+
+pub fn run(args: &BenchArgs) -> Result<()> {
+    if args.sizes.is_empty() || args.threads.is_empty() || args.threads.contains(&0) {
+        return invalid("bench lbm: --sizes and --threads need at least one value, threads >= 1");
+    }
+    let mut csv = String::from(
+        "lattice,collision,forcing,n,threads,mlups,bandwidth_limit_mlups,fraction_of_limit,peer_lbmpy_mlups,ratio_to_peer\n",
+    );
+    for &th in &args.threads {
+        let bw = triad_gb_per_s(th)?;
+        println!("triad bandwidth, {th} thread(s): {bw:.1} GB/s (4 x 8 bytes per element)");
+        for &n in &args.sizes {
+            for lat in [LatticeKind::D3Q15, LatticeKind::D3Q19] {
+                let limit = bw * 1e9 / bytes_per_update(lat.q()) / 1e6;
+                for coll in [CollisionKind::Bgk, CollisionKind::Trt] {
+                    let peer = if args.no_peer {
+                        Err("--no-peer".to_string())
+                    } else {
+                        peer_mlups(lat, coll, n, th, args.seconds)
+                    };
+                    for porous in [false, true] {
+                        let m = mlups(lat, coll, porous, n, th, args.seconds)?;
+                        let (pm, ratio) = match (&peer, porous) {
+                            (Ok(p), false) => (format!("{p:.2}"), format!("{:.3}", m / p)),
+                            _ => (String::new(), String::new()),
+                        };
+                        println!(
+                            "{} {} {:<7} {n:>3}^3 {th} thr: {m:7.2} MLUPS, {:5.1} % of the {limit:.1} MLUPS limit{}",
+                            lat.name(),
+                            coll.name(),
+                            if porous { "porous" } else { "plain" },
+                            100.0 * m / limit,
+                            match (&peer, porous) {
+                                (Ok(p), false) => format!(", lbmpy {p:.2} MLUPS (ratio {:.2})", m / p),
+                                (Err(e), false) => format!(", lbmpy not measured: {}", e.lines().last().unwrap_or("")),
+                                _ => String::new(),
+                            }
+                        );
+                        csv += &format!(
+                            "{},{},{},{n},{th},{m:.3},{limit:.2},{:.4},{pm},{ratio}\n",
+                            lat.name(),
+                            coll.name(),
+                            if porous { "guo-zhao" } else { "guo" },
+                            m / limit
+                        );
+                    }
+                }
+            }
+        }
+    }
+    let out = args
+        .out
+        .clone()
+        .unwrap_or_else(|| std::path::PathBuf::from("target/porelab/bench/lbm.csv"));
+    if let Some(dir) = out.parent() {
+        std::fs::create_dir_all(dir)?;
+    }
+    crate::io::write_atomic(&out, csv.as_bytes())?;
+    println!("wrote {}", out.display());
+    Ok(())
+}

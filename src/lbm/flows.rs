@@ -1,0 +1,71 @@
+//! Geometries and closed forms of the standard flows: the plane channel (Poiseuille, Couette),
+//! the porous channel (Brinkman), the Taylor-Green vortex and the simple cubic sphere array.
+
+use super::geometry::Dims;
+
+/// Solid mask of a plane channel: walls are the rows y = 0 and y = ny - 1 (all x, z); with
+/// halfway bounce-back the walls sit at y = 1/2 and y = ny - 3/2, width H = ny - 2.
+pub fn channel_mask(d: Dims) -> Vec<bool> {
+    (0..d.cells())
+        .map(|c| {
+            let y = d.coords(c)[1];
+            y == 0 || y == d.ny - 1
+        })
+        .collect()
+}
+
+/// Distance of cell centre y from the lower wall of [`channel_mask`] (in cells).
+pub fn channel_coordinate(y: usize) -> f64 {
+    y as f64 - 0.5
+}
+
+/// Plane Poiseuille profile between walls at 0 and h under acceleration g: g y (h - y) / (2 nu).
+pub fn poiseuille(y: f64, h: f64, g: f64, nu: f64) -> f64 {
+    g * y * (h - y) / (2.0 * nu)
+}
+
+/// Guo & Zhao (2002) porous Poiseuille solution of the Brinkman equation (no Forchheimer
+/// term, effective viscosity = nu): u = (G K / nu) [1 - cosh(r (y - H/2)) / cosh(r H/2)],
+/// r = sqrt(eps / K) = sqrt(eps / (Da H^2)). Written with exponentials that cannot overflow.
+pub fn brinkman_poiseuille(y: f64, h: f64, g: f64, nu: f64, eps: f64, k: f64) -> f64 {
+    let r = (eps / k).sqrt();
+    let s = y - 0.5 * h;
+    // cosh(r s)/cosh(r h/2) = (e^{r(|s|-h/2)} + e^{-r(|s|+h/2)}) / (1 + e^{-r h})
+    let ratio = ((r * (s.abs() - 0.5 * h)).exp() + (-r * (s.abs() + 0.5 * h)).exp())
+        / (1.0 + (-r * h).exp());
+    g * k / nu * (1.0 - ratio)
+}
+
+/// Solid mask of one sphere of radius `radius` (cells) centred in the periodic n^3 box (a
+/// simple cubic array of period n): cell (i, j, k) is solid when its centre (i + 1/2, ...)
+/// lies inside.
+pub fn sphere_array_mask(n: usize, radius: f64) -> Vec<bool> {
+    let d = Dims {
+        nx: n,
+        ny: n,
+        nz: n,
+    };
+    let c = 0.5 * n as f64;
+    (0..d.cells())
+        .map(|cell| {
+            let p = d.coords(cell);
+            let r2: f64 = p.iter().map(|&v| (v as f64 + 0.5 - c).powi(2)).sum();
+            r2 < radius * radius
+        })
+        .collect()
+}
+
+/// Drag coefficient of a periodic array: K = f L^3 / (6 pi mu a U) with f the driving force
+/// per unit volume, L^3 the cell volume per sphere and U the superficial velocity; equivalently
+/// K = 2 a^2 / (9 phi k) with the permeability k = mu U / f (Zick & Homsy 1982, eq. 4.2).
+pub fn drag_coefficient(permeability: f64, radius: f64, solid_fraction: f64) -> f64 {
+    2.0 * radius * radius / (9.0 * solid_fraction * permeability)
+}
+
+/// Sangani & Acrivos (1982) dilute series for the simple cubic array, c = solid fraction:
+/// K = 1 / (1 - 1.7601 c^{1/3} + c - 1.5593 c^2 + 3.9799 c^{8/3} - 3.0734 c^{10/3}); its first
+/// two terms are Hasimoto's (1959).
+pub fn sangani_acrivos_sc(c: f64) -> f64 {
+    let t = c.cbrt();
+    1.0 / (1.0 - 1.7601 * t + c - 1.5593 * c * c + 3.9799 * c * c * t * t - 3.0734 * c * c * c * t)
+}

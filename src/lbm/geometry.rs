@@ -1,0 +1,189 @@
+//! The lattice's extent, its solid mask and what the kernel derives from it: the runs of
+//! fluid cells along x in every row (the kernel collides only those, so solid cells cost
+//! nothing and no cell asks "am I solid?") and the halfway bounce-back links, i.e. the
+//! (fluid cell, direction q) whose upstream neighbour x - c_q is solid.
+
+use super::lattice::{opposite, Lattice};
+use crate::error::{invalid, Result};
+
+/// Lattice extent (cells along x, y, z); all boundaries are periodic unless a solid mask
+/// closes them.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Dims {
+    pub nx: usize,
+    pub ny: usize,
+    pub nz: usize,
+}
+
+impl Dims {
+    pub fn new(nx: usize, ny: usize, nz: usize) -> Result<Dims> {
+        if nx == 0 || ny == 0 || nz == 0 {
+            return invalid(format!(
+                "lattice size {nx} x {ny} x {nz}: every extent must be at least 1 cell"
+            ));
+        }
+        nx.checked_mul(ny)
+            .and_then(|v| v.checked_mul(nz))
+            .filter(|&n| n < u32::MAX as usize)
+            .map(|_| Dims { nx, ny, nz })
+            .ok_or_else(|| {
+                crate::Error::InvalidInput(format!(
+                    "lattice size {nx} x {ny} x {nz}: more than 2^32 cells"
+                ))
+            })
+    }
+    pub fn cells(&self) -> usize {
+        self.nx * self.ny * self.nz
+    }
+    #[inline(always)]
+    pub fn cell(&self, x: usize, y: usize, z: usize) -> usize {
+        (z * self.ny + y) * self.nx + x
+    }
+    /// (x, y, z) of a cell index.
+    pub fn coords(&self, cell: usize) -> [usize; 3] {
+        [
+            cell % self.nx,
+            (cell / self.nx) % self.ny,
+            cell / (self.nx * self.ny),
+        ]
+    }
+    /// The periodic neighbour of (x, y, z) displaced by d.
+    #[inline(always)]
+    pub fn shifted(&self, p: [usize; 3], d: [i32; 3]) -> [usize; 3] {
+        let w = |v: usize, d: i32, n: usize| ((v as i64 + d as i64).rem_euclid(n as i64)) as usize;
+        [
+            w(p[0], d[0], self.nx),
+            w(p[1], d[1], self.ny),
+            w(p[2], d[2], self.nz),
+        ]
+    }
+}
+
+/// One halfway bounce-back link: population q of fluid cell x (in its row) comes back from
+/// its own opposite, plus `delta` = 6 w_q rho_0 c_q . u_wall for a moving wall (Ladd 1994).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Link {
+    pub x: u32,
+    pub q: u8,
+    pub delta: f64,
+}
+
+/// Solid mask with its fluid runs and bounce-back links for lattice `L`.
+#[derive(Debug, Clone)]
+pub struct Geometry {
+    pub dims: Dims,
+    solid: Vec<bool>,
+    /// Row r = z * ny + y holds runs run_start[r]..run_start[r + 1] of `runs`: [x0, x1).
+    run_start: Vec<u32>,
+    runs: Vec<(u32, u32)>,
+    link_start: Vec<u32>,
+    links: Vec<Link>,
+    fluid_cells: usize,
+}
+
+impl Geometry {
+    /// All fluid, fully periodic.
+    pub fn open<L: Lattice>(dims: Dims) -> Geometry {
+        Geometry::new::<L>(dims, vec![false; dims.cells()], |_| [0.0; 3]).expect("mask length")
+    }
+
+    /// From a solid mask (one bool per cell, index `Dims::cell`); `wall_velocity(cell)` is the
+    /// velocity of a solid cell (lattice units; zero for resting walls).
+    pub fn new<L: Lattice>(
+        dims: Dims,
+        solid: Vec<bool>,
+        wall_velocity: impl Fn(usize) -> [f64; 3],
+    ) -> Result<Geometry> {
+        if solid.len() != dims.cells() {
+            return invalid(format!(
+                "solid mask has {} cells, the lattice {}",
+                solid.len(),
+                dims.cells()
+            ));
+        }
+        let rows = dims.ny * dims.nz;
+        let mut run_start = Vec::with_capacity(rows + 1);
+        let mut runs = Vec::new();
+        let mut link_start = Vec::with_capacity(rows + 1);
+        let mut links = Vec::new();
+        let mut fluid_cells = 0;
+        for z in 0..dims.nz {
+            for y in 0..dims.ny {
+                run_start.push(runs.len() as u32);
+                link_start.push(links.len() as u32);
+                let mut x = 0;
+                while x < dims.nx {
+                    if solid[dims.cell(x, y, z)] {
+                        x += 1;
+                        continue;
+                    }
+                    let x0 = x;
+                    while x < dims.nx && !solid[dims.cell(x, y, z)] {
+                        x += 1;
+                    }
+                    runs.push((x0 as u32, x as u32));
+                    fluid_cells += x - x0;
+                }
+                for x in 0..dims.nx {
+                    if solid[dims.cell(x, y, z)] {
+                        continue;
+                    }
+                    for q in 1..L::Q {
+                        let c = L::C[q];
+                        let up = dims.shifted([x, y, z], [-c[0], -c[1], -c[2]]);
+                        let up_cell = dims.cell(up[0], up[1], up[2]);
+                        if solid[up_cell] {
+                            let uw = wall_velocity(up_cell);
+                            let cu =
+                                c[0] as f64 * uw[0] + c[1] as f64 * uw[1] + c[2] as f64 * uw[2];
+                            links.push(Link {
+                                x: x as u32,
+                                q: q as u8,
+                                delta: 6.0 * L::W[q] * cu,
+                            });
+                        }
+                    }
+                }
+            }
+        }
+        run_start.push(runs.len() as u32);
+        link_start.push(links.len() as u32);
+        Ok(Geometry {
+            dims,
+            solid,
+            run_start,
+            runs,
+            link_start,
+            links,
+            fluid_cells,
+        })
+    }
+
+    pub fn is_solid(&self, cell: usize) -> bool {
+        self.solid[cell]
+    }
+    pub fn solid_mask(&self) -> &[bool] {
+        &self.solid
+    }
+    pub fn fluid_cells(&self) -> usize {
+        self.fluid_cells
+    }
+    /// Fluid runs [x0, x1) of row r = z * ny + y.
+    #[inline(always)]
+    pub fn runs(&self, row: usize) -> &[(u32, u32)] {
+        &self.runs[self.run_start[row] as usize..self.run_start[row + 1] as usize]
+    }
+    /// Bounce-back links of row r.
+    #[inline(always)]
+    pub fn links(&self, row: usize) -> &[Link] {
+        &self.links[self.link_start[row] as usize..self.link_start[row + 1] as usize]
+    }
+    pub fn link_count(&self) -> usize {
+        self.links.len()
+    }
+    /// The opposite of link direction q (re-exported for the kernel).
+    #[inline(always)]
+    pub fn opp(q: usize) -> usize {
+        opposite(q)
+    }
+}

@@ -1,0 +1,29 @@
+//! Lattice-Boltzmann flow in clear and porous media (seed 002 eq. 3-11; Guo & Zhao 2002).
+//!
+//! Pieces that a scene composes (after lbmpy/waLBerla): the velocity set ([`lattice`]: D3Q15,
+//! D3Q19), the collision ([`collision`]: BGK, TRT), the forcing ([`forcing`]: none, Guo body
+//! force, Guo-Zhao porous medium) and the geometry ([`geometry`]: periodic box, solid mask with
+//! halfway bounce-back, moving walls). [`solver::Solver`] fuses them into one kernel per
+//! choice. Everything inside is in lattice units (dx = dt = 1, rho ~ 1); [`units`] converts at
+//! the boundary and refuses unstable parameters.
+
+pub mod bench;
+pub mod choice;
+pub mod collision;
+pub mod forcing;
+pub mod geometry;
+pub mod lattice;
+pub mod pore;
+pub mod problems;
+pub mod solver;
+
+pub use collision::{Bgk, Collision, Trt};
+pub use forcing::{BodyForce, Forcing, Porous, Unforced};
+pub use geometry::{Dims, Geometry};
+pub use lattice::{Lattice, D3Q15, D3Q19};
+pub use solver::{Fields, Solver};
+pub mod flows;
+pub mod steady;
+#[cfg(test)]
+mod tests;
+pub mod units;

@@ -1,0 +1,84 @@
+use super::flows::*;
+use super::steady::{run_steady, SteadyControl};
+use super::*;
+
+fn channel<L: Lattice, C: Collision>(h: usize, coll: C, g: f64) -> Solver<L, C, BodyForce> {
+    let d = Dims::new(1, h + 2, 1).unwrap();
+    let geom = Geometry::new::<L>(d, channel_mask(d), |_| [0.0; 3]).unwrap();
+    Solver::new(geom, coll, BodyForce { g: [g, 0.0, 0.0] }).unwrap()
+}
+
+fn ctl() -> SteadyControl {
+    SteadyControl {
+        check_every: 500,
+        tol: 1e-12,
+        max_steps: 400_000,
+    }
+}
+
+/// Relative L2 error of the x velocity against the Poiseuille parabola.
+fn poiseuille_error<L: Lattice, C: Collision>(h: usize, coll: C, tau: f64) -> f64 {
+    let g = 1e-6;
+    let nu = (tau - 0.5) / 3.0;
+    let mut s = channel::<L, C>(h, coll, g);
+    let st = run_steady(&mut s, ctl(), |_, _| {}).unwrap();
+    assert!(st.converged, "residual {}", st.residual);
+    let (mut e2, mut n2) = (0.0, 0.0);
+    for y in 1..=h {
+        let want = poiseuille(channel_coordinate(y), h as f64, g, nu);
+        let got = st.fields.u[y][0];
+        e2 += (got - want).powi(2);
+        n2 += want * want;
+    }
+    (e2 / n2).sqrt()
+}
+
+#[test]
+fn trt_magic_poiseuille_is_exact() {
+    for tau in [0.6, 1.0, 2.0] {
+        let e = poiseuille_error::<D3Q19, _>(8, Trt::magic(tau), tau);
+        assert!(e < 1e-9, "tau {tau}: {e}");
+        let e = poiseuille_error::<D3Q15, _>(8, Trt::magic(tau), tau);
+        assert!(e < 1e-9, "tau {tau}: {e}");
+    }
+}
+
+#[test]
+fn bgk_poiseuille_second_order() {
+    let tau = 1.5;
+    let e1 = poiseuille_error::<D3Q19, _>(8, Bgk::from_tau(tau), tau);
+    let e2 = poiseuille_error::<D3Q19, _>(16, Bgk::from_tau(tau), tau);
+    let order = (e1 / e2).log2();
+    assert!((order - 2.0).abs() < 0.1, "{e1} {e2} {order}");
+}
+
+#[test]
+fn mass_conserved_and_thread_independent() {
+    let n = 12;
+    let d = Dims::new(n, n, n).unwrap();
+    let geom = Geometry::new::<D3Q15>(d, sphere_array_mask(n, 3.3), |_| [0.0; 3]).unwrap();
+    let mk = || {
+        let mut s = Solver::<D3Q15, _, _>::new(
+            geom.clone(),
+            Trt::magic(0.8),
+            BodyForce {
+                g: [1e-4, 2e-5, 0.0],
+            },
+        )
+        .unwrap();
+        s.init(|c| (1.0 + 0.01 * ((c % 7) as f64), [0.01, 0.0, 0.0]));
+        s
+    };
+    let mut a = mk();
+    let m0 = a.mass();
+    a.run(50);
+    let m1 = a.mass();
+    assert!((m1 - m0).abs() < 1e-12 * m0, "{m0} {m1}");
+    let one = rayon::ThreadPoolBuilder::new()
+        .num_threads(1)
+        .build()
+        .unwrap();
+    let mut b = mk();
+    one.install(|| b.run(50));
+    assert_eq!(a.populations(), b.populations());
+}

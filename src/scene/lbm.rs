@@ -1,0 +1,424 @@
+//! Lattice-Boltzmann scenes (`kind = "lbm"`): steady flows of [`crate::lbm`] set up in SI.
+//!
+//! Schema (keys optional unless marked; defaults in brackets):
+//!
+//! ```toml
+//! kind = "lbm"                    # required
+//! title = "..."
+//! flow = "channel"                # required: "channel" (plane Poiseuille; with
+//!                                 # wall_velocity_m_s also Couette) | "porous-channel"
+//!                                 # (Guo-Zhao Brinkman-Forchheimer medium between walls)
+//!                                 # | "sphere-array" (simple cubic, periodic)
+//! lattice = "D3Q19"               # "D3Q15" | "D3Q19"  [D3Q19]
+//! collision = "trt"               # "bgk" | "trt" (Lambda = 3/16)  [trt]
+//! tau = 1.0                       # relaxation time (>= 0.505) [1.0]
+//! nu_m2_s = 1e-6                  # kinematic viscosity (m^2/s) [1e-6, water]
+//! rho_kg_m3 = 1000.0              # density (kg/m^3) [1000]
+//! length_m = 1e-3                 # required: channel width H, or the array period L (m)
+//! cells = 32                      # required: cells across length_m (>= 4)
+//! acceleration_m_s2 = 1e-3        # body force per unit mass along x (m/s^2) [0]
+//! wall_velocity_m_s = 0.0         # channel: velocity of the upper wall along x (m/s) [0]
+//! porosity = 0.5                  # porous-channel: eps in (0, 1]
+//! permeability_m2 = 1e-9          # porous-channel: K (m^2)
+//! forchheimer = true              # porous-channel: Ergun's Forchheimer term [true]
+//! solid_fraction = 0.125          # sphere-array: phi in (0, pi/6]
+//! tol = 1e-9                      # stop when <u> changes by less than this per check [1e-9]
+//! check_every = 200               # steps between checks [200]
+//! max_steps = 1000000             # [1e6]
+//! ```
+//!
+//! Outputs: `fields.vtk` (velocity m/s, density kg/m^3, porosity, solid mask),
+//! `profile.csv` for channels (y_m, u_m_s, u_exact_m_s where a closed form exists) and
+//! `summary.json` (tau, Mach, Re, steps, residual; permeability for the sphere array).
+
+use super::{Builtin, RunOptions};
+use crate::error::{invalid, Error, Result};
+use crate::io::vtk::{write_image_data, CellField};
+use crate::io::write_atomic;
+use crate::lbm::choice::{dispatch, CollisionKind, Job, LatticeKind};
+use crate::lbm::flows::{brinkman_poiseuille, channel_coordinate, sphere_array_mask};
+use crate::lbm::geometry::{Dims, Geometry};
+use crate::lbm::problems::{permeability, Channel};
+use crate::lbm::steady::{Steady, SteadyControl};
+use crate::lbm::units::{check_mach, describe, Units};
+use crate::lbm::{Collision, Lattice};
+use serde::Deserialize;
+use std::path::Path;
+
+pub fn builtins() -> Vec<Builtin> {
+    vec![
+        Builtin {
+            name: "lbm-channel",
+            about: "LBM: plane Poiseuille flow of water in a 1 mm channel (32 cells; seconds)",
+            toml: include_str!("builtin/lbm-channel.toml"),
+        },
+        Builtin {
+            name: "lbm-porous-channel",
+            about: "LBM: Guo-Zhao porous channel, eps 0.5, Da 1e-3 (seconds)",
+            toml: include_str!("builtin/lbm-porous-channel.toml"),
+        },
+        Builtin {
+            name: "lbm-sphere-array",
+            about: "LBM: permeability of a simple cubic sphere array, phi 0.125, 32^3 (~1 min)",
+            toml: include_str!("builtin/lbm-sphere-array.toml"),
+        },
+    ]
+}
+
+fn default_lattice() -> String {
+    "D3Q19".into()
+}
+fn default_collision() -> String {
+    "trt".into()
+}
+fn one() -> f64 {
+    1.0
+}
+fn water_nu() -> f64 {
+    1e-6
+}
+fn water_rho() -> f64 {
+    1000.0
+}
+fn yes() -> bool {
+    true
+}
+fn tol() -> f64 {
+    1e-9
+}
+fn check() -> u64 {
+    200
+}
+fn max_steps() -> u64 {
+    1_000_000
+}
+
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct LbmScene {
+    pub kind: String,
+    #[serde(default)]
+    pub title: String,
+    pub flow: String,
+    #[serde(default = "default_lattice")]
+    pub lattice: String,
+    #[serde(default = "default_collision")]
+    pub collision: String,
+    #[serde(default = "one")]
+    pub tau: f64,
+    #[serde(default = "water_nu")]
+    pub nu_m2_s: f64,
+    #[serde(default = "water_rho")]
+    pub rho_kg_m3: f64,
+    pub length_m: f64,
+    pub cells: usize,
+    #[serde(default)]
+    pub acceleration_m_s2: f64,
+    #[serde(default)]
+    pub wall_velocity_m_s: f64,
+    pub porosity: Option<f64>,
+    pub permeability_m2: Option<f64>,
+    #[serde(default = "yes")]
+    pub forchheimer: bool,
+    pub solid_fraction: Option<f64>,
+    #[serde(default = "tol")]
+    pub tol: f64,
+    #[serde(default = "check")]
+    pub check_every: u64,
+    #[serde(default = "max_steps")]
+    pub max_steps: u64,
+}
+
+fn need(v: Option<f64>, key: &str, flow: &str) -> Result<f64> {
+    v.ok_or_else(|| Error::InvalidInput(format!("flow = \"{flow}\" needs key `{key}`")))
+}
+
+/// The steady run of a scene, in lattice units.
+struct SceneRun {
+    scene: LbmScene,
+    g: f64,
+    wall_u: f64,
+    porous: Option<(f64, f64, bool)>,
+    ctl: SteadyControl,
+}
+
+struct Outcome {
+    steady: Steady,
+    solid: Vec<bool>,
+    porosity_field: Vec<f64>,
+    dims: Dims,
+    /// Sphere array: k (lattice units).
+    k: Option<f64>,
+}
+
+impl Job for SceneRun {
+    type Out = Result<Outcome>;
+    fn run<L: Lattice, C: Collision>(self, coll: C) -> Result<Outcome> {
+        let n = self.scene.cells;
+        if self.scene.flow == "sphere-array" {
+            let phi = self.scene.solid_fraction.unwrap_or(0.0);
+            let radius = n as f64 * (3.0 * phi / (4.0 * std::f64::consts::PI)).cbrt();
+            let d = Dims::new(n, n, n)?;
+            let mask = sphere_array_mask(n, radius);
+            let geom = Geometry::new::<L>(d, mask.clone(), |_| [0.0; 3])?;
+            let p = permeability::<L, C>(geom, coll, self.g, self.ctl, |s, r| {
+                eprint!(
+                    "\rstep {s}: residual {r:.2e} (stop at {:.0e})   ",
+                    self.ctl.tol
+                )
+            })?;
+            eprintln!();
+            let porosity_field = mask.iter().map(|&s| if s { 0.0 } else { 1.0 }).collect();
+            return Ok(Outcome {
+                k: Some(p.k),
+                steady: p.steady,
+                solid: mask,
+                porosity_field,
+                dims: d,
+            });
+        }
+        let ch = Channel {
+            h: n,
+            g: self.g,
+            wall_u: self.wall_u,
+            porous: self.porous,
+        };
+        let (_, st) = ch.steady::<L, C>(coll, self.ctl)?;
+        let d = Dims::new(1, n + 2, 1)?;
+        let solid: Vec<bool> = (0..n + 2).map(|y| y == 0 || y == n + 1).collect();
+        let eps = self.porous.map_or(1.0, |p| p.0);
+        let porosity_field = solid.iter().map(|&s| if s { 0.0 } else { eps }).collect();
+        Ok(Outcome {
+            steady: st,
+            solid,
+            porosity_field,
+            dims: d,
+            k: None,
+        })
+    }
+}
+
+pub fn run_scene(text: &str, origin: &str, out: &Path, opts: &RunOptions) -> Result<()> {
+    let sc: LbmScene = toml::from_str(text).map_err(|e| Error::File {
+        path: origin.to_string(),
+        msg: e.to_string().trim_end().to_string(),
+    })?;
+    let lat = LatticeKind::parse(&sc.lattice, "lattice")?;
+    let coll = CollisionKind::parse(&sc.collision, "collision")?;
+    if sc.cells < 4 {
+        return invalid(format!("cells = {}: must be >= 4", sc.cells));
+    }
+    let u = Units::from_tau(
+        sc.length_m / sc.cells as f64,
+        sc.nu_m2_s,
+        sc.rho_kg_m3,
+        sc.tau,
+    )?;
+    let g = u.accel_to_lattice(sc.acceleration_m_s2);
+    let wall_u = u.velocity_to_lattice(sc.wall_velocity_m_s);
+    let nu = u.nu_lattice();
+    let h = sc.cells as f64;
+    let mut porous = None;
+    // a-priori velocity scale (lattice units) for the Mach check
+    let u_est = match sc.flow.as_str() {
+        "channel" => g.abs() * h * h / (8.0 * nu) + wall_u.abs(),
+        "porous-channel" => {
+            let eps = need(sc.porosity, "porosity", &sc.flow)?;
+            let k_si = need(sc.permeability_m2, "permeability_m2", &sc.flow)?;
+            if !(eps > 0.0 && eps <= 1.0) {
+                return invalid(format!("porosity = {eps}: must be in (0, 1]"));
+            }
+            if !(k_si > 0.0 && k_si.is_finite()) {
+                return invalid(format!(
+                    "permeability_m2 = {k_si}: must be positive and finite"
+                ));
+            }
+            if sc.wall_velocity_m_s != 0.0 {
+                return invalid("wall_velocity_m_s: only flow = \"channel\" has a moving wall");
+            }
+            let k = k_si / (u.dx * u.dx);
+            porous = Some((eps, k, sc.forchheimer));
+            (g.abs() * h * h / (8.0 * nu)).min(g.abs() * k / nu)
+        }
+        "sphere-array" => {
+            let phi = need(sc.solid_fraction, "solid_fraction", &sc.flow)?;
+            if !(phi > 0.0 && phi <= std::f64::consts::PI / 6.0) {
+                return invalid(format!("solid_fraction = {phi}: must be in (0, pi/6]"));
+            }
+            if g <= 0.0 {
+                return invalid("sphere-array: acceleration_m_s2 must be > 0 (it drives the flow)");
+            }
+            g * h * h / (8.0 * nu)
+        }
+        other => {
+            return invalid(format!(
+                "flow = \"{other}\": must be \"channel\", \"porous-channel\" or \"sphere-array\""
+            ))
+        }
+    };
+    check_mach(u_est, "estimated peak velocity")?;
+    println!(
+        "lbm scene {origin}: {} {} {}, {} cells across {} m (dx = {:e} m, dt = {:e} s)",
+        sc.flow,
+        lat.name(),
+        coll.name(),
+        sc.cells,
+        sc.length_m,
+        u.dx,
+        u.dt
+    );
+    println!("  estimate: {}", describe(sc.tau, u_est, h));
+    let ctl = SteadyControl {
+        check_every: sc.check_every,
+        tol: sc.tol,
+        max_steps: sc.max_steps,
+    };
+    let _ = opts;
+    let tau = sc.tau;
+    let o = dispatch(
+        lat,
+        coll,
+        tau,
+        SceneRun {
+            scene: sc.clone(),
+            g,
+            wall_u,
+            porous,
+            ctl,
+        },
+    )?;
+    let st = &o.steady;
+    println!(
+        "  steady after {} steps (residual {:.2e}{}); measured: {}",
+        st.steps,
+        st.residual,
+        if st.converged { "" } else { ", NOT converged" },
+        describe(tau, st.u_max, h)
+    );
+    std::fs::create_dir_all(out)?;
+    let vel: Vec<[f64; 3]> = st
+        .fields
+        .u
+        .iter()
+        .map(|v| v.map(|c| u.velocity_to_si(c)))
+        .collect();
+    let rho: Vec<f64> = st.fields.rho.iter().map(|r| r * u.rho).collect();
+    let solid: Vec<f64> = o.solid.iter().map(|&s| if s { 1.0 } else { 0.0 }).collect();
+    let d = o.dims;
+    write_image_data(
+        &out.join("fields.vtk"),
+        &format!("porelab lbm {}", sc.flow),
+        [d.nx, d.ny, d.nz],
+        u.dx,
+        [0.0; 3],
+        &[
+            CellField::Vector("velocity_m_s", &vel),
+            CellField::Scalar("density_kg_m3", &rho),
+            CellField::Scalar("porosity", &o.porosity_field),
+            CellField::Scalar("solid", &solid),
+        ],
+    )?;
+    let mut summary = serde_json::json!({
+        "flow": sc.flow, "lattice": lat.name(), "collision": coll.name(), "tau": tau,
+        "dx_m": u.dx, "dt_s": u.dt, "steps": st.steps, "residual": st.residual,
+        "converged": st.converged, "mach": st.u_max * 3f64.sqrt(),
+        "u_max_m_s": u.velocity_to_si(st.u_max), "re": st.u_max * h / nu,
+    });
+    if let Some(k) = o.k {
+        let phi = sc.solid_fraction.unwrap_or(0.0);
+        let a = h * (3.0 * phi / (4.0 * std::f64::consts::PI)).cbrt();
+        summary["permeability_m2"] = serde_json::json!(u.area_to_si(k));
+        summary["drag_coefficient_K"] =
+            serde_json::json!(crate::lbm::flows::drag_coefficient(k, a, phi));
+        println!(
+            "  permeability k = {:.6e} m^2 (= {:.6e} cells^2), drag coefficient K = {:.4}",
+            u.area_to_si(k),
+            k,
+            crate::lbm::flows::drag_coefficient(k, a, phi)
+        );
+    } else {
+        let mut csv = String::from("y_m,u_m_s,u_exact_m_s\n");
+        for (y, v) in vel.iter().enumerate().take(sc.cells + 1).skip(1) {
+            let yc = channel_coordinate(y);
+            let exact = match porous {
+                None => Some(g * yc * (h - yc) / (2.0 * nu) + wall_u * yc / h),
+                Some((eps, k, false)) => Some(brinkman_poiseuille(yc, h, g, nu, eps, k)),
+                Some(_) => None,
+            };
+            csv += &format!(
+                "{},{},{}\n",
+                yc * u.dx,
+                v[0],
+                exact.map_or(String::new(), |e| u.velocity_to_si(e).to_string())
+            );
+        }
+        write_atomic(&out.join("profile.csv"), csv.as_bytes())?;
+    }
+    write_atomic(
+        &out.join("summary.json"),
+        serde_json::to_string_pretty(&summary)
+            .map_err(|e| Error::InvalidInput(e.to_string()))?
+            .as_bytes(),
+    )?;
+    println!("  wrote {}", out.display());
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn builtins_parse_and_unknown_keys_are_named() {
+        for b in builtins() {
+            let s: LbmScene = toml::from_str(b.toml).unwrap_or_else(|e| panic!("{}: {e}", b.name));
+            assert_eq!(s.kind, "lbm");
+        }
+        let bad = format!("{}\nviscosity = 1.0\n", builtins()[0].toml);
+        let e = toml::from_str::<LbmScene>(&bad).unwrap_err().to_string();
+        assert!(e.contains("viscosity"), "{e}");
+        let tmp = std::env::temp_dir().join(format!("porelab-lbm-scene-{}", std::process::id()));
+        let e = run_scene(
+            &builtins()[0]
+                .toml
+                .replace("flow = \"channel\"", "flow = \"pipe\""),
+            "test",
+            &tmp,
+            &RunOptions::default(),
+        )
+        .unwrap_err()
+        .to_string();
+        assert!(e.contains("flow = \"pipe\""), "{e}");
+        let e = run_scene(
+            &builtins()[0]
+                .toml
+                .replace("acceleration_m_s2 = 1e-3", "acceleration_m_s2 = 10.0"),
+            "test",
+            &tmp,
+            &RunOptions::default(),
+        )
+        .unwrap_err()
+        .to_string();
+        assert!(e.contains("Mach"), "{e}");
+    }
+
+    /// The channel builtin reproduces its own closed-form column (TRT: exact parabola).
+    #[test]
+    fn channel_builtin_profile_matches_poiseuille() {
+        let tmp = std::env::temp_dir().join(format!("porelab-lbm-ch-{}", std::process::id()));
+        run_scene(
+            builtins()[0].toml,
+            "builtin:lbm-channel",
+            &tmp,
+            &RunOptions::default(),
+        )
+        .unwrap();
+        let text = std::fs::read_to_string(tmp.join("profile.csv")).unwrap();
+        for l in text.lines().skip(1) {
+            let v: Vec<f64> = l.split(',').map(|t| t.parse().unwrap()).collect();
+            assert!((v[1] - v[2]).abs() < 1e-8 * v[2].abs(), "{l}");
+        }
+        assert!(tmp.join("fields.vtk").is_file() && tmp.join("summary.json").is_file());
+        let _ = std::fs::remove_dir_all(&tmp);
+    }
+}
