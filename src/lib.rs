@@ -9,6 +9,7 @@ pub mod analysis;
 pub mod brownian;
 pub mod consts;
 pub mod contact;
+pub mod dem;
 pub mod error;
 pub mod hydro;
 pub mod io;

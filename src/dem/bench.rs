@@ -1,0 +1,1 @@
+//! `porelab bench dem` (see [`run`]).
