@@ -684,3 +684,4 @@ impl Dem {
         self.p.mass.iter().sum::<f64>() * self.buoyancy * self.setup.gravity_m_s2.norm()
     }
 }
+

@@ -9,6 +9,7 @@ mod brownian_equilibrium;
 mod brownian_scenes;
 mod common;
 mod contact;
+mod dem;
 mod drag;
 mod elliptic_cases;
 mod field_analytic;
@@ -77,6 +78,14 @@ pub fn runner_for(id: &str) -> Option<Runner> {
         "420" => Some(brownian_chains::case_420),
         "421" => Some(brownian_chains::case_421),
         "422" => Some(brownian_capture::case_422),
+        "701" => Some(dem::case_701),
+        "702" => Some(dem::case_702),
+        "703" => Some(dem::case_703),
+        "704" => Some(dem::case_704),
+        "705" => Some(dem::case_705),
+        "706" => Some(dem::case_706),
+        "707" => Some(dem::case_707),
+        "708" => Some(dem::case_708),
         _ => None,
     }
 }
