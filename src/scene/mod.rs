@@ -10,6 +10,7 @@
 //! same files are the examples of the schema.
 
 pub mod brownian;
+pub mod dem;
 pub mod packing;
 
 use crate::error::{invalid, Error, Result};
@@ -26,6 +27,7 @@ pub struct Builtin {
 pub fn builtins() -> Vec<Builtin> {
     let mut v = brownian::builtins();
     v.extend(packing::builtins());
+    v.extend(dem::builtins());
     v.sort_by_key(|b| b.name);
     v
 }
@@ -80,8 +82,9 @@ pub fn run_text(text: &str, origin: &str, out_stem: &str, opts: &RunOptions) -> 
     match scene_kind(text, origin)?.as_str() {
         "brownian" => brownian::run_scene(text, origin, &out, opts),
         "packing" => packing::run_scene(text, origin, &out, opts),
+        "dem" => dem::run_scene(text, origin, &out, opts),
         other => invalid(format!(
-            "{origin}: kind = \"{other}\": unknown engine (known: \"brownian\", \"packing\")"
+            "{origin}: kind = \"{other}\": unknown engine (known: \"brownian\", \"packing\", \"dem\")"
         )),
     }
 }
