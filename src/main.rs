@@ -86,6 +86,9 @@ enum BenchWhat {
     /// Packing (MCM): seconds to jam against N, density and contacts, one and two threads,
     /// and the reached packing fraction against the try budget.
     Packing(porelab::packing::bench::BenchArgs),
+    /// DEM: particle-steps per second per core against N, one and two threads, neighbour
+    /// share, side by side with LAMMPS.
+    Dem(porelab::dem::bench::BenchArgs),
 }
 
 fn main() -> ExitCode {
@@ -132,6 +135,7 @@ fn main() -> ExitCode {
             BenchWhat::Packing(args) => {
                 porelab::packing::bench::run_bench(&args).map(|_| ExitCode::SUCCESS)
             }
+            BenchWhat::Dem(args) => porelab::dem::bench::run(&args).map(|_| ExitCode::SUCCESS),
         },
     };
     match result {

@@ -110,6 +110,18 @@ pub fn auto_time_step(setup: &DemSetup, r_min: f64, v_scale: f64) -> f64 {
     (RAYLEIGH_SAFETY * tr).min(CONTACT_TIME_FRACTION * tc)
 }
 
+/// x wrapped into [0, l) after a move shorter than l.
+#[inline(always)]
+fn wrap_into(x: f64, l: f64) -> f64 {
+    if x >= l {
+        x - l
+    } else if x < 0.0 {
+        x + l
+    } else {
+        x
+    }
+}
+
 /// Sphere states (SI), structure of arrays.
 #[derive(Debug, Clone, Default)]
 pub struct Particles {
@@ -377,33 +389,43 @@ impl Dem {
         let rotation = self.active.friction_rotation;
         {
             let (force, torque, im, ii) = (&self.force, &self.torque, &self.inv_mass, &self.inv_inertia);
-            let kick_drift = |(i, ((x, v), vf)): (usize, ((&mut Vector3<f64>, &mut Vector3<f64>), &mut Vector3<f64>))| {
+            type Item<'a> = (
+                usize,
+                (
+                    (((&'a mut Vector3<f64>, &'a mut Vector3<f64>), &'a mut Vector3<f64>), &'a mut Vector3<f64>),
+                    &'a mut Vector3<f64>,
+                ),
+            );
+            let kick_drift = |(i, ((((x, v), vf), w), wf)): Item| {
                 let a = force[i] * im[i];
                 *v += a * h;
                 *x += *v * dt;
-                x.x = x.x.rem_euclid(lx);
-                x.y = x.y.rem_euclid(ly);
+                x.x = wrap_into(x.x, lx);
+                x.y = wrap_into(x.y, ly);
                 *vf = *v + a * h;
+                if rotation {
+                    let b = torque[i] * ii[i];
+                    *w += b * h;
+                    *wf = *w + b * h;
+                }
             };
             if self.p.len() >= PAR_MIN {
                 self.p.pos.par_iter_mut()
                     .zip(self.p.vel.par_iter_mut())
                     .zip(self.vel_full.par_iter_mut())
+                    .zip(self.p.omega.par_iter_mut())
+                    .zip(self.omega_full.par_iter_mut())
                     .enumerate()
+                    .with_min_len(256)
                     .for_each(kick_drift);
             } else {
                 self.p.pos.iter_mut()
                     .zip(self.p.vel.iter_mut())
                     .zip(self.vel_full.iter_mut())
+                    .zip(self.p.omega.iter_mut())
+                    .zip(self.omega_full.iter_mut())
                     .enumerate()
                     .for_each(kick_drift);
-            }
-            if rotation {
-                for i in 0..self.p.len() {
-                    let b = torque[i] * ii[i];
-                    self.p.omega[i] += b * h;
-                    self.omega_full[i] = self.p.omega[i] + b * h;
-                }
             }
         }
         self.top_z_m += self.top_v_m_s * dt;
@@ -418,12 +440,18 @@ impl Dem {
             self.rebuild()?;
         }
         self.compute_forces();
-        for i in 0..self.p.len() {
-            self.p.vel[i] += self.force[i] * (self.inv_mass[i] * h);
-        }
-        if rotation {
-            for i in 0..self.p.len() {
-                self.p.omega[i] += self.torque[i] * (self.inv_inertia[i] * h);
+        {
+            let (force, torque, im, ii) = (&self.force, &self.torque, &self.inv_mass, &self.inv_inertia);
+            let kick = |(i, (v, w)): (usize, (&mut Vector3<f64>, &mut Vector3<f64>))| {
+                *v += force[i] * (im[i] * h);
+                if rotation {
+                    *w += torque[i] * (ii[i] * h);
+                }
+            };
+            if self.p.len() >= PAR_MIN {
+                self.p.vel.par_iter_mut().zip(self.p.omega.par_iter_mut()).enumerate().with_min_len(256).for_each(kick);
+            } else {
+                self.p.vel.iter_mut().zip(self.p.omega.iter_mut()).enumerate().for_each(kick);
             }
         }
         if let TopWall::Pressure {
@@ -489,14 +517,17 @@ impl Dem {
             let dist2 = d.norm_squared();
             let rs = ri + rj;
             if dist2 >= rs * rs {
-                pr.delta = rs - dist2.sqrt();
-                pr.xi = Vector3::zeros();
-                pr.force = Vector3::zeros();
-                pr.n_cross_ft = Vector3::zeros();
+                if pr.delta > 0.0 {
+                    pr.xi = Vector3::zeros();
+                    pr.force = Vector3::zeros();
+                    pr.n_cross_ft = Vector3::zeros();
+                }
+                // apart: only the sign of delta is used until the pair touches again
+                pr.delta = -1.0;
                 return;
             }
             let dist = dist2.sqrt();
-            let n = d / dist;
+            let n = d * (1.0 / dist);
             let (v_half, v_full) = if friction {
                 (
                     vel[i] - vel[j] - (om[i] * ri + om[j] * rj).cross(&n),
@@ -539,12 +570,16 @@ impl Dem {
             let mut nxft = Vector3::zeros();
             for &k in &nl.second_pairs[nl.second_start[i] as usize..nl.second_start[i + 1] as usize] {
                 let pr = &nl.pairs[k as usize];
-                f -= pr.force;
-                nxft += pr.n_cross_ft;
+                if pr.delta > 0.0 {
+                    f -= pr.force;
+                    nxft += pr.n_cross_ft;
+                }
             }
             for pr in &nl.pairs[nl.first_start[i] as usize..nl.first_start[i + 1] as usize] {
-                f += pr.force;
-                nxft += pr.n_cross_ft;
+                if pr.delta > 0.0 {
+                    f += pr.force;
+                    nxft += pr.n_cross_ft;
+                }
             }
             let r = rad[i];
             // walls: spheres of infinite radius and mass (R* = R, m* = m)

@@ -167,11 +167,26 @@ impl TangentialModel {
 
     /// (k_t, eta_t, mu).
     #[inline(always)]
-    fn parameters(&self, s_n: f64, eta_n: f64, delta: f64, r_eff: f64, g_star: f64) -> (f64, f64, f64) {
+    #[allow(clippy::too_many_arguments)]
+    fn parameters(
+        &self,
+        normal: &NormalModel,
+        s_n: f64,
+        eta_n: f64,
+        delta: f64,
+        r_eff: f64,
+        e_star: f64,
+        g_star: f64,
+    ) -> (f64, f64, f64) {
         match *self {
             TangentialModel::None => (0.0, 0.0, 0.0),
             TangentialModel::Mindlin { mu, damp_ratio } => {
-                (8.0 * g_star * (r_eff * delta).sqrt(), damp_ratio * eta_n, mu)
+                // 8 G* sqrt(R* delta); with a Hertz normal S_n = 2 E* sqrt(R* delta) holds the root
+                let k_t = match normal {
+                    NormalModel::Hertz => 4.0 * g_star / e_star * s_n,
+                    NormalModel::Linear { .. } => 8.0 * g_star * (r_eff * delta).sqrt(),
+                };
+                (k_t, damp_ratio * eta_n, mu)
             }
             TangentialModel::Linear {
                 kt_over_kn,
@@ -227,8 +242,15 @@ impl ContactModel {
             return (f, Vector3::zeros());
         }
         let (k_t, eta_t, mu) =
-            self.tangential
-                .parameters(s_n, eta_n, c.delta, c.r_eff, mat.g_star_pa);
+            self.tangential.parameters(
+                &self.normal,
+                s_n,
+                eta_n,
+                c.delta,
+                c.r_eff,
+                mat.e_star_pa,
+                mat.g_star_pa,
+            );
         // history onto the tangent plane, length kept
         let len0 = xi.norm_squared();
         if len0 > 0.0 {

@@ -27,12 +27,19 @@ pub struct Pair {
 }
 
 /// Below this many items a loop runs serially (rayon's overhead dominates).
-pub(crate) const PAR_MIN: usize = 4096;
+pub(crate) const PAR_MIN: usize = 1024;
 
 /// Minimum-image wrap of one lateral component.
+/// Valid for |d| < 1.5 l (positions are kept in [0, l), so differences are within (-l, l)).
 #[inline(always)]
 pub(crate) fn wrap_delta(d: f64, l: f64) -> f64 {
-    d - l * (d / l).round()
+    if d > 0.5 * l {
+        d - l
+    } else if d < -0.5 * l {
+        d + l
+    } else {
+        d
+    }
 }
 
 /// The half Verlet list with per-particle gather ranges.

@@ -92,7 +92,7 @@ fn impact(model: ContactModel, mat: Material, wall: Material, r: f64, v: f64, dt
         if on_wall {
             r - d.p.pos[0].z
         } else {
-            d.nl.pairs.first().map_or(f64::NEG_INFINITY, |p| p.delta)
+            2.0 * r - (d.p.pos[1] - d.p.pos[0]).norm()
         }
     };
     let mut touched = false;
