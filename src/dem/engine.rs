@@ -562,10 +562,11 @@ impl Dem {
         let top_v = self.top_v_m_s;
         let g = self.setup.gravity_m_s2 * self.buoyancy;
         let drag = self.setup.drag;
-        let gather = |(i, (((f_out, t_out), wxi), wfz)): (
+        type Slot<'a> = (
             usize,
-            (((&mut Vector3<f64>, &mut Vector3<f64>), &mut [Vector3<f64>; 2]), &mut [f64; 2]),
-        )| {
+            (((&'a mut Vector3<f64>, &'a mut Vector3<f64>), &'a mut [Vector3<f64>; 2]), &'a mut [f64; 2]),
+        );
+        let gather = |(i, (((f_out, t_out), wxi), wfz)): Slot| {
             let mut f = Vector3::zeros();
             let mut nxft = Vector3::zeros();
             for &k in &nl.second_pairs[nl.second_start[i] as usize..nl.second_start[i + 1] as usize] {

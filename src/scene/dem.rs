@@ -244,7 +244,7 @@ pub fn parse_scene(text: &str, origin: &str) -> Result<DemScene> {
             let s = need(origin, "particles.sigma_ln", p.sigma_ln, "for size = \"lognormal\"")?;
             let lo = positive(origin, "particles.min_diameter_m", p.min_diameter_m.unwrap_or(med * (-3.0 * s).exp()))?;
             let hi = positive(origin, "particles.max_diameter_m", p.max_diameter_m.unwrap_or(med * (3.0 * s).exp()))?;
-            if !(lo < hi) {
+            if lo >= hi {
                 return invalid(format!("{origin}: particles.min_diameter_m = {lo} must be below max_diameter_m = {hi}"));
             }
             (0..p.n)
@@ -267,7 +267,7 @@ pub fn parse_scene(text: &str, origin: &str) -> Result<DemScene> {
                 positive(origin, &format!("particles.diameters_m[{k}]"), *d)?;
             }
             let total: f64 = fr.iter().sum();
-            if fr.iter().any(|x| !(x.is_finite() && *x >= 0.0)) || !(total > 0.0) {
+            if fr.iter().any(|x| !(x.is_finite() && *x >= 0.0)) || total.is_nan() || total <= 0.0 {
                 return invalid(format!("{origin}: particles.number_fractions = {fr:?}: must be >= 0 with a positive sum"));
             }
             // deterministic counts by largest remainder, then shuffled by the scene's stream
@@ -286,7 +286,7 @@ pub fn parse_scene(text: &str, origin: &str) -> Result<DemScene> {
                 counts[k] += 1;
                 left -= 1;
             }
-            let mut v: Vec<f64> = counts.iter().zip(ds).flat_map(|(c, d)| std::iter::repeat(*d).take(*c)).collect();
+            let mut v: Vec<f64> = counts.iter().zip(ds).flat_map(|(c, d)| std::iter::repeat_n(*d, *c)).collect();
             for i in (1..v.len()).rev() {
                 let j = rng.gen_range(0..=i);
                 v.swap(i, j);
