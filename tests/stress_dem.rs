@@ -90,3 +90,4 @@ fn same_result_at_any_thread_count() {
     };
     assert!(run(1) == run(2));
 }
+

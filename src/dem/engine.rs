@@ -39,8 +39,11 @@ pub enum TopWall {
     /// A plane starting at z0 and driven by pressure control: each step the wall's contact
     /// pressure P (the particles' force on it over lx ly) is compared with the target and the
     /// wall moves with velocity v = -v_max clamp(1 - P / P_target, -1, 1) (down when P is too
-    /// low, up when too high; proportional, so it slows as it approaches the target instead of
-    /// overshooting).
+    /// low, up when too high). Known defect: the loop gain v_max K dt / P_target (K the
+    /// stiffness of the top contacts in Pa/m) is not limited, and with v_max = 0.05 m/s on the
+    /// small built-in bed it exceeds 1 once the wall touches: the wall then alternates between
+    /// +v_max and -v_max every step (validation case 709, slow tier, fails). A gain bounded by
+    /// the contact stiffness, or a massive damped piston, is needed.
     Pressure {
         z0_m: f64,
         target_pa: f64,

@@ -559,3 +559,37 @@ pub fn case_708(ctx: &CaseContext) -> Result<Vec<Row>> {
         w,
     )])
 }
+
+/// Case 709: the pressure-controlled top wall holds its target once the bed is consolidated:
+/// the built-in small scene without gravity, the wall driven to the target pressure of the
+/// table; after the scene's stop criterion, the wall pressure averaged over a window equals the
+/// target within the band of the table, and the wall no longer moves (its travel over the
+/// window below the table's fraction of a diameter). Rows' scales are their allowed deviations.
+pub fn case_709(ctx: &CaseContext) -> Result<Vec<Row>> {
+    let t = ctx.expected_table()?;
+    non_empty(&t)?;
+    let target = t.f64(0, "target_pressure_Pa")?;
+    let band = t.f64(0, "pressure_rel_band")?;
+    let travel_tol = t.f64(0, "wall_travel_over_d")?;
+    let window = t.f64(0, "window_steps")? as u64;
+    let text = include_str!("../../scene/builtin/dem-small.toml")
+        .replace("gravity_m_s2 = 9.81", &format!("top_pressure_pa = {target}\ntop_speed_max_m_s = 0.05"));
+    let scene = crate::scene::dem::parse_scene(&text, "case 709")?;
+    let mut dem = crate::scene::dem::build(&scene)?;
+    let (stop, _) = crate::scene::dem::run(&scene, &mut dem, |_, _| {})?;
+    if stop.starts_with("time limit") {
+        return Err(Error::Validation(format!("the bed did not consolidate: {stop}")));
+    }
+    let area = scene.setup.lx_m * scene.setup.ly_m;
+    let z0 = dem.top_z_m;
+    let mut sum = 0.0;
+    for _ in 0..window {
+        dem.step()?;
+        sum += dem.top_force_n / area;
+    }
+    let d = 2.0 * scene.radius[0];
+    Ok(vec![
+        Row::new(format!("mean wall pressure over {window} steps / target {target} Pa"), sum / window as f64 / target, 1.0, band),
+        Row::new("wall travel over the window / d", (dem.top_z_m - z0) / d, 0.0, travel_tol),
+    ])
+}

@@ -86,6 +86,7 @@ pub fn runner_for(id: &str) -> Option<Runner> {
         "706" => Some(dem::case_706),
         "707" => Some(dem::case_707),
         "708" => Some(dem::case_708),
+        "709" => Some(dem::case_709),
         _ => None,
     }
 }
