@@ -38,12 +38,12 @@ pub enum TopWall {
     Fixed { z_m: f64 },
     /// A plane starting at z0 and driven by pressure control: each step the wall's contact
     /// pressure P (the particles' force on it over lx ly) is compared with the target and the
-    /// wall moves with velocity v = -v_max clamp(1 - P / P_target, -1, 1) (down when P is too
-    /// low, up when too high). Known defect: the loop gain v_max K dt / P_target (K the
-    /// stiffness of the top contacts in Pa/m) is not limited, and with v_max = 0.05 m/s on the
-    /// small built-in bed it exceeds 1 once the wall touches: the wall then alternates between
-    /// +v_max and -v_max every step (validation case 709, slow tier, fails). A gain bounded by
-    /// the contact stiffness, or a massive damped piston, is needed.
+    /// wall moves down at v_max while it touches nothing; in contact it takes a relaxed Newton
+    /// step on its force each step, dz = -0.05 (F_target - F) / K_top with K_top the summed
+    /// contact stiffness S_n of its contacts, capped at v_max dt (down when the pressure is too
+    /// low, up when too high; the gain is bounded by the stiffness, so it cannot bang-bang).
+    /// A purely proportional rule v = -v_max (1 - P/P_target) alternated between +-v_max every
+    /// step on stiff top contacts.
     Pressure {
         z0_m: f64,
         target_pa: f64,
@@ -71,6 +71,9 @@ pub struct DemSetup {
     /// Neighbour-list skin (m); `None`: 0.3 times the smallest diameter.
     pub skin_m: Option<f64>,
 }
+
+/// Relaxation of the pressure wall's Newton step on its force.
+pub const WALL_RELAXATION: f64 = 0.05;
 
 /// Safety factor on the Rayleigh time (Hertz) and fraction of the contact time.
 pub const RAYLEIGH_SAFETY: f64 = 0.2;
@@ -197,6 +200,8 @@ pub struct Dem {
     /// z force of the floor on the particles and of the particles on the top wall (N), last step.
     pub floor_force_n: f64,
     pub top_force_n: f64,
+    /// Sum of the contact stiffnesses S_n of the top wall's contacts (N/m), last step.
+    pub top_stiffness_n_per_m: f64,
     pub nl: NeighbourList,
     force: Vec<Vector3<f64>>,
     torque: Vec<Vector3<f64>>,
@@ -207,7 +212,8 @@ pub struct Dem {
     /// Effective (buoyant) mass factor 1 - rho_f / rho_p.
     buoyancy: f64,
     wall_xi: Vec<[Vector3<f64>; 2]>,
-    wall_fz: Vec<[f64; 2]>,
+    /// Per particle: z force of the floor, of the top wall, and the top contact's stiffness S_n.
+    wall_fz: Vec<[f64; 3]>,
     pp: PairMaterial,
     pw: PairMaterial,
     pub active: ActiveTerms,
@@ -345,7 +351,7 @@ impl Dem {
             force: vec![Vector3::zeros(); n],
             torque: vec![Vector3::zeros(); n],
             wall_xi: vec![[Vector3::zeros(); 2]; n],
-            wall_fz: vec![[0.0; 2]; n],
+            wall_fz: vec![[0.0; 3]; n],
             inv_mass,
             inv_inertia,
             nl: NeighbourList::new(skin),
@@ -356,6 +362,7 @@ impl Dem {
             top_v_m_s: 0.0,
             floor_force_n: 0.0,
             top_force_n: 0.0,
+            top_stiffness_n_per_m: 0.0,
             active,
             neighbour_seconds: 0.0,
             p,
@@ -463,8 +470,16 @@ impl Dem {
             ..
         } = self.setup.top
         {
-            let p = self.top_force_n / (lx * ly);
-            self.top_v_m_s = -speed_max_m_s * (1.0 - p / target_pa).clamp(-1.0, 1.0);
+            // without contact: approach at v_max; in contact: a relaxed Newton step on the
+            // wall force, dz = -WALL_RELAXATION (F_target - F) / K_top, capped at v_max dt
+            let f_target = target_pa * lx * ly;
+            let err = f_target - self.top_force_n;
+            self.top_v_m_s = if self.top_stiffness_n_per_m > 0.0 {
+                (-WALL_RELAXATION * err / (self.top_stiffness_n_per_m * dt))
+                    .clamp(-speed_max_m_s, speed_max_m_s)
+            } else {
+                -speed_max_m_s
+            };
         }
         self.time_s += dt;
         self.steps += 1;
@@ -567,7 +582,7 @@ impl Dem {
         let drag = self.setup.drag;
         type Slot<'a> = (
             usize,
-            (((&'a mut Vector3<f64>, &'a mut Vector3<f64>), &'a mut [Vector3<f64>; 2]), &'a mut [f64; 2]),
+            (((&'a mut Vector3<f64>, &'a mut Vector3<f64>), &'a mut [Vector3<f64>; 2]), &'a mut [f64; 3]),
         );
         let gather = |(i, (((f_out, t_out), wxi), wfz)): Slot| {
             let mut f = Vector3::zeros();
@@ -595,7 +610,13 @@ impl Dem {
                 if delta <= 0.0 {
                     wxi[k] = Vector3::zeros();
                     wfz[k] = 0.0;
+                    if k == 1 {
+                        wfz[2] = 0.0;
+                    }
                     continue;
+                }
+                if k == 1 {
+                    wfz[2] = model.normal.elastic(delta, r, pw.e_star_pa).1;
                 }
                 let n = Vector3::new(0.0, 0.0, nz);
                 let wv = Vector3::new(0.0, 0.0, wall_v);
@@ -644,13 +665,15 @@ impl Dem {
                 .enumerate()
                 .for_each(gather);
         }
-        let (mut fl, mut tp) = (0.0, 0.0);
+        let (mut fl, mut tp, mut kt) = (0.0, 0.0, 0.0);
         for w in &self.wall_fz {
             fl += w[0];
             tp -= w[1];
+            kt += w[2];
         }
         self.floor_force_n = fl;
         self.top_force_n = tp;
+        self.top_stiffness_n_per_m = kt;
     }
 
     /// Translational + rotational kinetic energy (J) at the full step.

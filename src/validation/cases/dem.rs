@@ -573,7 +573,8 @@ pub fn case_709(ctx: &CaseContext) -> Result<Vec<Row>> {
     let travel_tol = t.f64(0, "wall_travel_over_d")?;
     let window = t.f64(0, "window_steps")? as u64;
     let text = include_str!("../../scene/builtin/dem-small.toml")
-        .replace("gravity_m_s2 = 9.81", &format!("top_pressure_pa = {target}\ntop_speed_max_m_s = 0.05"));
+        .replace("gravity_m_s2 = 9.81", &format!("top_pressure_pa = {target}\ntop_speed_max_m_s = 0.05"))
+        .replace("[run]", &format!("[run]\nke_fraction = {}", t.f64(0, "ke_fraction")?));
     let scene = crate::scene::dem::parse_scene(&text, "case 709")?;
     let mut dem = crate::scene::dem::build(&scene)?;
     let (stop, _) = crate::scene::dem::run(&scene, &mut dem, |_, _| {})?;
