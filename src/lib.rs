@@ -10,6 +10,7 @@ pub mod brownian;
 pub mod consts;
 pub mod contact;
 pub mod deposition;
+pub mod dem;
 pub mod error;
 pub mod hydro;
 pub mod io;

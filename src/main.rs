@@ -97,6 +97,9 @@ enum BenchWhat {
     /// Lattice Boltzmann: MLUPS per lattice, collision and forcing against the measured
     /// memory-bandwidth limit and the lbmpy peer.
     Lbm(porelab::lbm::bench::BenchArgs),
+    /// DEM: particle-steps per second per core against N, one and two threads, neighbour
+    /// share, side by side with LAMMPS.
+    Dem(porelab::dem::bench::BenchArgs),
 }
 
 fn main() -> ExitCode {
@@ -154,6 +157,7 @@ fn main() -> ExitCode {
                 porelab::deposition::bench::run(&args).map(|_| ExitCode::SUCCESS)
             }
             BenchWhat::Lbm(args) => porelab::lbm::bench::run(&args).map(|_| ExitCode::SUCCESS),
+            BenchWhat::Dem(args) => porelab::dem::bench::run(&args).map(|_| ExitCode::SUCCESS),
         },
     };
     match result {

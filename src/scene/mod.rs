@@ -12,6 +12,7 @@
 pub mod brownian;
 pub mod deposition;
 pub mod lbm;
+pub mod dem;
 pub mod packing;
 
 use crate::error::{invalid, Error, Result};
@@ -30,6 +31,7 @@ pub fn builtins() -> Vec<Builtin> {
     v.extend(packing::builtins());
     v.extend(deposition::builtins());
     v.extend(lbm::builtins());
+    v.extend(dem::builtins());
     v.sort_by_key(|b| b.name);
     v
 }
@@ -58,7 +60,7 @@ pub struct RunOptions {
 }
 
 /// The values of a scene's `kind`, as error messages list them.
-const KNOWN_KINDS: &str = "\"brownian\", \"packing\", \"deposition\", \"lbm\"";
+const KNOWN_KINDS: &str = "\"brownian\", \"packing\", \"deposition\", \"dem\", \"lbm\"";
 
 /// The engine a scene names, read from its top-level `kind` key.
 fn scene_kind(text: &str, origin: &str) -> Result<String> {
@@ -87,6 +89,7 @@ pub fn run_text(text: &str, origin: &str, out_stem: &str, opts: &RunOptions) -> 
     match scene_kind(text, origin)?.as_str() {
         "brownian" => brownian::run_scene(text, origin, &out, opts),
         "packing" => packing::run_scene(text, origin, &out, opts),
+        "dem" => dem::run_scene(text, origin, &out, opts),
         "deposition" => deposition::run_scene(text, origin, &out, opts),
         "lbm" => lbm::run_scene(text, origin, &out, opts),
         other => invalid(format!(

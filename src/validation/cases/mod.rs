@@ -10,6 +10,7 @@ mod brownian_scenes;
 mod common;
 mod contact;
 mod deposition;
+mod dem;
 mod drag;
 mod elliptic_cases;
 mod field_analytic;
@@ -95,6 +96,15 @@ pub fn runner_for(id: &str) -> Option<Runner> {
         "808" => Some(lbm::case_808),
         "806" => Some(lbm::case_806_807),
         "807" => Some(lbm::case_806_807),
+        "701" => Some(dem::case_701),
+        "702" => Some(dem::case_702),
+        "703" => Some(dem::case_703),
+        "704" => Some(dem::case_704),
+        "705" => Some(dem::case_705),
+        "706" => Some(dem::case_706),
+        "707" => Some(dem::case_707),
+        "708" => Some(dem::case_708),
+        "709" => Some(dem::case_709),
         _ => None,
     }
 }

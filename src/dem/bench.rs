@@ -1,0 +1,232 @@
+//! `porelab bench dem`: particle-steps per second per core of a settling bed (Hertz–Mindlin with
+//! friction, walls, gravity) against N, on one and two threads, with the share of time spent
+//! rebuilding the neighbour list; side by side with LAMMPS (GRANULAR package) on the same
+//! particles, contact model, time step and skin (`benches/peer_lammps_dem.in`), measured in the
+//! same run.
+//!
+//! The bed: about N spheres d = 400 um, 2500 kg/m^3, every one in contact from the start (see
+//! `bed`), E = 1e7 Pa, nu = 0.3, e = 0.5, mu = 0.3, gravity 9.81 m/s^2; both codes start from
+//! the same positions at rest and run the same number of steps with the same dt and skin.
+
+use super::{ContactModel, DampingModel, Dem, DemSetup, Material, NormalModel, Particles, TangentialModel, TopWall};
+use crate::error::{invalid, Error};
+use crate::Result;
+use nalgebra::Vector3;
+use rand::{Rng, SeedableRng};
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+#[derive(clap::Args, Debug, Clone)]
+pub struct BenchArgs {
+    /// Numbers of spheres, comma-separated.
+    #[arg(long, default_value = "1000,8000,27000")]
+    pub sizes: String,
+    /// Steps per run.
+    #[arg(long, default_value_t = 2000)]
+    pub steps: u64,
+    /// The LAMMPS binary (Debian's package installs `lmp`).
+    #[arg(long, default_value = "lmp")]
+    pub lammps: String,
+    /// Skip the LAMMPS runs.
+    #[arg(long)]
+    pub no_peer: bool,
+    /// Output folder for the table and the peer's files.
+    #[arg(long, default_value = "target/porelab/bench-dem")]
+    pub out: PathBuf,
+}
+
+const D: f64 = 4e-4;
+const RHO: f64 = 2500.0;
+const E_PA: f64 = 1e7;
+const NU: f64 = 0.3;
+const RESTITUTION: f64 = 0.5;
+const MU: f64 = 0.3;
+
+/// The bed for about `n` spheres: a simple cubic lattice m x m x nz (m = round(n^(1/3))) of
+/// spacing d (1 - 1e-3), jittered by up to 1e-3 d: every sphere starts in contact with its six
+/// neighbours (overlap ~ 1e-3 d, that of a bed under its weight), so the pair forces, the
+/// tangential history and the walls are all exercised from the first step.
+fn bed(n: usize) -> Result<(DemSetup, Particles, f64)> {
+    let m = ((n as f64).cbrt().round() as usize).max(3);
+    let nz = ((n as f64 / (m * m) as f64).round() as usize).max(1);
+    let a = D * (1.0 - 1e-3);
+    let l = m as f64 * a;
+    let h = nz as f64 * a + D;
+    let mat = Material::new(E_PA, NU)?;
+    let setup = DemSetup {
+        lx_m: l,
+        ly_m: l,
+        contact: ContactModel {
+            normal: NormalModel::Hertz,
+            damping: DampingModel::restitution(RESTITUTION)?,
+            tangential: TangentialModel::Mindlin { mu: MU, damp_ratio: 1.0 },
+        },
+        particle_material: mat,
+        wall_material: mat,
+        density_kg_m3: RHO,
+        gravity_m_s2: Vector3::new(0.0, 0.0, -9.81),
+        fluid_density_kg_m3: 0.0,
+        drag: None,
+        top: TopWall::Fixed { z_m: h },
+        dt_s: None,
+        skin_m: Some(0.3 * D),
+    };
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(24);
+    let mut pos = Vec::with_capacity(m * m * nz);
+    for k in 0..nz {
+        for j in 0..m {
+            for i in 0..m {
+                let jit = Vector3::new(rng.gen::<f64>() - 0.5, rng.gen::<f64>() - 0.5, rng.gen::<f64>() - 0.5) * (1e-3 * D);
+                pos.push(Vector3::new((i as f64 + 0.5) * a, (j as f64 + 0.5) * a, (k as f64 + 0.5) * a) + jit);
+            }
+        }
+    }
+    let radius = vec![0.5 * D; pos.len()];
+    Ok((setup, Particles::at_rest(pos, radius, RHO), 0.1))
+}
+
+/// (seconds, neighbour seconds, final positions) of `steps` steps on `threads` threads.
+fn time_porelab(n: usize, steps: u64, threads: usize) -> Result<(f64, f64, f64, Vec<Vector3<f64>>)> {
+    let (setup, p, v) = bed(n)?;
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .build()
+        .map_err(|e| Error::InvalidInput(format!("thread pool: {e}")))?;
+    pool.install(|| {
+        let mut dem = Dem::new(setup, p, v)?;
+        let dt = dem.dt_s;
+        dem.neighbour_seconds = 0.0;
+        let t = Instant::now();
+        dem.run(steps)?;
+        Ok((t.elapsed().as_secs_f64(), dem.neighbour_seconds, dt, dem.p.pos.clone()))
+    })
+}
+
+/// LAMMPS loop seconds and neighbour share for the same bed; None when it cannot run.
+fn time_lammps(args: &BenchArgs, n: usize, dt: f64) -> Result<std::result::Result<(f64, f64), String>> {
+    let (setup, p, _) = bed(n)?;
+    let dir = &args.out;
+    std::fs::create_dir_all(dir)?;
+    let data = dir.join(format!("bed_{n}.data"));
+    let mut s = String::new();
+    let _ = writeln!(s, "porelab bench dem bed, {n} spheres\n\n{n} atoms\n1 atom types\n");
+    let top = match setup.top {
+        TopWall::Fixed { z_m } => z_m,
+        TopWall::Pressure { z0_m, .. } => z0_m,
+    };
+    let _ = writeln!(s, "0 {} xlo xhi\n0 {} ylo yhi\n0 {} zlo zhi\n", setup.lx_m, setup.ly_m, top);
+    let _ = writeln!(s, "Atoms # sphere\n");
+    for (i, x) in p.pos.iter().enumerate() {
+        let _ = writeln!(s, "{} 1 {} {} {} {} {}", i + 1, D, RHO, x.x, x.y, x.z);
+    }
+    crate::io::write_atomic(&data, s.as_bytes())?;
+    let script = Path::new(env!("CARGO_MANIFEST_DIR")).join("benches/peer_lammps_dem.in");
+    let out = std::process::Command::new(&args.lammps)
+        .arg("-in")
+        .arg(&script)
+        .args(["-log", "none", "-nocite"])
+        .args(["-var", "data"])
+        .arg(&data)
+        .args(["-var", "dt", &format!("{dt:e}")])
+        .args(["-var", "skin", &format!("{:e}", 0.3 * D)])
+        .args(["-var", "steps", &args.steps.to_string()])
+        .args(["-var", "E", &format!("{E_PA:e}")])
+        .args(["-var", "nu", &NU.to_string()])
+        .args(["-var", "e", &RESTITUTION.to_string()])
+        .args(["-var", "mu", &MU.to_string()])
+        .args(["-var", "top", &format!("{top:e}")])
+        .env("OMP_NUM_THREADS", "1")
+        .output();
+    let out = match out {
+        Ok(o) => o,
+        Err(e) => return Ok(Err(format!("cannot start `{}`: {e}", args.lammps))),
+    };
+    let text = String::from_utf8_lossy(&out.stdout).into_owned();
+    std::fs::write(dir.join(format!("lammps_{n}.out")), &text)?;
+    let loop_s = text
+        .lines()
+        .find(|l| l.starts_with("Loop time of"))
+        .and_then(|l| l.split_whitespace().nth(3))
+        .and_then(|x| x.parse::<f64>().ok());
+    let neigh = text
+        .lines()
+        .find(|l| l.starts_with("Neigh "))
+        .and_then(|l| l.split('|').nth(5))
+        .and_then(|x| x.trim().parse::<f64>().ok());
+    match loop_s {
+        Some(t) => Ok(Ok((t, neigh.unwrap_or(f64::NAN) / 100.0))),
+        None => Ok(Err(format!(
+            "LAMMPS gave no loop time (status {}): {}",
+            out.status,
+            String::from_utf8_lossy(&out.stderr).lines().last().unwrap_or("")
+        ))),
+    }
+}
+
+pub fn run(args: &BenchArgs) -> Result<()> {
+    let sizes: Vec<usize> = args
+        .sizes
+        .split(',')
+        .map(|s| s.trim().parse::<usize>())
+        .collect::<std::result::Result<_, _>>()
+        .map_err(|e| Error::InvalidInput(format!("--sizes '{}': {e}", args.sizes)))?;
+    if sizes.iter().any(|&n| n < 10) || args.steps == 0 {
+        return invalid("--sizes: each at least 10; --steps: at least 1");
+    }
+    // the lattice beds hold m^2 nz spheres, close to the requested sizes
+    let mut csv = String::from(
+        "n,steps,dt_s,porelab_1t_us_per_particle_step,porelab_2t_us_per_particle_step,speedup_2t,\
+         porelab_neighbour_share,lammps_1core_us_per_particle_step,lammps_neighbour_share,\
+         lammps_over_porelab_1t,identical_1t_2t\n",
+    );
+    println!(
+        "{:>7} {:>10} {:>12} {:>12} {:>7} {:>7} {:>12} {:>7} {:>8} {:>6}",
+        "N", "dt (s)", "1t us/p-s", "2t us/p-s", "2t x", "neigh", "LAMMPS us", "neigh", "ratio", "same"
+    );
+    for &n_req in &sizes {
+        let n = bed(n_req)?.1.len();
+        let (t1, nb1, dt, p1) = time_porelab(n, args.steps, 1)?;
+        let (t2, _, _, p2) = time_porelab(n, args.steps, 2)?;
+        let ps = (n as u64 * args.steps) as f64;
+        let same = p1 == p2;
+        let peer = if args.no_peer {
+            Err("skipped (--no-peer)".to_string())
+        } else {
+            time_lammps(args, n, dt)?
+        };
+        let (lus, lnb, ratio) = match &peer {
+            Ok((t, nb)) => (t / ps * 1e6, *nb, t / t1),
+            Err(_) => (f64::NAN, f64::NAN, f64::NAN),
+        };
+        println!(
+            "{n:>7} {dt:>10.3e} {:>12.4} {:>12.4} {:>7.2} {:>7.3} {:>12.4} {:>7.3} {:>8.2} {:>6}",
+            t1 / ps * 1e6,
+            t2 / ps * 1e6,
+            t1 / t2,
+            nb1 / t1,
+            lus,
+            lnb,
+            ratio,
+            same
+        );
+        if let Err(msg) = &peer {
+            println!("        peer: {msg}");
+        }
+        let _ = writeln!(
+            csv,
+            "{n},{},{dt},{},{},{},{},{},{},{},{same}",
+            args.steps,
+            t1 / ps * 1e6,
+            t2 / ps * 1e6,
+            t1 / t2,
+            nb1 / t1,
+            lus,
+            lnb,
+            ratio
+        );
+    }
+    crate::io::write_atomic(&args.out.join("bench_dem.csv"), csv.as_bytes())?;
+    println!("table: {}", args.out.join("bench_dem.csv").display());
+    Ok(())
+}

@@ -1,0 +1,749 @@
+//! The DEM integrator: soft spheres between a floor (z = 0) and a top wall, periodic in x and
+//! y, driven by gravity, a uniform Stokes drag and a pressure-controlled top wall.
+//!
+//! Newton's law for translation and rotation (seed 002 eq. 1): m dv/dt = F_contact + F_drag +
+//! m' g, I dw/dt = sum of (-R n) x F_t (the tangential forces at the contact points, lever arm R:
+//! the rigid-sphere limit, so that the rolling closed forms hold at any overlap).
+//!
+//! Time stepping: velocity Verlet (the half-step leapfrog of the seed with synchronised
+//! velocities). Velocity-dependent forces (dashpots, drag) use the full-step velocity predicted
+//! from the last force, v(n+1) ~ v(n+1/2) + dt/2 a(n), which keeps the scheme second order
+//! with damping (the half-step velocity that LAMMPS uses is first order in the dashpot); the
+//! tangential spring advances by the half-step (midpoint) velocity times dt.
+//!
+//! Determinism: pair forces are computed per pair into the list (in parallel), then gathered
+//! per particle in the list's fixed order (in parallel over particles); sums that drive the
+//! dynamics (the top wall's force) are serial. The same seed gives bitwise the same run at any
+//! thread count.
+
+use super::model::{hertz_contact_time, rayleigh_time, ContactModel, ContactState, DampingModel, Material, NormalModel, PairMaterial};
+use super::neighbour::{wrap_delta, NeighbourList, PAR_MIN};
+use crate::error::{invalid, require_positive};
+use crate::Result;
+use nalgebra::Vector3;
+use rayon::prelude::*;
+use std::f64::consts::PI;
+
+/// Uniform Stokes drag F = 6 pi mu a (U_F - v) (seed 002, "Fluid-solid coupling model").
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Drag {
+    pub viscosity_pa_s: f64,
+    pub fluid_velocity_m_s: Vector3<f64>,
+}
+
+/// The top wall.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum TopWall {
+    /// A fixed plane at height z (m).
+    Fixed { z_m: f64 },
+    /// A plane starting at z0 and driven by pressure control: each step the wall's contact
+    /// pressure P (the particles' force on it over lx ly) is compared with the target and the
+    /// wall moves down at v_max while it touches nothing; in contact it takes a relaxed Newton
+    /// step on its force each step, dz = -0.05 (F_target - F) / K_top with K_top the summed
+    /// contact stiffness S_n of its contacts, capped at v_max dt (down when the pressure is too
+    /// low, up when too high; the gain is bounded by the stiffness, so it cannot bang-bang).
+    /// A purely proportional rule v = -v_max (1 - P/P_target) alternated between +-v_max every
+    /// step on stiff top contacts.
+    Pressure {
+        z0_m: f64,
+        target_pa: f64,
+        speed_max_m_s: f64,
+    },
+}
+
+/// Everything but the particles.
+#[derive(Debug, Clone, PartialEq)]
+pub struct DemSetup {
+    /// Periodic lengths in x and y (m).
+    pub lx_m: f64,
+    pub ly_m: f64,
+    pub contact: ContactModel,
+    pub particle_material: Material,
+    pub wall_material: Material,
+    pub density_kg_m3: f64,
+    pub gravity_m_s2: Vector3<f64>,
+    /// Fluid density for buoyancy, m' = m (1 - rho_f / rho_p) (0: none).
+    pub fluid_density_kg_m3: f64,
+    pub drag: Option<Drag>,
+    pub top: TopWall,
+    /// Time step; `None`: the automatic rule of [`auto_time_step`].
+    pub dt_s: Option<f64>,
+    /// Neighbour-list skin (m); `None`: 0.3 times the smallest diameter.
+    pub skin_m: Option<f64>,
+}
+
+/// Relaxation of the pressure wall's Newton step on its force.
+pub const WALL_RELAXATION: f64 = 0.05;
+
+/// Safety factor on the Rayleigh time (Hertz) and fraction of the contact time.
+pub const RAYLEIGH_SAFETY: f64 = 0.2;
+pub const CONTACT_TIME_FRACTION: f64 = 1.0 / 50.0;
+/// A user time step above this fraction of the contact time (or above the Rayleigh time) is
+/// refused.
+pub const MAX_CONTACT_TIME_FRACTION: f64 = 1.0 / 10.0;
+
+/// The shortest contact time of the scene: for the linear spring pi / omega_d of the lightest
+/// pair (m* = m_min / 2); for Hertz the Hertz time at the relative speed `v_scale` of the
+/// lightest, smallest pair, and the Rayleigh time of the smallest sphere.
+/// Returns (t_contact, t_rayleigh or +inf).
+pub fn contact_times(setup: &DemSetup, r_min: f64, v_scale: f64) -> (f64, f64) {
+    let m_min = setup.density_kg_m3 * 4.0 / 3.0 * PI * r_min.powi(3);
+    let m_eff = 0.5 * m_min;
+    match setup.contact.normal {
+        NormalModel::Linear { k_n_n_per_m } => {
+            let w0 = (k_n_n_per_m / m_eff).sqrt();
+            let zeta = match setup.contact.damping {
+                DampingModel::None => 0.0,
+                DampingModel::Restitution { neg_beta, .. } => neg_beta,
+            };
+            (PI / (w0 * (1.0 - zeta * zeta).sqrt()), f64::INFINITY)
+        }
+        NormalModel::Hertz => {
+            let pp = PairMaterial::new(&setup.particle_material, &setup.particle_material);
+            let pw = PairMaterial::new(&setup.particle_material, &setup.wall_material);
+            let e_star = pp.e_star_pa.max(pw.e_star_pa);
+            (
+                hertz_contact_time(m_eff, 0.5 * r_min, e_star, v_scale.max(1e-12)),
+                rayleigh_time(r_min, setup.density_kg_m3, &setup.particle_material),
+            )
+        }
+    }
+}
+
+/// Automatic time step: min(0.2 t_Rayleigh, t_contact / 50) (see [`contact_times`]).
+pub fn auto_time_step(setup: &DemSetup, r_min: f64, v_scale: f64) -> f64 {
+    let (tc, tr) = contact_times(setup, r_min, v_scale);
+    (RAYLEIGH_SAFETY * tr).min(CONTACT_TIME_FRACTION * tc)
+}
+
+/// x wrapped into [0, l) after a move shorter than l.
+#[inline(always)]
+fn wrap_into(x: f64, l: f64) -> f64 {
+    if x >= l {
+        x - l
+    } else if x < 0.0 {
+        x + l
+    } else {
+        x
+    }
+}
+
+/// Sphere states (SI), structure of arrays.
+#[derive(Debug, Clone, Default)]
+pub struct Particles {
+    pub pos: Vec<Vector3<f64>>,
+    pub vel: Vec<Vector3<f64>>,
+    pub omega: Vec<Vector3<f64>>,
+    pub radius: Vec<f64>,
+    pub mass: Vec<f64>,
+}
+
+impl Particles {
+    /// Spheres at rest of the given centres and radii, density `rho`.
+    pub fn at_rest(pos: Vec<Vector3<f64>>, radius: Vec<f64>, rho: f64) -> Particles {
+        let n = pos.len();
+        let mass = radius.iter().map(|r| rho * 4.0 / 3.0 * PI * r.powi(3)).collect();
+        Particles {
+            pos,
+            vel: vec![Vector3::zeros(); n],
+            omega: vec![Vector3::zeros(); n],
+            radius,
+            mass,
+        }
+    }
+    pub fn len(&self) -> usize {
+        self.pos.len()
+    }
+    pub fn is_empty(&self) -> bool {
+        self.pos.is_empty()
+    }
+}
+
+/// Which terms the run evaluates (printed before a run).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ActiveTerms {
+    pub friction_rotation: bool,
+    pub damping: bool,
+    pub gravity: bool,
+    pub drag: bool,
+    pub pressure_wall: bool,
+}
+
+impl ActiveTerms {
+    pub fn names(&self) -> Vec<&'static str> {
+        let mut v = vec!["normal contact"];
+        for (on, name) in [
+            (self.damping, "normal damping"),
+            (self.friction_rotation, "tangential friction + rotation"),
+            (self.gravity, "gravity"),
+            (self.drag, "uniform Stokes drag"),
+            (self.pressure_wall, "pressure-controlled top wall"),
+        ] {
+            if on {
+                v.push(name);
+            }
+        }
+        v
+    }
+}
+
+/// A DEM system and its integrator state.
+pub struct Dem {
+    pub p: Particles,
+    pub setup: DemSetup,
+    pub dt_s: f64,
+    pub time_s: f64,
+    pub steps: u64,
+    /// Current top-wall height and velocity.
+    pub top_z_m: f64,
+    pub top_v_m_s: f64,
+    /// z force of the floor on the particles and of the particles on the top wall (N), last step.
+    pub floor_force_n: f64,
+    pub top_force_n: f64,
+    /// Sum of the contact stiffnesses S_n of the top wall's contacts (N/m), last step.
+    pub top_stiffness_n_per_m: f64,
+    pub nl: NeighbourList,
+    force: Vec<Vector3<f64>>,
+    torque: Vec<Vector3<f64>>,
+    vel_full: Vec<Vector3<f64>>,
+    omega_full: Vec<Vector3<f64>>,
+    inv_mass: Vec<f64>,
+    inv_inertia: Vec<f64>,
+    /// Effective (buoyant) mass factor 1 - rho_f / rho_p.
+    buoyancy: f64,
+    wall_xi: Vec<[Vector3<f64>; 2]>,
+    /// Per particle: z force of the floor, of the top wall, and the top contact's stiffness S_n.
+    wall_fz: Vec<[f64; 3]>,
+    pp: PairMaterial,
+    pw: PairMaterial,
+    pub active: ActiveTerms,
+    /// Seconds spent rebuilding the neighbour list.
+    pub neighbour_seconds: f64,
+}
+
+impl Dem {
+    /// Validates the setup and particles, sets the time step and computes the initial forces.
+    /// `v_scale` is the largest relative impact speed expected (m/s), used by the Hertz
+    /// contact-time rule.
+    pub fn new(setup: DemSetup, p: Particles, v_scale: f64) -> Result<Dem> {
+        let n = p.len();
+        require_positive(setup.lx_m, || format!("box lx {} m", setup.lx_m))?;
+        require_positive(setup.ly_m, || format!("box ly {} m", setup.ly_m))?;
+        require_positive(setup.density_kg_m3, || {
+            format!("particle density {} kg/m^3", setup.density_kg_m3)
+        })?;
+        if !(setup.fluid_density_kg_m3.is_finite()
+            && setup.fluid_density_kg_m3 >= 0.0
+            && setup.fluid_density_kg_m3 < setup.density_kg_m3)
+        {
+            return invalid(format!(
+                "fluid density {} kg/m^3: must be >= 0 and below the particle density {}",
+                setup.fluid_density_kg_m3, setup.density_kg_m3
+            ));
+        }
+        if !setup.gravity_m_s2.iter().all(|g| g.is_finite()) {
+            return invalid("gravity: must be finite");
+        }
+        if let Some(d) = &setup.drag {
+            require_positive(d.viscosity_pa_s, || format!("viscosity {} Pa s", d.viscosity_pa_s))?;
+            if !d.fluid_velocity_m_s.iter().all(|u| u.is_finite()) {
+                return invalid("fluid velocity: must be finite");
+            }
+        }
+        if let NormalModel::Linear { k_n_n_per_m } = setup.contact.normal {
+            require_positive(k_n_n_per_m, || format!("normal stiffness k_n {k_n_n_per_m} N/m"))?;
+        }
+        match setup.contact.tangential {
+            super::model::TangentialModel::None => {}
+            super::model::TangentialModel::Mindlin { mu, damp_ratio }
+            | super::model::TangentialModel::Linear { mu, damp_ratio, .. } => {
+                if !(mu.is_finite() && mu >= 0.0) {
+                    return invalid(format!("friction coefficient {mu}: must be >= 0 and finite"));
+                }
+                if !(damp_ratio.is_finite() && damp_ratio >= 0.0) {
+                    return invalid(format!(
+                        "tangential damping ratio {damp_ratio}: must be >= 0 and finite"
+                    ));
+                }
+            }
+        }
+        if let super::model::TangentialModel::Linear { kt_over_kn, .. } = setup.contact.tangential {
+            require_positive(kt_over_kn, || format!("k_t / k_n {kt_over_kn}"))?;
+        }
+        let (z0, top_speed) = match setup.top {
+            TopWall::Fixed { z_m } => (z_m, 0.0),
+            TopWall::Pressure {
+                z0_m,
+                target_pa,
+                speed_max_m_s,
+            } => {
+                require_positive(target_pa, || format!("target pressure {target_pa} Pa"))?;
+                require_positive(speed_max_m_s, || {
+                    format!("top wall speed limit {speed_max_m_s} m/s")
+                })?;
+                (z0_m, speed_max_m_s)
+            }
+        };
+        require_positive(z0, || format!("top wall height {z0} m"))?;
+        if p.vel.len() != n || p.omega.len() != n || p.radius.len() != n || p.mass.len() != n {
+            return invalid("particles: position, velocity, spin, radius and mass arrays differ in length");
+        }
+        for i in 0..n {
+            let r = p.radius[i];
+            require_positive(r, || format!("particle {i}: radius {r} m"))?;
+            let x = p.pos[i];
+            if !x.iter().chain(p.vel[i].iter()).chain(p.omega[i].iter()).all(|c| c.is_finite()) {
+                return invalid(format!("particle {i}: position, velocity and spin must be finite"));
+            }
+            if x.z < 0.0 || x.z > z0 {
+                return invalid(format!(
+                    "particle {i}: centre height {} m outside the walls [0, {z0}] m",
+                    x.z
+                ));
+            }
+        }
+        let r_min = p.radius.iter().cloned().fold(f64::INFINITY, f64::min);
+        let r_min = if n == 0 { 1.0 } else { r_min };
+        let dt_auto = auto_time_step(&setup, r_min, v_scale.max(top_speed));
+        let dt = match setup.dt_s {
+            None => dt_auto,
+            Some(dt) => {
+                require_positive(dt, || format!("time step dt {dt} s"))?;
+                let (tc, tr) = contact_times(&setup, r_min, v_scale.max(top_speed));
+                if dt > MAX_CONTACT_TIME_FRACTION * tc || dt > tr {
+                    return invalid(format!(
+                        "time step dt = {dt:e} s: too large for the stiffness; the contact time \
+                         of the lightest pair is {tc:e} s (limit t_c/10 = {:e} s){}; the \
+                         automatic step would be {dt_auto:e} s",
+                        MAX_CONTACT_TIME_FRACTION * tc,
+                        if tr.is_finite() {
+                            format!(" and the Rayleigh time {tr:e} s")
+                        } else {
+                            String::new()
+                        }
+                    ));
+                }
+                dt
+            }
+        };
+        let skin = setup.skin_m.unwrap_or(0.6 * r_min);
+        require_positive(skin, || format!("neighbour skin {skin} m"))?;
+        let inv_mass = p.mass.iter().map(|m| 1.0 / m).collect();
+        let inv_inertia = p
+            .mass
+            .iter()
+            .zip(&p.radius)
+            .map(|(m, r)| 1.0 / (0.4 * m * r * r))
+            .collect();
+        let active = ActiveTerms {
+            friction_rotation: setup.contact.has_friction(),
+            damping: setup.contact.damping != DampingModel::None,
+            gravity: setup.gravity_m_s2 != Vector3::zeros(),
+            drag: setup.drag.is_some(),
+            pressure_wall: matches!(setup.top, TopWall::Pressure { .. }),
+        };
+        let mut dem = Dem {
+            pp: PairMaterial::new(&setup.particle_material, &setup.particle_material),
+            pw: PairMaterial::new(&setup.particle_material, &setup.wall_material),
+            buoyancy: 1.0 - setup.fluid_density_kg_m3 / setup.density_kg_m3,
+            vel_full: p.vel.clone(),
+            omega_full: p.omega.clone(),
+            force: vec![Vector3::zeros(); n],
+            torque: vec![Vector3::zeros(); n],
+            wall_xi: vec![[Vector3::zeros(); 2]; n],
+            wall_fz: vec![[0.0; 3]; n],
+            inv_mass,
+            inv_inertia,
+            nl: NeighbourList::new(skin),
+            dt_s: dt,
+            time_s: 0.0,
+            steps: 0,
+            top_z_m: z0,
+            top_v_m_s: 0.0,
+            floor_force_n: 0.0,
+            top_force_n: 0.0,
+            top_stiffness_n_per_m: 0.0,
+            active,
+            neighbour_seconds: 0.0,
+            p,
+            setup,
+        };
+        for x in dem.p.pos.iter_mut() {
+            x.x = x.x.rem_euclid(dem.setup.lx_m);
+            x.y = x.y.rem_euclid(dem.setup.ly_m);
+        }
+        dem.rebuild()?;
+        // first forces with the initial velocities; the tangential springs start at zero
+        dem.compute_forces();
+        for xi in dem.wall_xi.iter_mut() {
+            *xi = [Vector3::zeros(); 2];
+        }
+        for pr in dem.nl.pairs.iter_mut() {
+            pr.xi = Vector3::zeros();
+        }
+        Ok(dem)
+    }
+
+    fn rebuild(&mut self) -> Result<()> {
+        let t = std::time::Instant::now();
+        let r = self.nl.build(&self.p.pos, &self.p.radius, self.setup.lx_m, self.setup.ly_m);
+        self.neighbour_seconds += t.elapsed().as_secs_f64();
+        r
+    }
+
+    /// One velocity-Verlet step.
+    pub fn step(&mut self) -> Result<()> {
+        let dt = self.dt_s;
+        let h = 0.5 * dt;
+        let (lx, ly) = (self.setup.lx_m, self.setup.ly_m);
+        let rotation = self.active.friction_rotation;
+        {
+            let (force, torque, im, ii) = (&self.force, &self.torque, &self.inv_mass, &self.inv_inertia);
+            type Item<'a> = (
+                usize,
+                (
+                    (((&'a mut Vector3<f64>, &'a mut Vector3<f64>), &'a mut Vector3<f64>), &'a mut Vector3<f64>),
+                    &'a mut Vector3<f64>,
+                ),
+            );
+            let kick_drift = |(i, ((((x, v), vf), w), wf)): Item| {
+                let a = force[i] * im[i];
+                *v += a * h;
+                *x += *v * dt;
+                x.x = wrap_into(x.x, lx);
+                x.y = wrap_into(x.y, ly);
+                *vf = *v + a * h;
+                if rotation {
+                    let b = torque[i] * ii[i];
+                    *w += b * h;
+                    *wf = *w + b * h;
+                }
+            };
+            if self.p.len() >= PAR_MIN {
+                self.p.pos.par_iter_mut()
+                    .zip(self.p.vel.par_iter_mut())
+                    .zip(self.vel_full.par_iter_mut())
+                    .zip(self.p.omega.par_iter_mut())
+                    .zip(self.omega_full.par_iter_mut())
+                    .enumerate()
+                    .with_min_len(256)
+                    .for_each(kick_drift);
+            } else {
+                self.p.pos.iter_mut()
+                    .zip(self.p.vel.iter_mut())
+                    .zip(self.vel_full.iter_mut())
+                    .zip(self.p.omega.iter_mut())
+                    .zip(self.omega_full.iter_mut())
+                    .enumerate()
+                    .for_each(kick_drift);
+            }
+        }
+        self.top_z_m += self.top_v_m_s * dt;
+        if self.top_z_m <= 0.0 {
+            return invalid(format!(
+                "top wall reached the floor at t = {:e} s: the target pressure cannot be held by \
+                 these particles",
+                self.time_s
+            ));
+        }
+        if self.nl.needs_rebuild(&self.p.pos, lx, ly) {
+            self.rebuild()?;
+        }
+        self.compute_forces();
+        {
+            let (force, torque, im, ii) = (&self.force, &self.torque, &self.inv_mass, &self.inv_inertia);
+            let kick = |(i, (v, w)): (usize, (&mut Vector3<f64>, &mut Vector3<f64>))| {
+                *v += force[i] * (im[i] * h);
+                if rotation {
+                    *w += torque[i] * (ii[i] * h);
+                }
+            };
+            if self.p.len() >= PAR_MIN {
+                self.p.vel.par_iter_mut().zip(self.p.omega.par_iter_mut()).enumerate().with_min_len(256).for_each(kick);
+            } else {
+                self.p.vel.iter_mut().zip(self.p.omega.iter_mut()).enumerate().for_each(kick);
+            }
+        }
+        if let TopWall::Pressure {
+            target_pa,
+            speed_max_m_s,
+            ..
+        } = self.setup.top
+        {
+            // without contact: approach at v_max; in contact: a relaxed Newton step on the
+            // wall force, dz = -WALL_RELAXATION (F_target - F) / K_top, capped at v_max dt
+            let f_target = target_pa * lx * ly;
+            let err = f_target - self.top_force_n;
+            self.top_v_m_s = if self.top_stiffness_n_per_m > 0.0 {
+                (-WALL_RELAXATION * err / (self.top_stiffness_n_per_m * dt))
+                    .clamp(-speed_max_m_s, speed_max_m_s)
+            } else {
+                -speed_max_m_s
+            };
+        }
+        self.time_s += dt;
+        self.steps += 1;
+        Ok(())
+    }
+
+    /// Runs `n` steps; fails on a non-finite state (checked at the end).
+    pub fn run(&mut self, n: u64) -> Result<()> {
+        for _ in 0..n {
+            self.step()?;
+        }
+        self.check_finite()
+    }
+
+    /// An error when some position or velocity is not finite.
+    pub fn check_finite(&self) -> Result<()> {
+        for i in 0..self.p.len() {
+            if !self.p.pos[i].iter().chain(self.p.vel[i].iter()).all(|c| c.is_finite()) {
+                return invalid(format!(
+                    "particle {i}: non-finite state at step {} (t = {:e} s, dt = {:e} s): the \
+                     time step is too large for the contact stiffness",
+                    self.steps, self.time_s, self.dt_s
+                ));
+            }
+        }
+        Ok(())
+    }
+
+    /// Contact forces on all pairs, then the per-particle gather with walls, gravity and drag.
+    fn compute_forces(&mut self) {
+        let (lx, ly) = (self.setup.lx_m, self.setup.ly_m);
+        let model = self.setup.contact;
+        let dt = self.dt_s;
+        let friction = model.has_friction();
+        let pp = self.pp;
+        let (pos, vel, om, vf, omf, rad, mass) = (
+            &self.p.pos,
+            &self.p.vel,
+            &self.p.omega,
+            &self.vel_full,
+            &self.omega_full,
+            &self.p.radius,
+            &self.p.mass,
+        );
+        let pair_force = |pr: &mut super::neighbour::Pair| {
+            let (i, j) = (pr.i as usize, pr.j as usize);
+            let d = Vector3::new(
+                wrap_delta(pos[i].x - pos[j].x, lx),
+                wrap_delta(pos[i].y - pos[j].y, ly),
+                pos[i].z - pos[j].z,
+            );
+            let (ri, rj) = (rad[i], rad[j]);
+            let dist2 = d.norm_squared();
+            let rs = ri + rj;
+            if dist2 >= rs * rs {
+                if pr.delta > 0.0 {
+                    pr.xi = Vector3::zeros();
+                    pr.force = Vector3::zeros();
+                    pr.n_cross_ft = Vector3::zeros();
+                }
+                // apart: only the sign of delta is used until the pair touches again
+                pr.delta = -1.0;
+                return;
+            }
+            let dist = dist2.sqrt();
+            let n = d * (1.0 / dist);
+            let (v_half, v_full) = if friction {
+                (
+                    vel[i] - vel[j] - (om[i] * ri + om[j] * rj).cross(&n),
+                    vf[i] - vf[j] - (omf[i] * ri + omf[j] * rj).cross(&n),
+                )
+            } else {
+                (vel[i] - vel[j], vf[i] - vf[j])
+            };
+            let c = ContactState {
+                delta: rs - dist,
+                n,
+                v_half,
+                v_full,
+                r_eff: ri * rj / rs,
+                m_eff: mass[i] * mass[j] / (mass[i] + mass[j]),
+                dt,
+            };
+            let (f, ft) = model.force(&c, &pp, &mut pr.xi);
+            pr.delta = c.delta;
+            pr.force = f;
+            pr.n_cross_ft = n.cross(&ft);
+        };
+        if self.nl.pairs.len() >= PAR_MIN {
+            self.nl.pairs.par_iter_mut().with_min_len(512).for_each(pair_force);
+        } else {
+            self.nl.pairs.iter_mut().for_each(pair_force);
+        }
+        // gather
+        let nl = &self.nl;
+        let pw = self.pw;
+        let top_z = self.top_z_m;
+        let top_v = self.top_v_m_s;
+        let g = self.setup.gravity_m_s2 * self.buoyancy;
+        let drag = self.setup.drag;
+        type Slot<'a> = (
+            usize,
+            (((&'a mut Vector3<f64>, &'a mut Vector3<f64>), &'a mut [Vector3<f64>; 2]), &'a mut [f64; 3]),
+        );
+        let gather = |(i, (((f_out, t_out), wxi), wfz)): Slot| {
+            let mut f = Vector3::zeros();
+            let mut nxft = Vector3::zeros();
+            for &k in &nl.second_pairs[nl.second_start[i] as usize..nl.second_start[i + 1] as usize] {
+                let pr = &nl.pairs[k as usize];
+                if pr.delta > 0.0 {
+                    f -= pr.force;
+                    nxft += pr.n_cross_ft;
+                }
+            }
+            for pr in &nl.pairs[nl.first_start[i] as usize..nl.first_start[i + 1] as usize] {
+                if pr.delta > 0.0 {
+                    f += pr.force;
+                    nxft += pr.n_cross_ft;
+                }
+            }
+            let r = rad[i];
+            // walls: spheres of infinite radius and mass (R* = R, m* = m)
+            for (k, (dist, nz, wall_v)) in [(pos[i].z, 1.0, 0.0), (top_z - pos[i].z, -1.0, top_v)]
+                .into_iter()
+                .enumerate()
+            {
+                let delta = r - dist;
+                if delta <= 0.0 {
+                    wxi[k] = Vector3::zeros();
+                    wfz[k] = 0.0;
+                    if k == 1 {
+                        wfz[2] = 0.0;
+                    }
+                    continue;
+                }
+                if k == 1 {
+                    wfz[2] = model.normal.elastic(delta, r, pw.e_star_pa).1;
+                }
+                let n = Vector3::new(0.0, 0.0, nz);
+                let wv = Vector3::new(0.0, 0.0, wall_v);
+                let (v_half, v_full) = if friction {
+                    (vel[i] - wv - (om[i] * r).cross(&n), vf[i] - wv - (omf[i] * r).cross(&n))
+                } else {
+                    (vel[i] - wv, vf[i] - wv)
+                };
+                let c = ContactState {
+                    delta,
+                    n,
+                    v_half,
+                    v_full,
+                    r_eff: r,
+                    m_eff: mass[i],
+                    dt,
+                };
+                let (fw, ft) = model.force(&c, &pw, &mut wxi[k]);
+                f += fw;
+                nxft += n.cross(&ft);
+                wfz[k] = fw.z;
+            }
+            f += g * mass[i];
+            if let Some(d) = &drag {
+                f += (d.fluid_velocity_m_s - vf[i]) * (6.0 * PI * d.viscosity_pa_s * r);
+            }
+            *f_out = f;
+            *t_out = -nxft * r;
+        };
+        let n = self.p.len();
+        if n >= PAR_MIN {
+            self.force
+                .par_iter_mut()
+                .zip(self.torque.par_iter_mut())
+                .zip(self.wall_xi.par_iter_mut())
+                .zip(self.wall_fz.par_iter_mut())
+                .enumerate()
+                .with_min_len(256)
+                .for_each(gather);
+        } else {
+            self.force
+                .iter_mut()
+                .zip(self.torque.iter_mut())
+                .zip(self.wall_xi.iter_mut())
+                .zip(self.wall_fz.iter_mut())
+                .enumerate()
+                .for_each(gather);
+        }
+        let (mut fl, mut tp, mut kt) = (0.0, 0.0, 0.0);
+        for w in &self.wall_fz {
+            fl += w[0];
+            tp -= w[1];
+            kt += w[2];
+        }
+        self.floor_force_n = fl;
+        self.top_force_n = tp;
+        self.top_stiffness_n_per_m = kt;
+    }
+
+    /// Translational + rotational kinetic energy (J) at the full step.
+    pub fn kinetic_energy(&self) -> f64 {
+        let mut e = 0.0;
+        for i in 0..self.p.len() {
+            let m = self.p.mass[i];
+            e += 0.5 * m * self.p.vel[i].norm_squared()
+                + 0.5 * self.p.omega[i].norm_squared() / self.inv_inertia[i];
+        }
+        e
+    }
+
+    /// Elastic energy of the normal contacts (J) (tangential springs not included).
+    pub fn normal_elastic_energy(&self) -> f64 {
+        let nm = self.setup.contact.normal;
+        let mut e = 0.0;
+        for pr in &self.nl.pairs {
+            if pr.delta > 0.0 {
+                let (ri, rj) = (self.p.radius[pr.i as usize], self.p.radius[pr.j as usize]);
+                e += nm.potential(pr.delta, ri * rj / (ri + rj), self.pp.e_star_pa);
+            }
+        }
+        for i in 0..self.p.len() {
+            let r = self.p.radius[i];
+            for dist in [self.p.pos[i].z, self.top_z_m - self.p.pos[i].z] {
+                e += nm.potential(r - dist, r, self.pw.e_star_pa);
+            }
+        }
+        e
+    }
+
+    /// Largest overlap relative to the smaller diameter of the pair (walls: the sphere's).
+    pub fn max_overlap_ratio(&self) -> f64 {
+        let mut m: f64 = 0.0;
+        for pr in &self.nl.pairs {
+            if pr.delta > 0.0 {
+                let d = 2.0 * self.p.radius[pr.i as usize].min(self.p.radius[pr.j as usize]);
+                m = m.max(pr.delta / d);
+            }
+        }
+        for i in 0..self.p.len() {
+            let r = self.p.radius[i];
+            for dist in [self.p.pos[i].z, self.top_z_m - self.p.pos[i].z] {
+                m = m.max((r - dist) / (2.0 * r));
+            }
+        }
+        m
+    }
+
+    /// Number of sphere–sphere contacts (overlap > 0) of each particle.
+    pub fn contact_counts(&self) -> Vec<usize> {
+        let mut c = vec![0; self.p.len()];
+        for pr in &self.nl.pairs {
+            if pr.delta > 0.0 {
+                c[pr.i as usize] += 1;
+                c[pr.j as usize] += 1;
+            }
+        }
+        c
+    }
+
+    /// Total contact force on each particle from the last step (N) (for tests).
+    pub fn forces(&self) -> &[Vector3<f64>] {
+        &self.force
+    }
+
+    /// The buoyant weight of all particles along gravity, sum m' |g| (N).
+    pub fn buoyant_weight_n(&self) -> f64 {
+        self.p.mass.iter().sum::<f64>() * self.buoyancy * self.setup.gravity_m_s2.norm()
+    }
+}
+

@@ -1,0 +1,25 @@
+//! Discrete-element method for soft spheres (seed 002, Pianet, Bertrand, Vidal & Mallet 2011,
+//! "DEM-based models for the consolidation of particle packings"): polydisperse spheres between
+//! a floor and a top wall, periodic in x and y, with gravity, a uniform Stokes drag and a
+//! pressure-controlled top wall as drivers.
+//!
+//! * [`model`]: contact laws composed of normal, damping and tangential sub-models (Hertz–Mindlin
+//!   with restitution damping, linear spring–dashpot with Coulomb friction); walls use the same
+//!   model as spheres of infinite radius and mass.
+//! * [`neighbour`]: cell list + half Verlet list with skin; tangential history per pair kept
+//!   across rebuilds.
+//! * [`engine`]: the velocity-Verlet integrator, drivers and the time-step rule.
+//! * [`start`]: the random overlap-free dispersion at a prescribed porosity.
+//! * [`observe`]: porosity profiles from exact sphere–slab volumes, bed height.
+//!
+//! Vertical axis: z (the seed's x); SI units throughout.
+
+pub mod bench;
+pub mod engine;
+pub mod model;
+pub mod neighbour;
+pub mod observe;
+pub mod start;
+
+pub use engine::{ActiveTerms, Dem, DemSetup, Drag, Particles, TopWall};
+pub use model::{ContactModel, DampingModel, Material, NormalModel, PairMaterial, TangentialModel};

@@ -1,0 +1,363 @@
+//! Contact laws, composed after LAMMPS's `GranularModel`: a normal elastic sub-model, a normal
+//! damping sub-model and a tangential sub-model, each a small type with its own parameters.
+//! One [`ContactModel`] serves sphere–sphere and sphere–wall contacts alike: a flat wall is a
+//! sphere of infinite radius and mass, so its effective radius is the sphere's radius and its
+//! effective mass the sphere's mass, and the effective moduli follow the same rule
+//! ([`PairMaterial::new`]).
+//!
+//! Sign conventions: `n` is the unit normal from body j to body i, `delta` > 0 the overlap,
+//! `v_rel` the velocity of i's contact point relative to j's. The force returned acts on i.
+
+use crate::error::{invalid, require_positive};
+use crate::Result;
+use nalgebra::Vector3;
+use std::f64::consts::PI;
+
+/// Elastic constants of one material (SI).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Material {
+    pub young_pa: f64,
+    pub poisson: f64,
+}
+
+impl Material {
+    pub fn new(young_pa: f64, poisson: f64) -> Result<Material> {
+        require_positive(young_pa, || format!("Young's modulus {young_pa} Pa"))?;
+        if !(poisson.is_finite() && poisson > -1.0 && poisson < 0.5) {
+            return invalid(format!(
+                "Poisson ratio {poisson}: must lie in (-1, 0.5)"
+            ));
+        }
+        Ok(Material { young_pa, poisson })
+    }
+
+    /// Shear modulus G = E / (2 (1 + nu)).
+    pub fn shear_pa(&self) -> f64 {
+        self.young_pa / (2.0 * (1.0 + self.poisson))
+    }
+}
+
+/// Effective moduli of a contact between two materials (Hertz and Mindlin; the rule of
+/// LAMMPS `hertz/material` and `mindlin`):
+/// 1/E* = (1 - nu1^2)/E1 + (1 - nu2^2)/E2 and 1/G* = 2 (2 - nu1)(1 + nu1)/E1 + 2 (2 - nu2)(1 + nu2)/E2.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct PairMaterial {
+    pub e_star_pa: f64,
+    pub g_star_pa: f64,
+}
+
+impl PairMaterial {
+    pub fn new(a: &Material, b: &Material) -> PairMaterial {
+        let inv_e = (1.0 - a.poisson * a.poisson) / a.young_pa
+            + (1.0 - b.poisson * b.poisson) / b.young_pa;
+        let inv_g = 2.0 * (2.0 - a.poisson) * (1.0 + a.poisson) / a.young_pa
+            + 2.0 * (2.0 - b.poisson) * (1.0 + b.poisson) / b.young_pa;
+        PairMaterial {
+            e_star_pa: 1.0 / inv_e,
+            g_star_pa: 1.0 / inv_g,
+        }
+    }
+}
+
+/// Normal elastic force.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum NormalModel {
+    /// Hertz: F = (4/3) E* sqrt(R* delta) delta, contact stiffness S_n = 2 E* sqrt(R* delta).
+    Hertz,
+    /// Linear spring (Cundall & Strack 1979): F = k_n delta.
+    Linear { k_n_n_per_m: f64 },
+}
+
+impl NormalModel {
+    /// (elastic force magnitude, contact stiffness S_n = dF/d delta) at overlap `delta` > 0.
+    #[inline(always)]
+    pub fn elastic(&self, delta: f64, r_eff: f64, e_star: f64) -> (f64, f64) {
+        match *self {
+            NormalModel::Hertz => {
+                let s = 2.0 * e_star * (r_eff * delta).sqrt();
+                (s * delta * (2.0 / 3.0), s)
+            }
+            NormalModel::Linear { k_n_n_per_m: k } => (k * delta, k),
+        }
+    }
+
+    /// Elastic energy stored at overlap `delta` (J): (8/15) E* sqrt(R*) delta^(5/2) or k delta^2 / 2.
+    pub fn potential(&self, delta: f64, r_eff: f64, e_star: f64) -> f64 {
+        if delta <= 0.0 {
+            return 0.0;
+        }
+        match *self {
+            NormalModel::Hertz => (8.0 / 15.0) * e_star * r_eff.sqrt() * delta.powf(2.5),
+            NormalModel::Linear { k_n_n_per_m: k } => 0.5 * k * delta * delta,
+        }
+    }
+
+    /// The factor c in the restitution damping eta_n = 2 (-beta) sqrt(c S_n m*): 1 for the
+    /// linear spring (exact), 5/6 for Hertz (Tsuji et al. 1992 scaling, the LIGGGHTS and
+    /// LAMMPS `coeff_restitution` form).
+    fn damping_factor(&self) -> f64 {
+        match self {
+            NormalModel::Hertz => 5.0 / 6.0,
+            NormalModel::Linear { .. } => 1.0,
+        }
+    }
+}
+
+/// Normal viscous damping F_d = -eta_n (v_rel . n) n.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum DampingModel {
+    /// No dissipation.
+    None,
+    /// eta_n = -2 beta sqrt(c S_n m*), beta = ln e / sqrt(ln^2 e + pi^2): for the linear spring
+    /// the exact dashpot of restitution e (e = exp(-pi zeta / sqrt(1 - zeta^2)), zeta = -beta);
+    /// for Hertz the LIGGGHTS form (c = 5/6), whose restitution does not depend on the impact
+    /// velocity but is not exactly e.
+    Restitution { coeff: f64, neg_beta: f64 },
+}
+
+impl DampingModel {
+    /// Damping set by a coefficient of restitution 0 < e <= 1 (e = 1: no damping).
+    pub fn restitution(e: f64) -> Result<DampingModel> {
+        if !(e.is_finite() && e > 0.0 && e <= 1.0) {
+            return invalid(format!(
+                "coefficient of restitution {e}: must lie in (0, 1]"
+            ));
+        }
+        if e == 1.0 {
+            return Ok(DampingModel::None);
+        }
+        let l = e.ln();
+        Ok(DampingModel::Restitution {
+            coeff: e,
+            neg_beta: -l / (l * l + PI * PI).sqrt(),
+        })
+    }
+
+    #[inline(always)]
+    fn eta(&self, normal: &NormalModel, s_n: f64, m_eff: f64) -> f64 {
+        match *self {
+            DampingModel::None => 0.0,
+            DampingModel::Restitution { neg_beta, .. } => {
+                2.0 * neg_beta * (normal.damping_factor() * s_n * m_eff).sqrt()
+            }
+        }
+    }
+}
+
+/// Tangential force: a spring on the accumulated tangential displacement xi (history per
+/// contact), a dashpot eta_t = ratio * eta_n, and the Coulomb limit |F_t| <= mu |F_n|.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum TangentialModel {
+    /// Frictionless: no tangential force, no rotation needed.
+    None,
+    /// Mindlin: k_t = 8 G* sqrt(R* delta) (LAMMPS `tangential mindlin NULL`).
+    Mindlin { mu: f64, damp_ratio: f64 },
+    /// Linear (Cundall & Strack 1979): k_t = kt_over_kn * k_n.
+    Linear {
+        kt_over_kn: f64,
+        mu: f64,
+        damp_ratio: f64,
+    },
+}
+
+impl TangentialModel {
+    pub fn is_none(&self) -> bool {
+        matches!(self, TangentialModel::None)
+    }
+
+    /// (k_t, eta_t, mu).
+    #[inline(always)]
+    #[allow(clippy::too_many_arguments)]
+    fn parameters(
+        &self,
+        normal: &NormalModel,
+        s_n: f64,
+        eta_n: f64,
+        delta: f64,
+        r_eff: f64,
+        e_star: f64,
+        g_star: f64,
+    ) -> (f64, f64, f64) {
+        match *self {
+            TangentialModel::None => (0.0, 0.0, 0.0),
+            TangentialModel::Mindlin { mu, damp_ratio } => {
+                // 8 G* sqrt(R* delta); with a Hertz normal S_n = 2 E* sqrt(R* delta) holds the root
+                let k_t = match normal {
+                    NormalModel::Hertz => 4.0 * g_star / e_star * s_n,
+                    NormalModel::Linear { .. } => 8.0 * g_star * (r_eff * delta).sqrt(),
+                };
+                (k_t, damp_ratio * eta_n, mu)
+            }
+            TangentialModel::Linear {
+                kt_over_kn,
+                mu,
+                damp_ratio,
+            } => (kt_over_kn * s_n, damp_ratio * eta_n, mu),
+        }
+    }
+}
+
+/// A contact model: normal elasticity + normal damping + tangential law.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ContactModel {
+    pub normal: NormalModel,
+    pub damping: DampingModel,
+    pub tangential: TangentialModel,
+}
+
+/// The state of one contact for [`ContactModel::force`].
+#[derive(Debug, Clone, Copy)]
+pub struct ContactState {
+    /// Overlap (m), > 0.
+    pub delta: f64,
+    /// Unit normal from j to i.
+    pub n: Vector3<f64>,
+    /// Contact-point velocity of i relative to j at the half step (drives the spring).
+    pub v_half: Vector3<f64>,
+    /// Contact-point velocity of i relative to j predicted at the full step (drives dashpots).
+    pub v_full: Vector3<f64>,
+    pub r_eff: f64,
+    pub m_eff: f64,
+    pub dt: f64,
+}
+
+impl ContactModel {
+    /// Force on i, and its tangential part, for one contact; advances the tangential
+    /// displacement `xi` (history) over the step: xi is first turned onto the current tangent
+    /// plane with its length kept (LAMMPS), then xi += v_t(half step) dt; when the Coulomb
+    /// limit binds, xi is reset to the spring length that gives the limited force.
+    #[inline(always)]
+    pub fn force(
+        &self,
+        c: &ContactState,
+        mat: &PairMaterial,
+        xi: &mut Vector3<f64>,
+    ) -> (Vector3<f64>, Vector3<f64>) {
+        let (f_el, s_n) = self.normal.elastic(c.delta, c.r_eff, mat.e_star_pa);
+        let eta_n = self.damping.eta(&self.normal, s_n, c.m_eff);
+        let vn_full = c.v_full.dot(&c.n);
+        let f_n = f_el - eta_n * vn_full;
+        let mut f = c.n * f_n;
+        if self.tangential.is_none() {
+            return (f, Vector3::zeros());
+        }
+        let (k_t, eta_t, mu) =
+            self.tangential.parameters(
+                &self.normal,
+                s_n,
+                eta_n,
+                c.delta,
+                c.r_eff,
+                mat.e_star_pa,
+                mat.g_star_pa,
+            );
+        // history onto the tangent plane, length kept
+        let len0 = xi.norm_squared();
+        if len0 > 0.0 {
+            *xi -= c.n * xi.dot(&c.n);
+            let len1 = xi.norm_squared();
+            if len1 > 0.0 {
+                *xi *= (len0 / len1).sqrt();
+            }
+        }
+        let vt_half = c.v_half - c.n * c.v_half.dot(&c.n);
+        let vt_full = c.v_full - c.n * vn_full;
+        *xi += vt_half * c.dt;
+        let mut f_t = -(*xi * k_t) - vt_full * eta_t;
+        let limit = mu * f_n.abs();
+        let ft2 = f_t.norm_squared();
+        if ft2 > limit * limit {
+            f_t *= limit / ft2.sqrt();
+            if k_t > 0.0 {
+                *xi = -(f_t + vt_full * eta_t) / k_t;
+            }
+        }
+        f += f_t;
+        (f, f_t)
+    }
+
+    /// Whether the model needs rotation (a tangential force).
+    pub fn has_friction(&self) -> bool {
+        !self.tangential.is_none()
+    }
+}
+
+/// Hertz elastic contact time of a head-on impact at relative speed v (Johnson 1985, eq. 11.24):
+/// t_c = 2.868 (m*^2 / (R* E*^2 v))^(1/5).
+pub fn hertz_contact_time(m_eff: f64, r_eff: f64, e_star: f64, v: f64) -> f64 {
+    2.868 * (m_eff * m_eff / (r_eff * e_star * e_star * v)).powf(0.2)
+}
+
+/// Rayleigh time of a sphere of radius r (Thornton & Randall / LIGGGHTS):
+/// t_R = pi r sqrt(rho / G) / (0.1631 nu + 0.8766).
+pub fn rayleigh_time(radius: f64, density: f64, mat: &Material) -> f64 {
+    PI * radius * (density / mat.shear_pa()).sqrt() / (0.1631 * mat.poisson + 0.8766)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn effective_moduli_same_material() {
+        let m = Material::new(1e7, 0.3).unwrap();
+        let p = PairMaterial::new(&m, &m);
+        assert!((p.e_star_pa - 1e7 / (2.0 * 0.91)).abs() < 1e-6);
+        assert!((p.g_star_pa - 1e7 / (4.0 * 1.7 * 1.3)).abs() < 1e-6);
+    }
+
+    #[test]
+    fn hertz_force_is_derivative_of_potential() {
+        let n = NormalModel::Hertz;
+        let (d, r, e) = (1e-6, 1e-3, 1e8);
+        let h = 1e-12;
+        let num = (n.potential(d + h, r, e) - n.potential(d - h, r, e)) / (2.0 * h);
+        let (f, s) = n.elastic(d, r, e);
+        assert!((num - f).abs() < 1e-6 * f, "{num} {f}");
+        let (f2, _) = n.elastic(d + h, r, e);
+        let (f1, _) = n.elastic(d - h, r, e);
+        assert!(((f2 - f1) / (2.0 * h) - s).abs() < 1e-5 * s);
+    }
+
+    #[test]
+    fn restitution_damping_linear_beta() {
+        let DampingModel::Restitution { neg_beta, .. } = DampingModel::restitution(0.5).unwrap()
+        else {
+            panic!()
+        };
+        // zeta = -ln e / sqrt(pi^2 + ln^2 e) recovers e = exp(-pi zeta / sqrt(1 - zeta^2))
+        let e = (-PI * neg_beta / (1.0 - neg_beta * neg_beta).sqrt()).exp();
+        assert!((e - 0.5).abs() < 1e-14);
+        assert!(DampingModel::restitution(0.0).is_err());
+        assert!(DampingModel::restitution(1.5).is_err());
+        assert_eq!(DampingModel::restitution(1.0).unwrap(), DampingModel::None);
+    }
+
+    #[test]
+    fn coulomb_limit_binds() {
+        let m = ContactModel {
+            normal: NormalModel::Linear { k_n_n_per_m: 1000.0 },
+            damping: DampingModel::None,
+            tangential: TangentialModel::Linear {
+                kt_over_kn: 1.0,
+                mu: 0.5,
+                damp_ratio: 0.0,
+            },
+        };
+        let mat = PairMaterial::new(&Material::new(1e7, 0.3).unwrap(), &Material::new(1e7, 0.3).unwrap());
+        let c = ContactState {
+            delta: 1e-3,
+            n: Vector3::z(),
+            v_half: Vector3::new(1.0, 0.0, 0.0),
+            v_full: Vector3::new(1.0, 0.0, 0.0),
+            r_eff: 1e-3,
+            m_eff: 1e-3,
+            dt: 1e-3,
+        };
+        let mut xi = Vector3::zeros();
+        let (f, ft) = m.force(&c, &mat, &mut xi);
+        assert!((f.z - 1.0).abs() < 1e-12);
+        assert!((ft.x + 0.5).abs() < 1e-12, "{ft:?}");
+        assert!((xi.x - 0.5e-3).abs() < 1e-15);
+    }
+}

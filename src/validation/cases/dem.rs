@@ -1,0 +1,596 @@
+//! Cases 701-708: the DEM engine (seed 002) against closed forms of contact mechanics and
+//! rigid-body motion: head-on collisions (linear spring–dashpot, Hertz, restitution-damped
+//! Hertz), sphere–wall contact time, sliding to rolling, incline motion, Stokes settling with
+//! the integrator's order, energy conservation without damping and the floor force of a static
+//! bed. Expected values are computed here from the closed forms (or, for the damped Hertz
+//! restitution, by an independent fine-step RK4 of the contact ODE), never by the engine.
+
+use super::common::non_empty;
+use crate::dem::{
+    engine::auto_time_step, ContactModel, DampingModel, Dem, DemSetup, Drag, Material,
+    NormalModel, PairMaterial, Particles, TangentialModel, TopWall,
+};
+use crate::validation::{CaseContext, Row};
+use crate::{Error, Result};
+use nalgebra::Vector3;
+use rand::{Rng, SeedableRng};
+use std::f64::consts::PI;
+
+const RHO: f64 = 2500.0;
+
+fn setup(contact: ContactModel, mat: Material, wall: Material, l: f64, h: f64) -> DemSetup {
+    DemSetup {
+        lx_m: l,
+        ly_m: l,
+        contact,
+        particle_material: mat,
+        wall_material: wall,
+        density_kg_m3: RHO,
+        gravity_m_s2: Vector3::zeros(),
+        fluid_density_kg_m3: 0.0,
+        drag: None,
+        top: TopWall::Fixed { z_m: h },
+        dt_s: None,
+        skin_m: None,
+    }
+}
+
+fn model_from_row(t: &crate::validation::Table, i: usize) -> Result<ContactModel> {
+    let e = t.f64(i, "restitution")?;
+    let normal = match t.str(i, "normal")? {
+        "hertz" => NormalModel::Hertz,
+        "linear" => NormalModel::Linear {
+            k_n_n_per_m: t.f64(i, "k_n_N_per_m")?,
+        },
+        other => return Err(Error::Validation(format!("unknown normal model `{other}`"))),
+    };
+    Ok(ContactModel {
+        normal,
+        damping: DampingModel::restitution(e)?,
+        tangential: TangentialModel::None,
+    })
+}
+
+/// Sphere mass (kg).
+fn mass(r: f64) -> f64 {
+    RHO * 4.0 / 3.0 * PI * r.powi(3)
+}
+
+/// Exact Hertz contact-time constant: t_c = c (m*^2 / (R* E*^2 v))^(1/5) with
+/// c = 2 (15/16)^(2/5) * (2/5) B(2/5, 1/2) (2.868 to four digits; Johnson 1985 sec. 11.4).
+fn hertz_constant() -> f64 {
+    use statrs::function::gamma::gamma;
+    let integral = 0.4 * gamma(0.4) * gamma(0.5) / gamma(0.9);
+    2.0 * (15.0f64 / 16.0).powf(0.4) * integral
+}
+
+/// A head-on impact at relative speed v of two equal spheres (radius r, along x) or of a
+/// sphere on the floor (along z). Returns (restitution, contact time): the contact time is
+/// measured from the exact touching time of the free flight to the overlap's zero crossing,
+/// interpolated linearly between the two steps around it.
+fn impact(model: ContactModel, mat: Material, wall: Material, r: f64, v: f64, dt: f64, on_wall: bool) -> Result<(f64, f64)> {
+    let l = 100.0 * r;
+    let gap = 0.1 * r;
+    let mut s = setup(model, mat, wall, l, l);
+    s.dt_s = Some(dt);
+    let (p, t0) = if on_wall {
+        let mut p = Particles::at_rest(vec![Vector3::new(0.5 * l, 0.5 * l, r + gap)], vec![r], RHO);
+        p.vel[0] = Vector3::new(0.0, 0.0, -v);
+        (p, gap / v)
+    } else {
+        let mut p = Particles::at_rest(
+            vec![Vector3::new(0.4 * l, 0.5 * l, 0.5 * l), Vector3::new(0.4 * l + 2.0 * r + gap, 0.5 * l, 0.5 * l)],
+            vec![r, r],
+            RHO,
+        );
+        p.vel[0] = Vector3::new(0.5 * v, 0.0, 0.0);
+        p.vel[1] = Vector3::new(-0.5 * v, 0.0, 0.0);
+        (p, gap / v)
+    };
+    let mut dem = Dem::new(s, p, v)?;
+    let overlap = |d: &Dem| {
+        if on_wall {
+            r - d.p.pos[0].z
+        } else {
+            2.0 * r - (d.p.pos[1] - d.p.pos[0]).norm()
+        }
+    };
+    let mut touched = false;
+    let mut prev = overlap(&dem);
+    let limit = (100.0 * (t0 + 1.0) / dt) as u64;
+    for _ in 0..limit.min(50_000_000) {
+        dem.step()?;
+        let now = overlap(&dem);
+        if now > 0.0 {
+            touched = true;
+        } else if touched {
+            let t_end = dem.time_s - dt * (-now) / (prev - now);
+            let e = if on_wall {
+                dem.p.vel[0].z / v
+            } else {
+                (dem.p.vel[1].x - dem.p.vel[0].x) / v
+            };
+            return Ok((e, t_end - t0));
+        }
+        prev = now;
+    }
+    Err(Error::Validation("impact: the contact did not end".into()))
+}
+
+/// Restitution of the contact ODE m* x'' = -F_el(x) - eta(x) x' from x = 0, x' = v, by RK4
+/// with `n` steps per estimated contact time (an oracle independent of the engine's
+/// integrator; used for the damped Hertz law, which has no closed form).
+fn restitution_rk4(model: &ContactModel, pm: &PairMaterial, r_eff: f64, m_eff: f64, v: f64, tc: f64, n: usize) -> f64 {
+    let neg_beta = match model.damping {
+        DampingModel::Restitution { neg_beta, .. } => neg_beta,
+        DampingModel::None => 0.0,
+    };
+    let accel = |x: f64, u: f64| -> f64 {
+        if x <= 0.0 {
+            return 0.0;
+        }
+        let (f, s) = match model.normal {
+            NormalModel::Hertz => {
+                let s = 2.0 * pm.e_star_pa * (r_eff * x).sqrt();
+                (s * x * 2.0 / 3.0, s)
+            }
+            NormalModel::Linear { k_n_n_per_m } => (k_n_n_per_m * x, k_n_n_per_m),
+        };
+        let c = if matches!(model.normal, NormalModel::Hertz) { 5.0 / 6.0 } else { 1.0 };
+        let eta = 2.0 * neg_beta * (c * s * m_eff).sqrt();
+        (-f - eta * u) / m_eff
+    };
+    let h = tc / n as f64;
+    let (mut x, mut u) = (0.0, v);
+    let mut k = 0;
+    loop {
+        let (k1x, k1u) = (u, accel(x, u));
+        let (k2x, k2u) = (u + 0.5 * h * k1u, accel(x + 0.5 * h * k1x, u + 0.5 * h * k1u));
+        let (k3x, k3u) = (u + 0.5 * h * k2u, accel(x + 0.5 * h * k2x, u + 0.5 * h * k2u));
+        let (k4x, k4u) = (u + h * k3u, accel(x + h * k3x, u + h * k3u));
+        let xn = x + h / 6.0 * (k1x + 2.0 * k2x + 2.0 * k3x + k4x);
+        let un = u + h / 6.0 * (k1u + 2.0 * k2u + 2.0 * k3u + k4u);
+        k += 1;
+        if xn <= 0.0 && k > 1 {
+            // interpolate the velocity at the zero crossing
+            let f = x / (x - xn);
+            return -(u + f * (un - u)) / v;
+        }
+        x = xn;
+        u = un;
+        if k > 100 * n {
+            return f64::NAN;
+        }
+    }
+}
+
+/// Case 701: linear spring–dashpot head-on collision of two equal spheres. Each row of
+/// expected.csv is one impact (restitution, speed, dt as a fraction of t_c); rows check e
+/// against exp(-pi zeta / sqrt(1 - zeta^2)) (which the dashpot is built to give) and t_c
+/// against pi / omega_d, omega_d = omega_0 sqrt(1 - zeta^2), omega_0 = sqrt(k_n / m*).
+pub fn case_701(ctx: &CaseContext) -> Result<Vec<Row>> {
+    collisions(ctx, false)
+}
+
+/// Case 703: a sphere hitting the floor (a sphere of infinite radius and mass, its own
+/// material): Hertz contact time with R* = R, m* = m and E* from the same rule as for pairs,
+/// and the linear law's t_c with m* = m.
+pub fn case_703(ctx: &CaseContext) -> Result<Vec<Row>> {
+    collisions(ctx, true)
+}
+
+fn collisions(ctx: &CaseContext, on_wall: bool) -> Result<Vec<Row>> {
+    let t = ctx.expected_table()?;
+    non_empty(&t)?;
+    let mut rows = Vec::new();
+    for i in 0..t.len() {
+        let model = model_from_row(&t, i)?;
+        let r = t.f64(i, "radius_m")?;
+        let v = t.f64(i, "speed_m_s")?;
+        let mat = Material::new(t.f64(i, "young_Pa")?, t.f64(i, "poisson")?)?;
+        let wall = Material::new(t.f64(i, "wall_young_Pa")?, t.f64(i, "wall_poisson")?)?;
+        let frac = t.f64(i, "dt_over_tc")?;
+        let m_eff = if on_wall { mass(r) } else { 0.5 * mass(r) };
+        let r_eff = if on_wall { r } else { 0.5 * r };
+        let pm = if on_wall { PairMaterial::new(&mat, &wall) } else { PairMaterial::new(&mat, &mat) };
+        let e_req = t.f64(i, "restitution")?;
+        let (tc, e_exp) = match model.normal {
+            NormalModel::Linear { k_n_n_per_m } => {
+                let w0 = (k_n_n_per_m / m_eff).sqrt();
+                let l = e_req.ln();
+                let zeta = -l / (l * l + PI * PI).sqrt();
+                (PI / (w0 * (1.0 - zeta * zeta).sqrt()), e_req)
+            }
+            NormalModel::Hertz => {
+                let tc = hertz_constant() * (m_eff * m_eff / (r_eff * pm.e_star_pa * pm.e_star_pa * v)).powf(0.2);
+                let e = if e_req < 1.0 {
+                    restitution_rk4(&model, &pm, r_eff, m_eff, v, tc, 200_000)
+                } else {
+                    1.0
+                };
+                (tc, e)
+            }
+        };
+        let (e, tc_got) = impact(model, mat, wall, r, v, frac * tc, on_wall)?;
+        let label = format!(
+            "{} e={e_req} v={v} dt=tc*{frac}",
+            t.str(i, "normal")?
+        );
+        // allowed relative errors given at dt = t_c / 50, scaled as dt^2 (second order)
+        let k2 = (frac / 0.02).powi(2);
+        if t.str(i, "check")?.contains('e') {
+            let tol = t.f64(i, "e_rel_tol_at_tc_over_50")? * k2;
+            rows.push(Row::new(format!("{label} restitution"), e, e_exp, tol * e_exp));
+        }
+        if t.str(i, "check")?.contains('t') {
+            let tol = t.f64(i, "tc_rel_tol_at_tc_over_50")? * k2;
+            rows.push(Row::new(format!("{label} contact time"), tc_got, tc, tol * tc));
+        }
+    }
+    Ok(rows)
+}
+
+/// Case 702: restitution-damped Hertz (LIGGGHTS form): e does not depend on the impact speed
+/// (the contact ODE is self-similar in v). Rows: e at each speed against e at the first speed
+/// of the same (restitution, dt) group; and e against the fine-step RK4 of the contact ODE.
+pub fn case_702(ctx: &CaseContext) -> Result<Vec<Row>> {
+    let t = ctx.expected_table()?;
+    non_empty(&t)?;
+    let mut rows = Vec::new();
+    let mut first: Option<(String, f64)> = None;
+    for i in 0..t.len() {
+        let model = model_from_row(&t, i)?;
+        let r = t.f64(i, "radius_m")?;
+        let v = t.f64(i, "speed_m_s")?;
+        let mat = Material::new(t.f64(i, "young_Pa")?, t.f64(i, "poisson")?)?;
+        let frac = t.f64(i, "dt_over_tc")?;
+        let (m_eff, r_eff) = (0.5 * mass(r), 0.5 * r);
+        let pm = PairMaterial::new(&mat, &mat);
+        let tc = hertz_constant() * (m_eff * m_eff / (r_eff * pm.e_star_pa * pm.e_star_pa * v)).powf(0.2);
+        let (e, _) = impact(model, mat, mat, r, v, frac * tc, false)?;
+        let group = format!("e={} dt=tc*{frac}", t.f64(i, "restitution")?);
+        let tol = t.f64(i, "e_rel_tol")?;
+        match &first {
+            Some((g, e0)) if *g == group => {
+                rows.push(Row::new(format!("{group} v={v}: e(v)/e(v0)"), e / e0, 1.0, 2.0 * tol));
+            }
+            _ => first = Some((group.clone(), e)),
+        }
+        let e_rk = restitution_rk4(&model, &pm, r_eff, m_eff, v, tc, 200_000);
+        rows.push(Row::new(format!("{group} v={v}: e vs RK4"), e, e_rk, tol * e_rk));
+    }
+    Ok(rows)
+}
+
+/// Hertz–Mindlin sphere resting on the floor at its static overlap (3 m g_n / (4 E* sqrt R))^(2/3).
+fn resting_sphere(r: f64, mu: f64, damp_ratio: f64, g: Vector3<f64>, v0: f64) -> Result<Dem> {
+    let mat = Material::new(1e8, 0.3)?;
+    let model = ContactModel {
+        normal: NormalModel::Hertz,
+        damping: DampingModel::restitution(0.5)?,
+        tangential: TangentialModel::Mindlin { mu, damp_ratio },
+    };
+    let l = 40.0 * r;
+    let mut s = setup(model, mat, mat, l, l);
+    s.gravity_m_s2 = g;
+    let pm = PairMaterial::new(&mat, &mat);
+    let fz = mass(r) * (-g.z);
+    let delta0 = (3.0 * fz / (4.0 * pm.e_star_pa * r.sqrt())).powf(2.0 / 3.0);
+    let mut p = Particles::at_rest(vec![Vector3::new(0.5 * l, 0.5 * l, r - delta0)], vec![r], RHO);
+    p.vel[0] = Vector3::new(v0, 0.0, 0.0);
+    Dem::new(s, p, 0.1)
+}
+
+/// Case 704: a sphere launched sliding without spin on the floor with Coulomb friction mu:
+/// slip v - R w decreases as v0 - (7/2) mu g t, so rolling starts at t = 2 v0 / (7 mu g), then
+/// v = 5 v0 / 7 and w = v / R (angular momentum about the contact point is conserved).
+pub fn case_704(ctx: &CaseContext) -> Result<Vec<Row>> {
+    let t = ctx.expected_table()?;
+    non_empty(&t)?;
+    let mut rows = Vec::new();
+    for i in 0..t.len() {
+        let (r, mu, v0, g) = (t.f64(i, "radius_m")?, t.f64(i, "mu")?, t.f64(i, "v0_m_s")?, t.f64(i, "g_m_s2")?);
+        let damp = t.f64(i, "tangential_damping_ratio")?;
+        let check = t.str(i, "check")?.to_string();
+        let mut dem = resting_sphere(r, mu, damp, Vector3::new(0.0, 0.0, -g), v0)?;
+        let t_roll = 2.0 * v0 / (7.0 * mu * g);
+        let slip = |d: &Dem| d.p.vel[0].x - r * d.p.omega[0].y;
+        let mut prev = slip(&dem);
+        let mut t_got = f64::NAN;
+        let steps = (3.0 * t_roll / dem.dt_s) as u64;
+        for _ in 0..steps {
+            dem.step()?;
+            let s = slip(&dem);
+            if t_got.is_nan() && s <= 0.0 {
+                t_got = dem.time_s - dem.dt_s * (-s) / (prev - s);
+            }
+            prev = s;
+        }
+        let v_end = dem.p.vel[0].x;
+        let w_end = dem.p.omega[0].y;
+        let label = format!("mu={mu} v0={v0} eta_t/eta_n={damp}");
+        // onset within one step; final state to round-off (exact conservation, see below)
+        let vtol = t.f64(i, "v_rel_tol")? * v0;
+        if check.contains('t') {
+            rows.push(Row::new(format!("{label} rolling onset time (within dt)"), t_got, t_roll, dem.dt_s));
+        }
+        if check.contains('v') {
+            rows.push(Row::new(format!("{label} final v"), v_end, 5.0 * v0 / 7.0, vtol));
+            rows.push(Row::new(format!("{label} final R w"), r * w_end, 5.0 * v0 / 7.0, vtol));
+        }
+    }
+    Ok(rows)
+}
+
+/// Case 705: a sphere released at rest on a plane inclined by theta (gravity tilted): it rolls
+/// with a = (5/7) g sin(theta) when tan(theta) <= (7/2) mu, else slides with
+/// a = g (sin(theta) - mu cos(theta)). Acceleration from the velocity change over the second
+/// half of the run.
+pub fn case_705(ctx: &CaseContext) -> Result<Vec<Row>> {
+    let t = ctx.expected_table()?;
+    non_empty(&t)?;
+    let mut rows = Vec::new();
+    for i in 0..t.len() {
+        let (r, mu, th, g, dur) = (
+            t.f64(i, "radius_m")?,
+            t.f64(i, "mu")?,
+            t.f64(i, "theta_deg")?.to_radians(),
+            t.f64(i, "g_m_s2")?,
+            t.f64(i, "duration_s")?,
+        );
+        let grav = Vector3::new(g * th.sin(), 0.0, -g * th.cos());
+        let mut dem = resting_sphere(r, mu, 1.0, grav, 0.0)?;
+        let steps = (dur / dem.dt_s) as u64;
+        dem.run(steps / 2)?;
+        let (t1, v1) = (dem.time_s, dem.p.vel[0].x);
+        dem.run(steps - steps / 2)?;
+        let a = (dem.p.vel[0].x - v1) / (dem.time_s - t1);
+        let rolls = th.tan() <= 3.5 * mu;
+        let a_exp = if rolls { 5.0 / 7.0 * g * th.sin() } else { g * (th.sin() - mu * th.cos()) };
+        rows.push(Row::new(
+            format!("theta={}deg mu={mu} {}", t.f64(i, "theta_deg")?, if rolls { "rolling" } else { "sliding" }),
+            a,
+            a_exp,
+            t.f64(i, "a_rel_tol")? * a_exp,
+        ));
+    }
+    Ok(rows)
+}
+
+/// One sphere settling from rest under gravity, buoyancy and Stokes drag, far from walls:
+/// the full-step velocity at time T against v_t (1 - exp(-T / tau)), tau = m / (6 pi mu a),
+/// v_t = m (1 - rho_f / rho_p) g / (6 pi mu a).
+fn settle(r: f64, mu: f64, rho_f: f64, g: f64, t_end: f64, dt: f64) -> Result<(f64, f64)> {
+    // no contact happens; a soft material keeps the contact-time limit on dt above tau / 10
+    let mat = Material::new(1e2, 0.3)?;
+    let model = ContactModel {
+        normal: NormalModel::Hertz,
+        damping: DampingModel::None,
+        tangential: TangentialModel::None,
+    };
+    let l = 10.0 * r;
+    let h = 1e9 * r;
+    let mut s = setup(model, mat, mat, l, h);
+    s.gravity_m_s2 = Vector3::new(0.0, 0.0, -g);
+    s.fluid_density_kg_m3 = rho_f;
+    s.drag = Some(Drag {
+        viscosity_pa_s: mu,
+        fluid_velocity_m_s: Vector3::zeros(),
+    });
+    s.dt_s = Some(dt);
+    let p = Particles::at_rest(vec![Vector3::new(0.5 * l, 0.5 * l, 0.5 * h)], vec![r], RHO);
+    let mut dem = Dem::new(s, p, 1e-3)?;
+    let n = (t_end / dt).round() as u64;
+    dem.run(n)?;
+    let m = mass(r);
+    let c = 6.0 * PI * mu * r;
+    let vt = m * (1.0 - rho_f / RHO) * g / c;
+    let exact = -vt * (1.0 - (-dem.time_s * c / m).exp());
+    Ok((dem.p.vel[0].z, exact))
+}
+
+/// Case 706: Stokes settling; rows: the velocity at T = 3 tau for dt = tau / k (k and the
+/// allowed relative error from expected.csv), and the observed order of the error between
+/// consecutive step sizes (expected 2). Every row's scale is its allowed deviation (rtol = 1).
+pub fn case_706(ctx: &CaseContext) -> Result<Vec<Row>> {
+    let t = ctx.expected_table()?;
+    non_empty(&t)?;
+    let mut rows = Vec::new();
+    let mut errs = Vec::new();
+    let (r, mu, rho_f, g) = (1e-4, 1e-3, 1000.0, 9.81);
+    let tau = mass(r) / (6.0 * PI * mu * r);
+    for i in 0..t.len() {
+        let k = t.f64(i, "steps_per_tau")?;
+        let (got, exact) = settle(r, mu, rho_f, g, 3.0 * tau, tau / k)?;
+        let tol = t.f64(i, "rel_tolerance")?;
+        rows.push(Row::new(format!("dt=tau/{k} v(3 tau)"), got, exact, tol * exact.abs()));
+        errs.push((k, (got - exact).abs()));
+    }
+    let order_tol = t.f64(0, "order_tolerance")?;
+    for w in errs.windows(2) {
+        let order = (w[0].1 / w[1].1).ln() / (w[1].0 / w[0].0).ln();
+        rows.push(Row::new(
+            format!("order between dt=tau/{} and tau/{}", w[0].0, w[1].0),
+            order,
+            2.0,
+            order_tol,
+        ));
+    }
+    Ok(rows)
+}
+
+/// A gas of `n` elastic frictionless Hertz spheres in a box with walls, random velocities;
+/// returns (max |E - E0| / E0 over the run, (E_end - E0) / E0, collisions).
+fn gas(n: usize, seed: u64, dt_frac: f64, t_end: f64) -> Result<(f64, f64, usize)> {
+    let r = 1e-3;
+    let mat = Material::new(1e7, 0.3)?;
+    let model = ContactModel {
+        normal: NormalModel::Hertz,
+        damping: DampingModel::None,
+        tangential: TangentialModel::None,
+    };
+    let l = 12.0 * r;
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
+    let radius = vec![r; n];
+    let pos = crate::dem::start::random_dispersion(&radius, l, l, l, &mut rng)?;
+    let mut p = Particles::at_rest(pos, radius, RHO);
+    for v in p.vel.iter_mut() {
+        *v = Vector3::new(rng.gen::<f64>() - 0.5, rng.gen::<f64>() - 0.5, rng.gen::<f64>() - 0.5);
+    }
+    let mut s = setup(model, mat, mat, l, l);
+    let dt0 = auto_time_step(&s, r, 2.0);
+    s.dt_s = Some(dt0 * dt_frac);
+    let mut dem = Dem::new(s, p, 2.0)?;
+    let e0 = dem.kinetic_energy() + dem.normal_elastic_energy();
+    let mut worst: f64 = 0.0;
+    let steps = (t_end / dem.dt_s) as u64;
+    let mut contacts = 0usize;
+    let mut was: Vec<bool> = Vec::new();
+    for _ in 0..steps {
+        dem.step()?;
+        let e = dem.kinetic_energy() + dem.normal_elastic_energy();
+        worst = worst.max((e - e0).abs() / e0);
+        if was.len() != dem.nl.pairs.len() {
+            was = vec![false; dem.nl.pairs.len()];
+        }
+        for (k, pr) in dem.nl.pairs.iter().enumerate() {
+            let on = pr.delta > 0.0;
+            if on && !was[k] {
+                contacts += 1;
+            }
+            was[k] = on;
+        }
+    }
+    let e = dem.kinetic_energy() + dem.normal_elastic_energy();
+    Ok((worst, (e - e0) / e0, contacts))
+}
+
+/// Case 707: energy without damping (elastic frictionless Hertz gas with walls): the largest
+/// relative energy error and the end-to-start drift stay below the bounds of the table at the
+/// automatic step, and the largest error falls with the order band of the table when dt is
+/// halved (every row's scale is its allowed deviation).
+pub fn case_707(ctx: &CaseContext) -> Result<Vec<Row>> {
+    let t = ctx.expected_table()?;
+    non_empty(&t)?;
+    let seed = ctx.seed.unwrap_or(707);
+    let n = t.f64(0, "n_spheres")? as usize;
+    let t_end = t.f64(0, "duration_s")?;
+    let bound = t.f64(0, "max_rel_energy_error")?;
+    let drift = t.f64(0, "max_rel_drift")?;
+    let (o_lo, o_hi) = (t.f64(0, "order_min")?, t.f64(0, "order_max")?);
+    let (w1, d1, c1) = gas(n, seed, 1.0, t_end)?;
+    let (w2, _, _) = gas(n, seed, 0.5, t_end)?;
+    if c1 < 10 * n {
+        return Err(Error::Validation(format!("only {c1} contacts in the run; need many collisions")));
+    }
+    let order = (w1 / w2).log2();
+    Ok(vec![
+        Row::new(format!("max |dE|/E0 at the automatic dt ({c1} contacts) below {bound}"), w1, 0.0, bound),
+        Row::new(format!("(E_end - E0)/E0 at the automatic dt below {drift}"), d1, 0.0, drift),
+        Row::new(
+            format!("order of the max energy error (dt -> dt/2) in [{o_lo}, {o_hi}]"),
+            order,
+            0.5 * (o_lo + o_hi),
+            0.5 * (o_hi - o_lo),
+        ),
+    ])
+}
+
+/// Case 708: a bed settled under gravity on the floor of a periodic box: the floor's force
+/// equals the buoyant weight N m (1 - rho_f / rho_p) g once the bed is at rest.
+pub fn case_708(ctx: &CaseContext) -> Result<Vec<Row>> {
+    let t = ctx.expected_table()?;
+    non_empty(&t)?;
+    let seed = ctx.seed.unwrap_or(708);
+    let n = t.f64(0, "n_spheres")? as usize;
+    let mu = t.f64(0, "mu")?;
+    let rho_f = t.f64(0, "fluid_density_kg_m3")?;
+    let r: f64 = 2e-4;
+    let mat = Material::new(1e7, 0.3)?;
+    let model = ContactModel {
+        normal: NormalModel::Hertz,
+        damping: DampingModel::restitution(0.3)?,
+        tangential: TangentialModel::Mindlin { mu, damp_ratio: 1.0 },
+    };
+    let l = 8.0 * 2.0 * r;
+    let h = (n as f64 * 4.0 / 3.0 * PI * r.powi(3)) / (0.25 * l * l);
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
+    let radius: Vec<f64> = (0..n).map(|_| r * (0.9 + 0.2 * rng.gen::<f64>())).collect();
+    let pos = crate::dem::start::random_dispersion(&radius, l, l, h, &mut rng)?;
+    let p = Particles::at_rest(pos, radius, RHO);
+    let mut s = setup(model, mat, mat, l, h);
+    s.gravity_m_s2 = Vector3::new(0.0, 0.0, -9.81);
+    s.fluid_density_kg_m3 = rho_f;
+    let mut dem = Dem::new(s, p, (2.0 * 9.81 * h).sqrt())?;
+    let w = dem.buoyant_weight_n();
+    let ke_tol = t.f64(0, "ke_over_mgr")?;
+    let mgr = w * r;
+    let max_steps = (2.0 / dem.dt_s) as u64;
+    let mut settled = false;
+    let mut k = 0u64;
+    while k < max_steps {
+        dem.run(1000)?;
+        k += 1000;
+        if dem.time_s > 0.1 && dem.kinetic_energy() < ke_tol * mgr {
+            settled = true;
+            break;
+        }
+    }
+    if !settled {
+        return Err(Error::Validation(format!(
+            "bed not at rest after {:.3} s: KE = {:e} J",
+            dem.time_s,
+            dem.kinetic_energy()
+        )));
+    }
+    // time average over a window: the mean of sum m a is the momentum change over the window
+    // divided by its length, at most 2 sqrt(2 M KE) / T
+    let window = 5000u64;
+    let mut sum = 0.0;
+    for _ in 0..window {
+        dem.step()?;
+        sum += dem.floor_force_n;
+    }
+    let mean = sum / window as f64;
+    Ok(vec![Row::new(
+        format!("mean floor force over {window} steps / buoyant weight, {n} spheres mu={mu}"),
+        mean,
+        w,
+        w,
+    )])
+}
+
+/// Case 709: the pressure-controlled top wall holds its target once the bed is consolidated:
+/// the built-in small scene without gravity, the wall driven to the target pressure of the
+/// table; after the scene's stop criterion, the wall pressure averaged over a window equals the
+/// target within the band of the table, and the wall no longer moves (its travel over the
+/// window below the table's fraction of a diameter). Rows' scales are their allowed deviations.
+pub fn case_709(ctx: &CaseContext) -> Result<Vec<Row>> {
+    let t = ctx.expected_table()?;
+    non_empty(&t)?;
+    let target = t.f64(0, "target_pressure_Pa")?;
+    let band = t.f64(0, "pressure_rel_band")?;
+    let travel_tol = t.f64(0, "wall_travel_over_d")?;
+    let window = t.f64(0, "window_steps")? as u64;
+    let text = include_str!("../../scene/builtin/dem-small.toml")
+        .replace("gravity_m_s2 = 9.81", &format!("top_pressure_pa = {target}\ntop_speed_max_m_s = 0.05"))
+        .replace("[run]", &format!("[run]\nke_fraction = {}", t.f64(0, "ke_fraction")?));
+    let scene = crate::scene::dem::parse_scene(&text, "case 709")?;
+    let mut dem = crate::scene::dem::build(&scene)?;
+    let (stop, _) = crate::scene::dem::run(&scene, &mut dem, |_, _| {})?;
+    if stop.starts_with("time limit") {
+        return Err(Error::Validation(format!("the bed did not consolidate: {stop}")));
+    }
+    let area = scene.setup.lx_m * scene.setup.ly_m;
+    let z0 = dem.top_z_m;
+    let mut sum = 0.0;
+    for _ in 0..window {
+        dem.step()?;
+        sum += dem.top_force_n / area;
+    }
+    let d = 2.0 * scene.radius[0];
+    Ok(vec![
+        Row::new(format!("mean wall pressure over {window} steps / target {target} Pa"), sum / window as f64 / target, 1.0, band),
+        Row::new("wall travel over the window / d", (dem.top_z_m - z0) / d, 0.0, travel_tol),
+    ])
+}
