@@ -17,7 +17,10 @@ fn setup(young: f64, l: f64, h: f64) -> DemSetup {
         contact: ContactModel {
             normal: NormalModel::Hertz,
             damping: DampingModel::restitution(0.5).unwrap(),
-            tangential: TangentialModel::Mindlin { mu: 0.5, damp_ratio: 1.0 },
+            tangential: TangentialModel::Mindlin {
+                mu: 0.5,
+                damp_ratio: 1.0,
+            },
         },
         particle_material: mat,
         wall_material: mat,
@@ -34,7 +37,10 @@ fn setup(young: f64, l: f64, h: f64) -> DemSetup {
 fn bed(young: f64, radii: Vec<f64>, seed: u64) -> (DemSetup, Particles) {
     let r_max = radii.iter().cloned().fold(0.0, f64::max);
     let l = 12.0 * r_max;
-    let solid: f64 = radii.iter().map(|r| 4.0 / 3.0 * std::f64::consts::PI * r.powi(3)).sum();
+    let solid: f64 = radii
+        .iter()
+        .map(|r| 4.0 / 3.0 * std::f64::consts::PI * r.powi(3))
+        .sum();
     let h = (solid / (0.2 * l * l)).max(6.0 * r_max);
     let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
     let pos = random_dispersion(&radii, l, l, h, &mut rng).unwrap();
@@ -45,7 +51,11 @@ fn all_inside(dem: &Dem) {
     for (i, x) in dem.p.pos.iter().enumerate() {
         assert!(x.iter().all(|c| c.is_finite()), "particle {i} not finite");
         let r = dem.p.radius[i];
-        assert!(x.z > 0.5 * r && x.z < dem.top_z_m - 0.5 * r, "particle {i} through a wall: z = {}", x.z);
+        assert!(
+            x.z > 0.5 * r && x.z < dem.top_z_m - 0.5 * r,
+            "particle {i} through a wall: z = {}",
+            x.z
+        );
         assert!(x.x >= 0.0 && x.x < dem.setup.lx_m && x.y >= 0.0 && x.y < dem.setup.ly_m);
     }
 }
@@ -54,7 +64,10 @@ fn all_inside(dem: &Dem) {
 fn too_large_time_step_is_refused() {
     let (mut s, p) = bed(1e7, vec![2e-4; 50], 1);
     s.dt_s = Some(1e-3);
-    let e = Dem::new(s, p, 1.0).err().expect("dt = 1e-3 s must be refused").to_string();
+    let e = Dem::new(s, p, 1.0)
+        .err()
+        .expect("dt = 1e-3 s must be refused")
+        .to_string();
     assert!(e.contains("dt = 1e-3") && e.contains("too large"), "{e}");
 }
 
@@ -70,7 +83,15 @@ fn stiff_material_runs_clean() {
 #[test]
 fn size_ratio_ten_runs_clean() {
     let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(3);
-    let radii: Vec<f64> = (0..300).map(|k| if k < 10 { 1e-3 } else { 1e-4 * (1.0 + 0.1 * rng.gen::<f64>()) }).collect();
+    let radii: Vec<f64> = (0..300)
+        .map(|k| {
+            if k < 10 {
+                1e-3
+            } else {
+                1e-4 * (1.0 + 0.1 * rng.gen::<f64>())
+            }
+        })
+        .collect();
     let (s, p) = bed(1e7, radii, 4);
     let mut dem = Dem::new(s, p, 1.0).unwrap();
     dem.run(20_000).unwrap();
@@ -81,7 +102,10 @@ fn size_ratio_ten_runs_clean() {
 fn same_result_at_any_thread_count() {
     let run = |threads: usize| {
         let (s, p) = bed(1e7, vec![2e-4; 3000], 5);
-        let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .unwrap();
         pool.install(|| {
             let mut dem = Dem::new(s, p, 1.0).unwrap();
             dem.run(300).unwrap();
@@ -90,4 +114,3 @@ fn same_result_at_any_thread_count() {
     };
     assert!(run(1) == run(2));
 }
-

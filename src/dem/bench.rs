@@ -8,7 +8,10 @@
 //! `bed`), E = 1e7 Pa, nu = 0.3, e = 0.5, mu = 0.3, gravity 9.81 m/s^2; both codes start from
 //! the same positions at rest and run the same number of steps with the same dt and skin.
 
-use super::{ContactModel, DampingModel, Dem, DemSetup, Material, NormalModel, Particles, TangentialModel, TopWall};
+use super::{
+    ContactModel, DampingModel, Dem, DemSetup, Material, NormalModel, Particles, TangentialModel,
+    TopWall,
+};
 use crate::error::{invalid, Error};
 use crate::Result;
 use nalgebra::Vector3;
@@ -60,7 +63,10 @@ fn bed(n: usize) -> Result<(DemSetup, Particles, f64)> {
         contact: ContactModel {
             normal: NormalModel::Hertz,
             damping: DampingModel::restitution(RESTITUTION)?,
-            tangential: TangentialModel::Mindlin { mu: MU, damp_ratio: 1.0 },
+            tangential: TangentialModel::Mindlin {
+                mu: MU,
+                damp_ratio: 1.0,
+            },
         },
         particle_material: mat,
         wall_material: mat,
@@ -77,8 +83,18 @@ fn bed(n: usize) -> Result<(DemSetup, Particles, f64)> {
     for k in 0..nz {
         for j in 0..m {
             for i in 0..m {
-                let jit = Vector3::new(rng.gen::<f64>() - 0.5, rng.gen::<f64>() - 0.5, rng.gen::<f64>() - 0.5) * (1e-3 * D);
-                pos.push(Vector3::new((i as f64 + 0.5) * a, (j as f64 + 0.5) * a, (k as f64 + 0.5) * a) + jit);
+                let jit = Vector3::new(
+                    rng.gen::<f64>() - 0.5,
+                    rng.gen::<f64>() - 0.5,
+                    rng.gen::<f64>() - 0.5,
+                ) * (1e-3 * D);
+                pos.push(
+                    Vector3::new(
+                        (i as f64 + 0.5) * a,
+                        (j as f64 + 0.5) * a,
+                        (k as f64 + 0.5) * a,
+                    ) + jit,
+                );
             }
         }
     }
@@ -87,7 +103,11 @@ fn bed(n: usize) -> Result<(DemSetup, Particles, f64)> {
 }
 
 /// (seconds, neighbour seconds, final positions) of `steps` steps on `threads` threads.
-fn time_porelab(n: usize, steps: u64, threads: usize) -> Result<(f64, f64, f64, Vec<Vector3<f64>>)> {
+fn time_porelab(
+    n: usize,
+    steps: u64,
+    threads: usize,
+) -> Result<(f64, f64, f64, Vec<Vector3<f64>>)> {
     let (setup, p, v) = bed(n)?;
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(threads)
@@ -99,23 +119,39 @@ fn time_porelab(n: usize, steps: u64, threads: usize) -> Result<(f64, f64, f64, 
         dem.neighbour_seconds = 0.0;
         let t = Instant::now();
         dem.run(steps)?;
-        Ok((t.elapsed().as_secs_f64(), dem.neighbour_seconds, dt, dem.p.pos.clone()))
+        Ok((
+            t.elapsed().as_secs_f64(),
+            dem.neighbour_seconds,
+            dt,
+            dem.p.pos.clone(),
+        ))
     })
 }
 
 /// LAMMPS loop seconds and neighbour share for the same bed; None when it cannot run.
-fn time_lammps(args: &BenchArgs, n: usize, dt: f64) -> Result<std::result::Result<(f64, f64), String>> {
+fn time_lammps(
+    args: &BenchArgs,
+    n: usize,
+    dt: f64,
+) -> Result<std::result::Result<(f64, f64), String>> {
     let (setup, p, _) = bed(n)?;
     let dir = &args.out;
     std::fs::create_dir_all(dir)?;
     let data = dir.join(format!("bed_{n}.data"));
     let mut s = String::new();
-    let _ = writeln!(s, "porelab bench dem bed, {n} spheres\n\n{n} atoms\n1 atom types\n");
+    let _ = writeln!(
+        s,
+        "porelab bench dem bed, {n} spheres\n\n{n} atoms\n1 atom types\n"
+    );
     let top = match setup.top {
         TopWall::Fixed { z_m } => z_m,
         TopWall::Pressure { z0_m, .. } => z0_m,
     };
-    let _ = writeln!(s, "0 {} xlo xhi\n0 {} ylo yhi\n0 {} zlo zhi\n", setup.lx_m, setup.ly_m, top);
+    let _ = writeln!(
+        s,
+        "0 {} xlo xhi\n0 {} ylo yhi\n0 {} zlo zhi\n",
+        setup.lx_m, setup.ly_m, top
+    );
     let _ = writeln!(s, "Atoms # sphere\n");
     for (i, x) in p.pos.iter().enumerate() {
         let _ = writeln!(s, "{} 1 {} {} {} {} {}", i + 1, D, RHO, x.x, x.y, x.z);
@@ -159,7 +195,10 @@ fn time_lammps(args: &BenchArgs, n: usize, dt: f64) -> Result<std::result::Resul
         None => Ok(Err(format!(
             "LAMMPS gave no loop time (status {}): {}",
             out.status,
-            String::from_utf8_lossy(&out.stderr).lines().last().unwrap_or("")
+            String::from_utf8_lossy(&out.stderr)
+                .lines()
+                .last()
+                .unwrap_or("")
         ))),
     }
 }
@@ -182,7 +221,16 @@ pub fn run(args: &BenchArgs) -> Result<()> {
     );
     println!(
         "{:>7} {:>10} {:>12} {:>12} {:>7} {:>7} {:>12} {:>7} {:>8} {:>6}",
-        "N", "dt (s)", "1t us/p-s", "2t us/p-s", "2t x", "neigh", "LAMMPS us", "neigh", "ratio", "same"
+        "N",
+        "dt (s)",
+        "1t us/p-s",
+        "2t us/p-s",
+        "2t x",
+        "neigh",
+        "LAMMPS us",
+        "neigh",
+        "ratio",
+        "same"
     );
     for &n_req in &sizes {
         let n = bed(n_req)?.1.len();

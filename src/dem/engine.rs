@@ -16,7 +16,10 @@
 //! dynamics (the top wall's force) are serial. The same seed gives bitwise the same run at any
 //! thread count.
 
-use super::model::{hertz_contact_time, rayleigh_time, ContactModel, ContactState, DampingModel, Material, NormalModel, PairMaterial};
+use super::model::{
+    hertz_contact_time, rayleigh_time, ContactModel, ContactState, DampingModel, Material,
+    NormalModel, PairMaterial,
+};
 use super::neighbour::{wrap_delta, NeighbourList, PAR_MIN};
 use crate::error::{invalid, require_positive};
 use crate::Result;
@@ -142,7 +145,10 @@ impl Particles {
     /// Spheres at rest of the given centres and radii, density `rho`.
     pub fn at_rest(pos: Vec<Vector3<f64>>, radius: Vec<f64>, rho: f64) -> Particles {
         let n = pos.len();
-        let mass = radius.iter().map(|r| rho * 4.0 / 3.0 * PI * r.powi(3)).collect();
+        let mass = radius
+            .iter()
+            .map(|r| rho * 4.0 / 3.0 * PI * r.powi(3))
+            .collect();
         Particles {
             pos,
             vel: vec![Vector3::zeros(); n],
@@ -245,20 +251,26 @@ impl Dem {
             return invalid("gravity: must be finite");
         }
         if let Some(d) = &setup.drag {
-            require_positive(d.viscosity_pa_s, || format!("viscosity {} Pa s", d.viscosity_pa_s))?;
+            require_positive(d.viscosity_pa_s, || {
+                format!("viscosity {} Pa s", d.viscosity_pa_s)
+            })?;
             if !d.fluid_velocity_m_s.iter().all(|u| u.is_finite()) {
                 return invalid("fluid velocity: must be finite");
             }
         }
         if let NormalModel::Linear { k_n_n_per_m } = setup.contact.normal {
-            require_positive(k_n_n_per_m, || format!("normal stiffness k_n {k_n_n_per_m} N/m"))?;
+            require_positive(k_n_n_per_m, || {
+                format!("normal stiffness k_n {k_n_n_per_m} N/m")
+            })?;
         }
         match setup.contact.tangential {
             super::model::TangentialModel::None => {}
             super::model::TangentialModel::Mindlin { mu, damp_ratio }
             | super::model::TangentialModel::Linear { mu, damp_ratio, .. } => {
                 if !(mu.is_finite() && mu >= 0.0) {
-                    return invalid(format!("friction coefficient {mu}: must be >= 0 and finite"));
+                    return invalid(format!(
+                        "friction coefficient {mu}: must be >= 0 and finite"
+                    ));
                 }
                 if !(damp_ratio.is_finite() && damp_ratio >= 0.0) {
                     return invalid(format!(
@@ -286,14 +298,23 @@ impl Dem {
         };
         require_positive(z0, || format!("top wall height {z0} m"))?;
         if p.vel.len() != n || p.omega.len() != n || p.radius.len() != n || p.mass.len() != n {
-            return invalid("particles: position, velocity, spin, radius and mass arrays differ in length");
+            return invalid(
+                "particles: position, velocity, spin, radius and mass arrays differ in length",
+            );
         }
         for i in 0..n {
             let r = p.radius[i];
             require_positive(r, || format!("particle {i}: radius {r} m"))?;
             let x = p.pos[i];
-            if !x.iter().chain(p.vel[i].iter()).chain(p.omega[i].iter()).all(|c| c.is_finite()) {
-                return invalid(format!("particle {i}: position, velocity and spin must be finite"));
+            if !x
+                .iter()
+                .chain(p.vel[i].iter())
+                .chain(p.omega[i].iter())
+                .all(|c| c.is_finite())
+            {
+                return invalid(format!(
+                    "particle {i}: position, velocity and spin must be finite"
+                ));
             }
             if x.z < 0.0 || x.z > z0 {
                 return invalid(format!(
@@ -386,7 +407,12 @@ impl Dem {
 
     fn rebuild(&mut self) -> Result<()> {
         let t = std::time::Instant::now();
-        let r = self.nl.build(&self.p.pos, &self.p.radius, self.setup.lx_m, self.setup.ly_m);
+        let r = self.nl.build(
+            &self.p.pos,
+            &self.p.radius,
+            self.setup.lx_m,
+            self.setup.ly_m,
+        );
         self.neighbour_seconds += t.elapsed().as_secs_f64();
         r
     }
@@ -398,11 +424,18 @@ impl Dem {
         let (lx, ly) = (self.setup.lx_m, self.setup.ly_m);
         let rotation = self.active.friction_rotation;
         {
-            let (force, torque, im, ii) = (&self.force, &self.torque, &self.inv_mass, &self.inv_inertia);
+            let (force, torque, im, ii) =
+                (&self.force, &self.torque, &self.inv_mass, &self.inv_inertia);
             type Item<'a> = (
                 usize,
                 (
-                    (((&'a mut Vector3<f64>, &'a mut Vector3<f64>), &'a mut Vector3<f64>), &'a mut Vector3<f64>),
+                    (
+                        (
+                            (&'a mut Vector3<f64>, &'a mut Vector3<f64>),
+                            &'a mut Vector3<f64>,
+                        ),
+                        &'a mut Vector3<f64>,
+                    ),
                     &'a mut Vector3<f64>,
                 ),
             );
@@ -420,7 +453,9 @@ impl Dem {
                 }
             };
             if self.p.len() >= PAR_MIN {
-                self.p.pos.par_iter_mut()
+                self.p
+                    .pos
+                    .par_iter_mut()
                     .zip(self.p.vel.par_iter_mut())
                     .zip(self.vel_full.par_iter_mut())
                     .zip(self.p.omega.par_iter_mut())
@@ -429,7 +464,9 @@ impl Dem {
                     .with_min_len(256)
                     .for_each(kick_drift);
             } else {
-                self.p.pos.iter_mut()
+                self.p
+                    .pos
+                    .iter_mut()
                     .zip(self.p.vel.iter_mut())
                     .zip(self.vel_full.iter_mut())
                     .zip(self.p.omega.iter_mut())
@@ -451,7 +488,8 @@ impl Dem {
         }
         self.compute_forces();
         {
-            let (force, torque, im, ii) = (&self.force, &self.torque, &self.inv_mass, &self.inv_inertia);
+            let (force, torque, im, ii) =
+                (&self.force, &self.torque, &self.inv_mass, &self.inv_inertia);
             let kick = |(i, (v, w)): (usize, (&mut Vector3<f64>, &mut Vector3<f64>))| {
                 *v += force[i] * (im[i] * h);
                 if rotation {
@@ -459,9 +497,20 @@ impl Dem {
                 }
             };
             if self.p.len() >= PAR_MIN {
-                self.p.vel.par_iter_mut().zip(self.p.omega.par_iter_mut()).enumerate().with_min_len(256).for_each(kick);
+                self.p
+                    .vel
+                    .par_iter_mut()
+                    .zip(self.p.omega.par_iter_mut())
+                    .enumerate()
+                    .with_min_len(256)
+                    .for_each(kick);
             } else {
-                self.p.vel.iter_mut().zip(self.p.omega.iter_mut()).enumerate().for_each(kick);
+                self.p
+                    .vel
+                    .iter_mut()
+                    .zip(self.p.omega.iter_mut())
+                    .enumerate()
+                    .for_each(kick);
             }
         }
         if let TopWall::Pressure {
@@ -497,7 +546,11 @@ impl Dem {
     /// An error when some position or velocity is not finite.
     pub fn check_finite(&self) -> Result<()> {
         for i in 0..self.p.len() {
-            if !self.p.pos[i].iter().chain(self.p.vel[i].iter()).all(|c| c.is_finite()) {
+            if !self.p.pos[i]
+                .iter()
+                .chain(self.p.vel[i].iter())
+                .all(|c| c.is_finite())
+            {
                 return invalid(format!(
                     "particle {i}: non-finite state at step {} (t = {:e} s, dt = {:e} s): the \
                      time step is too large for the contact stiffness",
@@ -569,7 +622,11 @@ impl Dem {
             pr.n_cross_ft = n.cross(&ft);
         };
         if self.nl.pairs.len() >= PAR_MIN {
-            self.nl.pairs.par_iter_mut().with_min_len(512).for_each(pair_force);
+            self.nl
+                .pairs
+                .par_iter_mut()
+                .with_min_len(512)
+                .for_each(pair_force);
         } else {
             self.nl.pairs.iter_mut().for_each(pair_force);
         }
@@ -582,12 +639,19 @@ impl Dem {
         let drag = self.setup.drag;
         type Slot<'a> = (
             usize,
-            (((&'a mut Vector3<f64>, &'a mut Vector3<f64>), &'a mut [Vector3<f64>; 2]), &'a mut [f64; 3]),
+            (
+                (
+                    (&'a mut Vector3<f64>, &'a mut Vector3<f64>),
+                    &'a mut [Vector3<f64>; 2],
+                ),
+                &'a mut [f64; 3],
+            ),
         );
         let gather = |(i, (((f_out, t_out), wxi), wfz)): Slot| {
             let mut f = Vector3::zeros();
             let mut nxft = Vector3::zeros();
-            for &k in &nl.second_pairs[nl.second_start[i] as usize..nl.second_start[i + 1] as usize] {
+            for &k in &nl.second_pairs[nl.second_start[i] as usize..nl.second_start[i + 1] as usize]
+            {
                 let pr = &nl.pairs[k as usize];
                 if pr.delta > 0.0 {
                     f -= pr.force;
@@ -621,7 +685,10 @@ impl Dem {
                 let n = Vector3::new(0.0, 0.0, nz);
                 let wv = Vector3::new(0.0, 0.0, wall_v);
                 let (v_half, v_full) = if friction {
-                    (vel[i] - wv - (om[i] * r).cross(&n), vf[i] - wv - (omf[i] * r).cross(&n))
+                    (
+                        vel[i] - wv - (om[i] * r).cross(&n),
+                        vf[i] - wv - (omf[i] * r).cross(&n),
+                    )
                 } else {
                     (vel[i] - wv, vf[i] - wv)
                 };
@@ -746,4 +813,3 @@ impl Dem {
         self.p.mass.iter().sum::<f64>() * self.buoyancy * self.setup.gravity_m_s2.norm()
     }
 }
-

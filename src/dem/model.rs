@@ -24,9 +24,7 @@ impl Material {
     pub fn new(young_pa: f64, poisson: f64) -> Result<Material> {
         require_positive(young_pa, || format!("Young's modulus {young_pa} Pa"))?;
         if !(poisson.is_finite() && poisson > -1.0 && poisson < 0.5) {
-            return invalid(format!(
-                "Poisson ratio {poisson}: must lie in (-1, 0.5)"
-            ));
+            return invalid(format!("Poisson ratio {poisson}: must lie in (-1, 0.5)"));
         }
         Ok(Material { young_pa, poisson })
     }
@@ -48,8 +46,8 @@ pub struct PairMaterial {
 
 impl PairMaterial {
     pub fn new(a: &Material, b: &Material) -> PairMaterial {
-        let inv_e = (1.0 - a.poisson * a.poisson) / a.young_pa
-            + (1.0 - b.poisson * b.poisson) / b.young_pa;
+        let inv_e =
+            (1.0 - a.poisson * a.poisson) / a.young_pa + (1.0 - b.poisson * b.poisson) / b.young_pa;
         let inv_g = 2.0 * (2.0 - a.poisson) * (1.0 + a.poisson) / a.young_pa
             + 2.0 * (2.0 - b.poisson) * (1.0 + b.poisson) / b.young_pa;
         PairMaterial {
@@ -241,16 +239,15 @@ impl ContactModel {
         if self.tangential.is_none() {
             return (f, Vector3::zeros());
         }
-        let (k_t, eta_t, mu) =
-            self.tangential.parameters(
-                &self.normal,
-                s_n,
-                eta_n,
-                c.delta,
-                c.r_eff,
-                mat.e_star_pa,
-                mat.g_star_pa,
-            );
+        let (k_t, eta_t, mu) = self.tangential.parameters(
+            &self.normal,
+            s_n,
+            eta_n,
+            c.delta,
+            c.r_eff,
+            mat.e_star_pa,
+            mat.g_star_pa,
+        );
         // history onto the tangent plane, length kept
         let len0 = xi.norm_squared();
         if len0 > 0.0 {
@@ -336,7 +333,9 @@ mod tests {
     #[test]
     fn coulomb_limit_binds() {
         let m = ContactModel {
-            normal: NormalModel::Linear { k_n_n_per_m: 1000.0 },
+            normal: NormalModel::Linear {
+                k_n_n_per_m: 1000.0,
+            },
             damping: DampingModel::None,
             tangential: TangentialModel::Linear {
                 kt_over_kn: 1.0,
@@ -344,7 +343,10 @@ mod tests {
                 damp_ratio: 0.0,
             },
         };
-        let mat = PairMaterial::new(&Material::new(1e7, 0.3).unwrap(), &Material::new(1e7, 0.3).unwrap());
+        let mat = PairMaterial::new(
+            &Material::new(1e7, 0.3).unwrap(),
+            &Material::new(1e7, 0.3).unwrap(),
+        );
         let c = ContactState {
             delta: 1e-3,
             n: Vector3::z(),

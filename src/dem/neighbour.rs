@@ -72,7 +72,11 @@ impl NeighbourList {
         }
         let lim2 = 0.25 * self.skin * self.skin;
         pos.iter().zip(&self.pos_at_build).any(|(p, q)| {
-            let d = Vector3::new(wrap_delta(p.x - q.x, lx), wrap_delta(p.y - q.y, ly), p.z - q.z);
+            let d = Vector3::new(
+                wrap_delta(p.x - q.x, lx),
+                wrap_delta(p.y - q.y, ly),
+                p.z - q.z,
+            );
             d.norm_squared() > lim2
         })
     }
@@ -91,7 +95,9 @@ impl NeighbourList {
         }
         let (z_lo, z_hi) = pos
             .iter()
-            .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), p| (a.min(p.z), b.max(p.z)));
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), p| {
+                (a.min(p.z), b.max(p.z))
+            });
         let cells = |l: f64| {
             let m = (l / cut).floor() as usize;
             if m >= 3 {
@@ -240,7 +246,13 @@ mod tests {
         let (lx, ly) = (10.0, 8.0);
         let n = 300;
         let pos: Vec<Vector3<f64>> = (0..n)
-            .map(|_| Vector3::new(rng.gen::<f64>() * lx, rng.gen::<f64>() * ly, rng.gen::<f64>() * 12.0))
+            .map(|_| {
+                Vector3::new(
+                    rng.gen::<f64>() * lx,
+                    rng.gen::<f64>() * ly,
+                    rng.gen::<f64>() * 12.0,
+                )
+            })
             .collect();
         let radius: Vec<f64> = (0..n).map(|_| 0.2 + 0.3 * rng.gen::<f64>()).collect();
         let mut nl = NeighbourList::new(0.1);
@@ -264,10 +276,14 @@ mod tests {
             p.xi = Vector3::new(p.i as f64, p.j as f64, 1.0);
         }
         nl.build(&pos, &radius, lx, ly).unwrap();
-        assert!(nl.pairs.iter().all(|p| p.xi == Vector3::new(p.i as f64, p.j as f64, 1.0)));
+        assert!(nl
+            .pairs
+            .iter()
+            .all(|p| p.xi == Vector3::new(p.i as f64, p.j as f64, 1.0)));
         // every pair appears once in the second-member index of its j
         for i in 0..n {
-            for &k in &nl.second_pairs[nl.second_start[i] as usize..nl.second_start[i + 1] as usize] {
+            for &k in &nl.second_pairs[nl.second_start[i] as usize..nl.second_start[i + 1] as usize]
+            {
                 assert_eq!(nl.pairs[k as usize].j as usize, i);
             }
         }

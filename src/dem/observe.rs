@@ -17,7 +17,14 @@ pub fn sphere_slab_volume(zc: f64, r: f64, a: f64, b: f64) -> f64 {
 
 /// Porosity in `bins` equal slabs between heights z0 and z1 of a box of cross-section `area`:
 /// rows (z_lo, z_hi, porosity).
-pub fn porosity_profile(z: &[f64], r: &[f64], area: f64, z0: f64, z1: f64, bins: usize) -> Vec<(f64, f64, f64)> {
+pub fn porosity_profile(
+    z: &[f64],
+    r: &[f64],
+    area: f64,
+    z0: f64,
+    z1: f64,
+    bins: usize,
+) -> Vec<(f64, f64, f64)> {
     let dz = (z1 - z0) / bins as f64;
     let mut solid = vec![0.0; bins];
     for (zc, rr) in z.iter().zip(r) {
@@ -40,7 +47,11 @@ pub fn porosity_profile(z: &[f64], r: &[f64], area: f64, z0: f64, z1: f64, bins:
 
 /// Porosity of the slab [a, b] (exact sphere–slab volumes).
 pub fn slab_porosity(z: &[f64], r: &[f64], area: f64, a: f64, b: f64) -> f64 {
-    let s: f64 = z.iter().zip(r).map(|(zc, rr)| sphere_slab_volume(*zc, *rr, a, b)).sum();
+    let s: f64 = z
+        .iter()
+        .zip(r)
+        .map(|(zc, rr)| sphere_slab_volume(*zc, *rr, a, b))
+        .sum();
     1.0 - s / (area * (b - a))
 }
 

@@ -71,9 +71,17 @@ pub fn random_dispersion(
                     continue;
                 }
                 for &dy in &sy {
-                    let y = if ny >= 3 { (iy as isize + dy).rem_euclid(ny as isize) } else { dy };
+                    let y = if ny >= 3 {
+                        (iy as isize + dy).rem_euclid(ny as isize)
+                    } else {
+                        dy
+                    };
                     for &dx in &sx {
-                        let x = if nx >= 3 { (ix as isize + dx).rem_euclid(nx as isize) } else { dx };
+                        let x = if nx >= 3 {
+                            (ix as isize + dx).rem_euclid(nx as isize)
+                        } else {
+                            dx
+                        };
                         for &j in &grid[(z as usize * ny + y as usize) * nx + x as usize] {
                             let q = pos[j as usize];
                             let d = Vector3::new(

@@ -17,7 +17,8 @@
 //! own step (accepted when it then overlaps nothing and stays inside [0, H]), and every
 //! particle makes one hard-core Monte-Carlo move (any move that creates no overlap and stays
 //! inside [0, H] is accepted); the idea of Lubachevsky & Stillinger (J. Stat. Phys. 60, 561,
-//! 1990) with Monte-Carlo moves in place of molecular dynamics.
+//! 1990) with Monte-Carlo moves in place of molecular dynamics. A particle that has not grown
+//! for 100 rounds is moved to a random free place at its current size (also a hard-core move).
 
 use super::grain::{Grain, GrainPose};
 use super::moves;
@@ -191,6 +192,35 @@ pub fn build<R: Rng>(
     }
 }
 
+/// A random pose of `g` scaled by `scale` lying flat inside the film [0, lid] of the box of
+/// side `box_side_m`; None when the film is thinner than the particle lying flat.
+fn random_flat_pose<R: Rng>(
+    g: &Grain,
+    scale: f64,
+    box_side_m: f64,
+    lid: f64,
+    rng: &mut R,
+) -> Option<GrainPose> {
+    let q = if g.is_sphere {
+        UnitQuaternion::identity()
+    } else {
+        lying_flat(&g.semi_axes, rng.gen::<f64>() * std::f64::consts::TAU)
+    };
+    let hh = scale * g.half_height(&q);
+    if 2.0 * hh > lid {
+        return None;
+    }
+    let p = Vector3::new(
+        rng.gen::<f64>() * box_side_m,
+        rng.gen::<f64>() * box_side_m,
+        hh + rng.gen::<f64>() * (lid - 2.0 * hh),
+    );
+    Some(GrainPose {
+        position: p,
+        orientation: q,
+    })
+}
+
 /// Random sequential addition of every grain, shrunk by `scale0`, in the film [0, H]: the cell
 /// list and positions, or None when some grain found no room in its tries.
 fn place_rsa<R: Rng>(
@@ -220,28 +250,13 @@ fn place_rsa<R: Rng>(
         let g = layer.grains[i];
         let mut ok = false;
         for _ in 0..opts.tries_per_particle {
-            let q = if g.is_sphere {
-                UnitQuaternion::identity()
-            } else {
-                lying_flat(&g.semi_axes, rng.gen::<f64>() * std::f64::consts::TAU)
-            };
-            let hh = scale0 * g.half_height(&q);
-            if 2.0 * hh > height {
+            let Some(pose) = random_flat_pose(&g, scale0, box_side_m, height, rng) else {
                 return invalid(format!(
                     "the wet film ({height:.4e} m = particle volume / (phi L^2)) is thinner than \
-                     particle {i} lying flat ({:.4e} m): use more particles or a smaller box",
-                    2.0 * hh
+                     particle {i} lying flat: use more particles or a smaller box"
                 ));
-            }
-            let p = Vector3::new(
-                rng.gen::<f64>() * box_side_m,
-                rng.gen::<f64>() * box_side_m,
-                hh + rng.gen::<f64>() * (height - 2.0 * hh),
-            );
-            let pose = GrainPose {
-                position: p,
-                orientation: q,
             };
+            let p = pose.position;
             if layer.fits(
                 &cells,
                 &positions,
@@ -316,6 +331,35 @@ fn grow<R: Rng>(
         since_growth = if grew { 0 } else { since_growth + 1 };
         if since_growth > 1000 {
             break;
+        }
+        if since_growth > 0 && since_growth % 100 == 0 {
+            // A particle caged by its neighbours (or a wall) is moved to a random free place
+            // at its current size: a valid hard-core move, tried before giving up.
+            for i in (0..n).filter(|&i| scales[i] < 1.0) {
+                let g = layer.grains[i];
+                for _ in 0..opts.tries_per_particle {
+                    let Some(pose) = random_flat_pose(&g, scales[i], layer.box_side_m, lid, rng)
+                    else {
+                        break;
+                    };
+                    let p = pose.position;
+                    if layer.fits(
+                        cells,
+                        positions,
+                        i,
+                        &pose,
+                        scales[i],
+                        Some(&scales),
+                        Some(lid),
+                        &mut counts,
+                    ) {
+                        layer.poses[i] = pose;
+                        positions[i] = p;
+                        cells.moved(i, &p);
+                        break;
+                    }
+                }
+            }
         }
         for i in 0..n {
             let m = moves::draw(rng, opts.k_max_m2, &layer.grains[i].inertia_per_volume_m2);

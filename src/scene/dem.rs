@@ -74,7 +74,8 @@ pub fn builtins() -> Vec<Builtin> {
     vec![
         Builtin {
             name: "dem-small",
-            about: "DEM: 300 spheres d = 400 um settling under gravity, seed 002 proportions (seconds)",
+            about:
+                "DEM: 300 spheres d = 400 um settling under gravity, seed 002 proportions (seconds)",
             toml: include_str!("builtin/dem-small.toml"),
         },
         Builtin {
@@ -199,7 +200,9 @@ fn positive(origin: &str, key: &str, v: f64) -> Result<f64> {
     if v.is_finite() && v > 0.0 {
         Ok(v)
     } else {
-        invalid(format!("{origin}: {key} = {v}: must be positive and finite"))
+        invalid(format!(
+            "{origin}: {key} = {v}: must be positive and finite"
+        ))
     }
 }
 
@@ -225,27 +228,59 @@ pub fn parse_scene(text: &str, origin: &str) -> Result<DemScene> {
         msg: format!("dem scene: {e}"),
     })?;
     if f.kind != "dem" {
-        return invalid(format!("{origin}: kind = \"{}\": a DEM scene needs kind = \"dem\"", f.kind));
+        return invalid(format!(
+            "{origin}: kind = \"{}\": a DEM scene needs kind = \"dem\"",
+            f.kind
+        ));
     }
     let p = &f.particles;
     if p.n == 0 {
         return invalid(format!("{origin}: particles.n = 0: must be at least 1"));
     }
-    let rho = positive(origin, "particles.density_kg_m3", p.density_kg_m3.unwrap_or(2500.0))?;
+    let rho = positive(
+        origin,
+        "particles.density_kg_m3",
+        p.density_kg_m3.unwrap_or(2500.0),
+    )?;
     let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(f.seed);
     let size = p.size.clone().unwrap_or_else(|| "mono".into());
     let diameters: Vec<f64> = match size.as_str() {
         "mono" => {
-            let d = need(origin, "particles.diameter_m", p.diameter_m, "for size = \"mono\"")?;
+            let d = need(
+                origin,
+                "particles.diameter_m",
+                p.diameter_m,
+                "for size = \"mono\"",
+            )?;
             vec![d; p.n]
         }
         "lognormal" => {
-            let med = need(origin, "particles.median_diameter_m", p.median_diameter_m, "for size = \"lognormal\"")?;
-            let s = need(origin, "particles.sigma_ln", p.sigma_ln, "for size = \"lognormal\"")?;
-            let lo = positive(origin, "particles.min_diameter_m", p.min_diameter_m.unwrap_or(med * (-3.0 * s).exp()))?;
-            let hi = positive(origin, "particles.max_diameter_m", p.max_diameter_m.unwrap_or(med * (3.0 * s).exp()))?;
+            let med = need(
+                origin,
+                "particles.median_diameter_m",
+                p.median_diameter_m,
+                "for size = \"lognormal\"",
+            )?;
+            let s = need(
+                origin,
+                "particles.sigma_ln",
+                p.sigma_ln,
+                "for size = \"lognormal\"",
+            )?;
+            let lo = positive(
+                origin,
+                "particles.min_diameter_m",
+                p.min_diameter_m.unwrap_or(med * (-3.0 * s).exp()),
+            )?;
+            let hi = positive(
+                origin,
+                "particles.max_diameter_m",
+                p.max_diameter_m.unwrap_or(med * (3.0 * s).exp()),
+            )?;
             if lo >= hi {
-                return invalid(format!("{origin}: particles.min_diameter_m = {lo} must be below max_diameter_m = {hi}"));
+                return invalid(format!(
+                    "{origin}: particles.min_diameter_m = {lo} must be below max_diameter_m = {hi}"
+                ));
             }
             (0..p.n)
                 .map(|_| {
@@ -271,7 +306,10 @@ pub fn parse_scene(text: &str, origin: &str) -> Result<DemScene> {
                 return invalid(format!("{origin}: particles.number_fractions = {fr:?}: must be >= 0 with a positive sum"));
             }
             // deterministic counts by largest remainder, then shuffled by the scene's stream
-            let mut counts: Vec<usize> = fr.iter().map(|x| (x / total * p.n as f64).floor() as usize).collect();
+            let mut counts: Vec<usize> = fr
+                .iter()
+                .map(|x| (x / total * p.n as f64).floor() as usize)
+                .collect();
             let mut left = p.n - counts.iter().sum::<usize>();
             let mut order: Vec<usize> = (0..fr.len()).collect();
             order.sort_by(|&a, &b| {
@@ -286,14 +324,22 @@ pub fn parse_scene(text: &str, origin: &str) -> Result<DemScene> {
                 counts[k] += 1;
                 left -= 1;
             }
-            let mut v: Vec<f64> = counts.iter().zip(ds).flat_map(|(c, d)| std::iter::repeat_n(*d, *c)).collect();
+            let mut v: Vec<f64> = counts
+                .iter()
+                .zip(ds)
+                .flat_map(|(c, d)| std::iter::repeat_n(*d, *c))
+                .collect();
             for i in (1..v.len()).rev() {
                 let j = rng.gen_range(0..=i);
                 v.swap(i, j);
             }
             v
         }
-        other => return invalid(format!("{origin}: particles.size = \"{other}\": must be \"mono\", \"lognormal\" or \"table\"")),
+        other => {
+            return invalid(format!(
+            "{origin}: particles.size = \"{other}\": must be \"mono\", \"lognormal\" or \"table\""
+        ))
+        }
     };
     let radius: Vec<f64> = diameters.iter().map(|d| 0.5 * d).collect();
     let solid: f64 = radius.iter().map(|r| 4.0 / 3.0 * PI * r.powi(3)).sum();
@@ -308,7 +354,11 @@ pub fn parse_scene(text: &str, origin: &str) -> Result<DemScene> {
             }
             solid / ((1.0 - e) * lx * ly)
         }
-        (Some(_), Some(_)) => return invalid(format!("{origin}: box: give height_m or porosity, not both")),
+        (Some(_), Some(_)) => {
+            return invalid(format!(
+                "{origin}: box: give height_m or porosity, not both"
+            ))
+        }
         (None, None) => return invalid(format!("{origin}: box: height_m or porosity is required")),
     };
     let c = &f.contact;
@@ -317,15 +367,20 @@ pub fn parse_scene(text: &str, origin: &str) -> Result<DemScene> {
         .map_err(|e| Error::InvalidInput(format!("{origin}: contact.restitution: {e}")))?;
     let mu = c.friction.unwrap_or(0.5);
     if !(mu.is_finite() && mu >= 0.0) {
-        return invalid(format!("{origin}: contact.friction = {mu}: must be >= 0 and finite"));
+        return invalid(format!(
+            "{origin}: contact.friction = {mu}: must be >= 0 and finite"
+        ));
     }
     let damp_ratio = c.tangential_damping_ratio.unwrap_or(1.0);
     if !(damp_ratio.is_finite() && damp_ratio >= 0.0) {
-        return invalid(format!("{origin}: contact.tangential_damping_ratio = {damp_ratio}: must be >= 0 and finite"));
+        return invalid(format!(
+            "{origin}: contact.tangential_damping_ratio = {damp_ratio}: must be >= 0 and finite"
+        ));
     }
     let poisson = c.poisson.unwrap_or(0.3);
     let material = |key: &str, e: f64, nu: f64| {
-        Material::new(e, nu).map_err(|err| Error::InvalidInput(format!("{origin}: contact.{key}: {err}")))
+        Material::new(e, nu)
+            .map_err(|err| Error::InvalidInput(format!("{origin}: contact.{key}: {err}")))
     };
     let (normal, tangential, young) = match c.model.as_str() {
         "hertz-mindlin" | "hertz" => {
@@ -361,7 +416,9 @@ pub fn parse_scene(text: &str, origin: &str) -> Result<DemScene> {
     let d = &f.drivers;
     let g = d.gravity_m_s2.unwrap_or(0.0);
     if !(g.is_finite() && g >= 0.0) {
-        return invalid(format!("{origin}: drivers.gravity_m_s2 = {g}: must be >= 0 (it points along -z)"));
+        return invalid(format!(
+            "{origin}: drivers.gravity_m_s2 = {g}: must be >= 0 (it points along -z)"
+        ));
     }
     let rho_f = d.fluid_density_kg_m3.unwrap_or(0.0);
     if !(rho_f.is_finite() && rho_f >= 0.0 && rho_f < rho) {
@@ -369,7 +426,9 @@ pub fn parse_scene(text: &str, origin: &str) -> Result<DemScene> {
     }
     let u = d.fluid_velocity_m_s.unwrap_or([0.0; 3]);
     if u.iter().any(|x| !x.is_finite()) {
-        return invalid(format!("{origin}: drivers.fluid_velocity_m_s = {u:?}: must be finite"));
+        return invalid(format!(
+            "{origin}: drivers.fluid_velocity_m_s = {u:?}: must be finite"
+        ));
     }
     let drag = match d.viscosity_pa_s {
         Some(mu_f) => Some(Drag {
@@ -377,7 +436,12 @@ pub fn parse_scene(text: &str, origin: &str) -> Result<DemScene> {
             fluid_velocity_m_s: Vector3::from(u),
         }),
         None => {
-            refuse(origin, "drivers.fluid_velocity_m_s", d.fluid_velocity_m_s.is_some(), "needs drivers.viscosity_pa_s")?;
+            refuse(
+                origin,
+                "drivers.fluid_velocity_m_s",
+                d.fluid_velocity_m_s.is_some(),
+                "needs drivers.viscosity_pa_s",
+            )?;
             None
         }
     };
@@ -385,10 +449,19 @@ pub fn parse_scene(text: &str, origin: &str) -> Result<DemScene> {
         Some(pt) => TopWall::Pressure {
             z0_m: height,
             target_pa: positive(origin, "drivers.top_pressure_pa", pt)?,
-            speed_max_m_s: positive(origin, "drivers.top_speed_max_m_s", d.top_speed_max_m_s.unwrap_or(0.05))?,
+            speed_max_m_s: positive(
+                origin,
+                "drivers.top_speed_max_m_s",
+                d.top_speed_max_m_s.unwrap_or(0.05),
+            )?,
         },
         None => {
-            refuse(origin, "drivers.top_speed_max_m_s", d.top_speed_max_m_s.is_some(), "needs drivers.top_pressure_pa")?;
+            refuse(
+                origin,
+                "drivers.top_speed_max_m_s",
+                d.top_speed_max_m_s.is_some(),
+                "needs drivers.top_pressure_pa",
+            )?;
             TopWall::Fixed { z_m: height }
         }
     };
@@ -397,7 +470,11 @@ pub fn parse_scene(text: &str, origin: &str) -> Result<DemScene> {
     let setup = DemSetup {
         lx_m: lx,
         ly_m: ly,
-        contact: ContactModel { normal, damping, tangential },
+        contact: ContactModel {
+            normal,
+            damping,
+            tangential,
+        },
         particle_material: pm,
         wall_material: wm,
         density_kg_m3: rho,
@@ -405,13 +482,22 @@ pub fn parse_scene(text: &str, origin: &str) -> Result<DemScene> {
         fluid_density_kg_m3: rho_f,
         drag,
         top,
-        dt_s: r.dt_s.map(|x| positive(origin, "run.dt_s", x)).transpose()?,
-        skin_m: Some(positive(origin, "run.skin_m", r.skin_m.unwrap_or(0.3 * d_min))?),
+        dt_s: r
+            .dt_s
+            .map(|x| positive(origin, "run.dt_s", x))
+            .transpose()?,
+        skin_m: Some(positive(
+            origin,
+            "run.skin_m",
+            r.skin_m.unwrap_or(0.3 * d_min),
+        )?),
     };
     let ke_fraction = positive(origin, "run.ke_fraction", r.ke_fraction.unwrap_or(1e-6))?;
     let bins = r.profile_bins.unwrap_or(60);
     if bins == 0 {
-        return invalid(format!("{origin}: run.profile_bins = 0: must be at least 1"));
+        return invalid(format!(
+            "{origin}: run.profile_bins = 0: must be at least 1"
+        ));
     }
     let v_wall = match top {
         TopWall::Pressure { speed_max_m_s, .. } => speed_max_m_s,
@@ -426,7 +512,11 @@ pub fn parse_scene(text: &str, origin: &str) -> Result<DemScene> {
         max_time_s: positive(origin, "run.max_time_s", r.max_time_s.unwrap_or(1.0))?,
         check_every_s: positive(origin, "run.check_every_s", r.check_every_s.unwrap_or(0.01))?,
         ke_fraction,
-        height_tol_over_d: positive(origin, "run.height_tol_over_d", r.height_tol_over_d.unwrap_or(1e-3))?,
+        height_tol_over_d: positive(
+            origin,
+            "run.height_tol_over_d",
+            r.height_tol_over_d.unwrap_or(1e-3),
+        )?,
         profile_bins: bins,
         v_scale: (2.0 * g * height).sqrt() + 2.0 * Vector3::from(u).norm() + 2.0 * v_wall,
     })
@@ -460,13 +550,23 @@ pub struct DemSummary {
 /// Builds the engine of a parsed scene from the random dispersion.
 pub fn build(scene: &DemScene) -> Result<Dem> {
     let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(scene.seed ^ 0x5eed_d15c);
-    let pos = start::random_dispersion(&scene.radius, scene.setup.lx_m, scene.setup.ly_m, scene.height_m, &mut rng)?;
+    let pos = start::random_dispersion(
+        &scene.radius,
+        scene.setup.lx_m,
+        scene.setup.ly_m,
+        scene.height_m,
+        &mut rng,
+    )?;
     let p = Particles::at_rest(pos, scene.radius.clone(), scene.setup.density_kg_m3);
     Dem::new(scene.setup.clone(), p, scene.v_scale)
 }
 
 /// Runs a parsed scene to its stop criterion; `on_check` sees every check (history rows).
-pub fn run(scene: &DemScene, dem: &mut Dem, mut on_check: impl FnMut(&Dem, f64)) -> Result<(String, f64)> {
+pub fn run(
+    scene: &DemScene,
+    dem: &mut Dem,
+    mut on_check: impl FnMut(&Dem, f64),
+) -> Result<(String, f64)> {
     let start = Instant::now();
     let steps_per_check = ((scene.check_every_s / dem.dt_s).round() as u64).max(1);
     let d_mean = 2.0 * scene.radius.iter().sum::<f64>() / scene.radius.len() as f64;
@@ -488,8 +588,14 @@ pub fn run(scene: &DemScene, dem: &mut Dem, mut on_check: impl FnMut(&Dem, f64))
                 dem.time_s
             ));
         }
-        if ke_peak > 0.0 && ke < scene.ke_fraction * ke_peak && (top - top_prev).abs() < scene.height_tol_over_d * d_mean {
-            break format!("settled: KE < {} of its peak and bed top steady", scene.ke_fraction);
+        if ke_peak > 0.0
+            && ke < scene.ke_fraction * ke_peak
+            && (top - top_prev).abs() < scene.height_tol_over_d * d_mean
+        {
+            break format!(
+                "settled: KE < {} of its peak and bed top steady",
+                scene.ke_fraction
+            );
         }
         top_prev = top;
         if dem.time_s >= scene.max_time_s {
@@ -573,7 +679,10 @@ pub fn run_scene(text: &str, origin: &str, out: &Path, opts: &RunOptions) -> Res
                 ov
             );
             bar.set_position(((d.time_s / scene.max_time_s) * 1000.0) as u64);
-            bar.set_message(format!("step {} t = {:.4} s KE = {ke:.2e} J overlap/d = {ov:.2e}", d.steps, d.time_s));
+            bar.set_message(format!(
+                "step {} t = {:.4} s KE = {ke:.2e} J overlap/d = {ov:.2e}",
+                d.steps, d.time_s
+            ));
         })
     };
     let (stop, seconds) = match opts.threads {
@@ -590,7 +699,14 @@ pub fn run_scene(text: &str, origin: &str, out: &Path, opts: &RunOptions) -> Res
     write_atomic(&out.join("history.csv"), hist.as_bytes())?;
     let z: Vec<f64> = dem.p.pos.iter().map(|p| p.z).collect();
     let mut prof = String::from("z_lo_m,z_hi_m,porosity\n");
-    for (a, b, e) in observe::porosity_profile(&z, &dem.p.radius, area, 0.0, dem.top_z_m, scene.profile_bins) {
+    for (a, b, e) in observe::porosity_profile(
+        &z,
+        &dem.p.radius,
+        area,
+        0.0,
+        dem.top_z_m,
+        scene.profile_bins,
+    ) {
         let _ = writeln!(prof, "{a},{b},{e}");
     }
     write_atomic(&out.join("profile.csv"), prof.as_bytes())?;
@@ -613,8 +729,14 @@ pub fn run_scene(text: &str, origin: &str, out: &Path, opts: &RunOptions) -> Res
         origin: [0.0; 3],
         pbc: [true, true, false],
     };
-    xyz::write(&out.join("final.xyz"), &cell, &parts, &[("Time", format!("{}", dem.time_s))])?;
-    let json = serde_json::to_string_pretty(&summary).map_err(|e| Error::InvalidInput(e.to_string()))?;
+    xyz::write(
+        &out.join("final.xyz"),
+        &cell,
+        &parts,
+        &[("Time", format!("{}", dem.time_s))],
+    )?;
+    let json =
+        serde_json::to_string_pretty(&summary).map_err(|e| Error::InvalidInput(e.to_string()))?;
     write_atomic(&out.join("summary.json"), json.as_bytes())?;
     println!(
         "{}: {} steps, dt = {:e} s, {:.1} s ({}); porosity below top {:.4}, bulk {}; coordination {:.2}; max overlap/d {:.2e}",
@@ -646,11 +768,23 @@ mod tests {
     #[test]
     fn bad_keys_are_named() {
         let base = include_str!("builtin/dem-small.toml");
-        let e = parse_scene(&base.replace("[run]", "[run]\nbogus_key = 1"), "t").err().unwrap().to_string();
+        let e = parse_scene(&base.replace("[run]", "[run]\nbogus_key = 1"), "t")
+            .err()
+            .unwrap()
+            .to_string();
         assert!(e.contains("bogus_key"), "{e}");
-        let e = parse_scene(&base.replace("restitution = 0.5", "restitution = 1.5"), "t").err().unwrap().to_string();
-        assert!(e.contains("contact.restitution") && e.contains("1.5"), "{e}");
-        let e = parse_scene(&base.replace("young_pa = 1e7", "young_pa = -1"), "t").err().unwrap().to_string();
+        let e = parse_scene(&base.replace("restitution = 0.5", "restitution = 1.5"), "t")
+            .err()
+            .unwrap()
+            .to_string();
+        assert!(
+            e.contains("contact.restitution") && e.contains("1.5"),
+            "{e}"
+        );
+        let e = parse_scene(&base.replace("young_pa = 1e7", "young_pa = -1"), "t")
+            .err()
+            .unwrap()
+            .to_string();
         assert!(e.contains("young_pa") && e.contains("-1"), "{e}");
     }
 }

@@ -10,9 +10,9 @@
 //! same files are the examples of the schema.
 
 pub mod brownian;
+pub mod dem;
 pub mod deposition;
 pub mod lbm;
-pub mod dem;
 pub mod packing;
 
 use crate::error::{invalid, Error, Result};

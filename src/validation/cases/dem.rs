@@ -7,8 +7,8 @@
 
 use super::common::non_empty;
 use crate::dem::{
-    engine::auto_time_step, ContactModel, DampingModel, Dem, DemSetup, Drag, Material,
-    NormalModel, PairMaterial, Particles, TangentialModel, TopWall,
+    engine::auto_time_step, ContactModel, DampingModel, Dem, DemSetup, Drag, Material, NormalModel,
+    PairMaterial, Particles, TangentialModel, TopWall,
 };
 use crate::validation::{CaseContext, Row};
 use crate::{Error, Result};
@@ -68,7 +68,15 @@ fn hertz_constant() -> f64 {
 /// sphere on the floor (along z). Returns (restitution, contact time): the contact time is
 /// measured from the exact touching time of the free flight to the overlap's zero crossing,
 /// interpolated linearly between the two steps around it.
-fn impact(model: ContactModel, mat: Material, wall: Material, r: f64, v: f64, dt: f64, on_wall: bool) -> Result<(f64, f64)> {
+fn impact(
+    model: ContactModel,
+    mat: Material,
+    wall: Material,
+    r: f64,
+    v: f64,
+    dt: f64,
+    on_wall: bool,
+) -> Result<(f64, f64)> {
     let l = 100.0 * r;
     let gap = 0.1 * r;
     let mut s = setup(model, mat, wall, l, l);
@@ -79,7 +87,10 @@ fn impact(model: ContactModel, mat: Material, wall: Material, r: f64, v: f64, dt
         (p, gap / v)
     } else {
         let mut p = Particles::at_rest(
-            vec![Vector3::new(0.4 * l, 0.5 * l, 0.5 * l), Vector3::new(0.4 * l + 2.0 * r + gap, 0.5 * l, 0.5 * l)],
+            vec![
+                Vector3::new(0.4 * l, 0.5 * l, 0.5 * l),
+                Vector3::new(0.4 * l + 2.0 * r + gap, 0.5 * l, 0.5 * l),
+            ],
             vec![r, r],
             RHO,
         );
@@ -120,7 +131,15 @@ fn impact(model: ContactModel, mat: Material, wall: Material, r: f64, v: f64, dt
 /// Restitution of the contact ODE m* x'' = -F_el(x) - eta(x) x' from x = 0, x' = v, by RK4
 /// with `n` steps per estimated contact time (an oracle independent of the engine's
 /// integrator; used for the damped Hertz law, which has no closed form).
-fn restitution_rk4(model: &ContactModel, pm: &PairMaterial, r_eff: f64, m_eff: f64, v: f64, tc: f64, n: usize) -> f64 {
+fn restitution_rk4(
+    model: &ContactModel,
+    pm: &PairMaterial,
+    r_eff: f64,
+    m_eff: f64,
+    v: f64,
+    tc: f64,
+    n: usize,
+) -> f64 {
     let neg_beta = match model.damping {
         DampingModel::Restitution { neg_beta, .. } => neg_beta,
         DampingModel::None => 0.0,
@@ -136,7 +155,11 @@ fn restitution_rk4(model: &ContactModel, pm: &PairMaterial, r_eff: f64, m_eff: f
             }
             NormalModel::Linear { k_n_n_per_m } => (k_n_n_per_m * x, k_n_n_per_m),
         };
-        let c = if matches!(model.normal, NormalModel::Hertz) { 5.0 / 6.0 } else { 1.0 };
+        let c = if matches!(model.normal, NormalModel::Hertz) {
+            5.0 / 6.0
+        } else {
+            1.0
+        };
         let eta = 2.0 * neg_beta * (c * s * m_eff).sqrt();
         (-f - eta * u) / m_eff
     };
@@ -145,8 +168,14 @@ fn restitution_rk4(model: &ContactModel, pm: &PairMaterial, r_eff: f64, m_eff: f
     let mut k = 0;
     loop {
         let (k1x, k1u) = (u, accel(x, u));
-        let (k2x, k2u) = (u + 0.5 * h * k1u, accel(x + 0.5 * h * k1x, u + 0.5 * h * k1u));
-        let (k3x, k3u) = (u + 0.5 * h * k2u, accel(x + 0.5 * h * k2x, u + 0.5 * h * k2u));
+        let (k2x, k2u) = (
+            u + 0.5 * h * k1u,
+            accel(x + 0.5 * h * k1x, u + 0.5 * h * k1u),
+        );
+        let (k3x, k3u) = (
+            u + 0.5 * h * k2u,
+            accel(x + 0.5 * h * k2x, u + 0.5 * h * k2u),
+        );
         let (k4x, k4u) = (u + h * k3u, accel(x + h * k3x, u + h * k3u));
         let xn = x + h / 6.0 * (k1x + 2.0 * k2x + 2.0 * k3x + k4x);
         let un = u + h / 6.0 * (k1u + 2.0 * k2u + 2.0 * k3u + k4u);
@@ -192,7 +221,11 @@ fn collisions(ctx: &CaseContext, on_wall: bool) -> Result<Vec<Row>> {
         let frac = t.f64(i, "dt_over_tc")?;
         let m_eff = if on_wall { mass(r) } else { 0.5 * mass(r) };
         let r_eff = if on_wall { r } else { 0.5 * r };
-        let pm = if on_wall { PairMaterial::new(&mat, &wall) } else { PairMaterial::new(&mat, &mat) };
+        let pm = if on_wall {
+            PairMaterial::new(&mat, &wall)
+        } else {
+            PairMaterial::new(&mat, &mat)
+        };
         let e_req = t.f64(i, "restitution")?;
         let (tc, e_exp) = match model.normal {
             NormalModel::Linear { k_n_n_per_m } => {
@@ -202,7 +235,8 @@ fn collisions(ctx: &CaseContext, on_wall: bool) -> Result<Vec<Row>> {
                 (PI / (w0 * (1.0 - zeta * zeta).sqrt()), e_req)
             }
             NormalModel::Hertz => {
-                let tc = hertz_constant() * (m_eff * m_eff / (r_eff * pm.e_star_pa * pm.e_star_pa * v)).powf(0.2);
+                let tc = hertz_constant()
+                    * (m_eff * m_eff / (r_eff * pm.e_star_pa * pm.e_star_pa * v)).powf(0.2);
                 let e = if e_req < 1.0 {
                     restitution_rk4(&model, &pm, r_eff, m_eff, v, tc, 200_000)
                 } else {
@@ -212,19 +246,26 @@ fn collisions(ctx: &CaseContext, on_wall: bool) -> Result<Vec<Row>> {
             }
         };
         let (e, tc_got) = impact(model, mat, wall, r, v, frac * tc, on_wall)?;
-        let label = format!(
-            "{} e={e_req} v={v} dt=tc*{frac}",
-            t.str(i, "normal")?
-        );
+        let label = format!("{} e={e_req} v={v} dt=tc*{frac}", t.str(i, "normal")?);
         // allowed relative errors given at dt = t_c / 50, scaled as dt^2 (second order)
         let k2 = (frac / 0.02).powi(2);
         if t.str(i, "check")?.contains('e') {
             let tol = t.f64(i, "e_rel_tol_at_tc_over_50")? * k2;
-            rows.push(Row::new(format!("{label} restitution"), e, e_exp, tol * e_exp));
+            rows.push(Row::new(
+                format!("{label} restitution"),
+                e,
+                e_exp,
+                tol * e_exp,
+            ));
         }
         if t.str(i, "check")?.contains('t') {
             let tol = t.f64(i, "tc_rel_tol_at_tc_over_50")? * k2;
-            rows.push(Row::new(format!("{label} contact time"), tc_got, tc, tol * tc));
+            rows.push(Row::new(
+                format!("{label} contact time"),
+                tc_got,
+                tc,
+                tol * tc,
+            ));
         }
     }
     Ok(rows)
@@ -246,18 +287,29 @@ pub fn case_702(ctx: &CaseContext) -> Result<Vec<Row>> {
         let frac = t.f64(i, "dt_over_tc")?;
         let (m_eff, r_eff) = (0.5 * mass(r), 0.5 * r);
         let pm = PairMaterial::new(&mat, &mat);
-        let tc = hertz_constant() * (m_eff * m_eff / (r_eff * pm.e_star_pa * pm.e_star_pa * v)).powf(0.2);
+        let tc = hertz_constant()
+            * (m_eff * m_eff / (r_eff * pm.e_star_pa * pm.e_star_pa * v)).powf(0.2);
         let (e, _) = impact(model, mat, mat, r, v, frac * tc, false)?;
         let group = format!("e={} dt=tc*{frac}", t.f64(i, "restitution")?);
         let tol = t.f64(i, "e_rel_tol")?;
         match &first {
             Some((g, e0)) if *g == group => {
-                rows.push(Row::new(format!("{group} v={v}: e(v)/e(v0)"), e / e0, 1.0, 2.0 * tol));
+                rows.push(Row::new(
+                    format!("{group} v={v}: e(v)/e(v0)"),
+                    e / e0,
+                    1.0,
+                    2.0 * tol,
+                ));
             }
             _ => first = Some((group.clone(), e)),
         }
         let e_rk = restitution_rk4(&model, &pm, r_eff, m_eff, v, tc, 200_000);
-        rows.push(Row::new(format!("{group} v={v}: e vs RK4"), e, e_rk, tol * e_rk));
+        rows.push(Row::new(
+            format!("{group} v={v}: e vs RK4"),
+            e,
+            e_rk,
+            tol * e_rk,
+        ));
     }
     Ok(rows)
 }
@@ -276,7 +328,11 @@ fn resting_sphere(r: f64, mu: f64, damp_ratio: f64, g: Vector3<f64>, v0: f64) ->
     let pm = PairMaterial::new(&mat, &mat);
     let fz = mass(r) * (-g.z);
     let delta0 = (3.0 * fz / (4.0 * pm.e_star_pa * r.sqrt())).powf(2.0 / 3.0);
-    let mut p = Particles::at_rest(vec![Vector3::new(0.5 * l, 0.5 * l, r - delta0)], vec![r], RHO);
+    let mut p = Particles::at_rest(
+        vec![Vector3::new(0.5 * l, 0.5 * l, r - delta0)],
+        vec![r],
+        RHO,
+    );
     p.vel[0] = Vector3::new(v0, 0.0, 0.0);
     Dem::new(s, p, 0.1)
 }
@@ -289,7 +345,12 @@ pub fn case_704(ctx: &CaseContext) -> Result<Vec<Row>> {
     non_empty(&t)?;
     let mut rows = Vec::new();
     for i in 0..t.len() {
-        let (r, mu, v0, g) = (t.f64(i, "radius_m")?, t.f64(i, "mu")?, t.f64(i, "v0_m_s")?, t.f64(i, "g_m_s2")?);
+        let (r, mu, v0, g) = (
+            t.f64(i, "radius_m")?,
+            t.f64(i, "mu")?,
+            t.f64(i, "v0_m_s")?,
+            t.f64(i, "g_m_s2")?,
+        );
         let damp = t.f64(i, "tangential_damping_ratio")?;
         let check = t.str(i, "check")?.to_string();
         let mut dem = resting_sphere(r, mu, damp, Vector3::new(0.0, 0.0, -g), v0)?;
@@ -312,11 +373,26 @@ pub fn case_704(ctx: &CaseContext) -> Result<Vec<Row>> {
         // onset within one step; final state to round-off (exact conservation, see below)
         let vtol = t.f64(i, "v_rel_tol")? * v0;
         if check.contains('t') {
-            rows.push(Row::new(format!("{label} rolling onset time (within dt)"), t_got, t_roll, dem.dt_s));
+            rows.push(Row::new(
+                format!("{label} rolling onset time (within dt)"),
+                t_got,
+                t_roll,
+                dem.dt_s,
+            ));
         }
         if check.contains('v') {
-            rows.push(Row::new(format!("{label} final v"), v_end, 5.0 * v0 / 7.0, vtol));
-            rows.push(Row::new(format!("{label} final R w"), r * w_end, 5.0 * v0 / 7.0, vtol));
+            rows.push(Row::new(
+                format!("{label} final v"),
+                v_end,
+                5.0 * v0 / 7.0,
+                vtol,
+            ));
+            rows.push(Row::new(
+                format!("{label} final R w"),
+                r * w_end,
+                5.0 * v0 / 7.0,
+                vtol,
+            ));
         }
     }
     Ok(rows)
@@ -346,9 +422,17 @@ pub fn case_705(ctx: &CaseContext) -> Result<Vec<Row>> {
         dem.run(steps - steps / 2)?;
         let a = (dem.p.vel[0].x - v1) / (dem.time_s - t1);
         let rolls = th.tan() <= 3.5 * mu;
-        let a_exp = if rolls { 5.0 / 7.0 * g * th.sin() } else { g * (th.sin() - mu * th.cos()) };
+        let a_exp = if rolls {
+            5.0 / 7.0 * g * th.sin()
+        } else {
+            g * (th.sin() - mu * th.cos())
+        };
         rows.push(Row::new(
-            format!("theta={}deg mu={mu} {}", t.f64(i, "theta_deg")?, if rolls { "rolling" } else { "sliding" }),
+            format!(
+                "theta={}deg mu={mu} {}",
+                t.f64(i, "theta_deg")?,
+                if rolls { "rolling" } else { "sliding" }
+            ),
             a,
             a_exp,
             t.f64(i, "a_rel_tol")? * a_exp,
@@ -403,7 +487,12 @@ pub fn case_706(ctx: &CaseContext) -> Result<Vec<Row>> {
         let k = t.f64(i, "steps_per_tau")?;
         let (got, exact) = settle(r, mu, rho_f, g, 3.0 * tau, tau / k)?;
         let tol = t.f64(i, "rel_tolerance")?;
-        rows.push(Row::new(format!("dt=tau/{k} v(3 tau)"), got, exact, tol * exact.abs()));
+        rows.push(Row::new(
+            format!("dt=tau/{k} v(3 tau)"),
+            got,
+            exact,
+            tol * exact.abs(),
+        ));
         errs.push((k, (got - exact).abs()));
     }
     let order_tol = t.f64(0, "order_tolerance")?;
@@ -435,7 +524,11 @@ fn gas(n: usize, seed: u64, dt_frac: f64, t_end: f64) -> Result<(f64, f64, usize
     let pos = crate::dem::start::random_dispersion(&radius, l, l, l, &mut rng)?;
     let mut p = Particles::at_rest(pos, radius, RHO);
     for v in p.vel.iter_mut() {
-        *v = Vector3::new(rng.gen::<f64>() - 0.5, rng.gen::<f64>() - 0.5, rng.gen::<f64>() - 0.5);
+        *v = Vector3::new(
+            rng.gen::<f64>() - 0.5,
+            rng.gen::<f64>() - 0.5,
+            rng.gen::<f64>() - 0.5,
+        );
     }
     let mut s = setup(model, mat, mat, l, l);
     let dt0 = auto_time_step(&s, r, 2.0);
@@ -481,12 +574,24 @@ pub fn case_707(ctx: &CaseContext) -> Result<Vec<Row>> {
     let (w1, d1, c1) = gas(n, seed, 1.0, t_end)?;
     let (w2, _, _) = gas(n, seed, 0.5, t_end)?;
     if c1 < 10 * n {
-        return Err(Error::Validation(format!("only {c1} contacts in the run; need many collisions")));
+        return Err(Error::Validation(format!(
+            "only {c1} contacts in the run; need many collisions"
+        )));
     }
     let order = (w1 / w2).log2();
     Ok(vec![
-        Row::new(format!("max |dE|/E0 at the automatic dt ({c1} contacts) below {bound}"), w1, 0.0, bound),
-        Row::new(format!("(E_end - E0)/E0 at the automatic dt below {drift}"), d1, 0.0, drift),
+        Row::new(
+            format!("max |dE|/E0 at the automatic dt ({c1} contacts) below {bound}"),
+            w1,
+            0.0,
+            bound,
+        ),
+        Row::new(
+            format!("(E_end - E0)/E0 at the automatic dt below {drift}"),
+            d1,
+            0.0,
+            drift,
+        ),
         Row::new(
             format!("order of the max energy error (dt -> dt/2) in [{o_lo}, {o_hi}]"),
             order,
@@ -510,7 +615,10 @@ pub fn case_708(ctx: &CaseContext) -> Result<Vec<Row>> {
     let model = ContactModel {
         normal: NormalModel::Hertz,
         damping: DampingModel::restitution(0.3)?,
-        tangential: TangentialModel::Mindlin { mu, damp_ratio: 1.0 },
+        tangential: TangentialModel::Mindlin {
+            mu,
+            damp_ratio: 1.0,
+        },
     };
     let l = 8.0 * 2.0 * r;
     let h = (n as f64 * 4.0 / 3.0 * PI * r.powi(3)) / (0.25 * l * l);
@@ -573,13 +681,21 @@ pub fn case_709(ctx: &CaseContext) -> Result<Vec<Row>> {
     let travel_tol = t.f64(0, "wall_travel_over_d")?;
     let window = t.f64(0, "window_steps")? as u64;
     let text = include_str!("../../scene/builtin/dem-small.toml")
-        .replace("gravity_m_s2 = 9.81", &format!("top_pressure_pa = {target}\ntop_speed_max_m_s = 0.05"))
-        .replace("[run]", &format!("[run]\nke_fraction = {}", t.f64(0, "ke_fraction")?));
+        .replace(
+            "gravity_m_s2 = 9.81",
+            &format!("top_pressure_pa = {target}\ntop_speed_max_m_s = 0.05"),
+        )
+        .replace(
+            "[run]",
+            &format!("[run]\nke_fraction = {}", t.f64(0, "ke_fraction")?),
+        );
     let scene = crate::scene::dem::parse_scene(&text, "case 709")?;
     let mut dem = crate::scene::dem::build(&scene)?;
     let (stop, _) = crate::scene::dem::run(&scene, &mut dem, |_, _| {})?;
     if stop.starts_with("time limit") {
-        return Err(Error::Validation(format!("the bed did not consolidate: {stop}")));
+        return Err(Error::Validation(format!(
+            "the bed did not consolidate: {stop}"
+        )));
     }
     let area = scene.setup.lx_m * scene.setup.ly_m;
     let z0 = dem.top_z_m;
@@ -590,7 +706,17 @@ pub fn case_709(ctx: &CaseContext) -> Result<Vec<Row>> {
     }
     let d = 2.0 * scene.radius[0];
     Ok(vec![
-        Row::new(format!("mean wall pressure over {window} steps / target {target} Pa"), sum / window as f64 / target, 1.0, band),
-        Row::new("wall travel over the window / d", (dem.top_z_m - z0) / d, 0.0, travel_tol),
+        Row::new(
+            format!("mean wall pressure over {window} steps / target {target} Pa"),
+            sum / window as f64 / target,
+            1.0,
+            band,
+        ),
+        Row::new(
+            "wall travel over the window / d",
+            (dem.top_z_m - z0) / d,
+            0.0,
+            travel_tol,
+        ),
     ])
 }

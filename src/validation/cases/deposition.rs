@@ -538,11 +538,12 @@ pub fn case_608(ctx: &CaseContext) -> Result<Vec<Row>> {
     Ok(rows)
 }
 
-/// Case 901: seed 000 Fig. 3, platelets of fixed diameter: the layer porosity falls from
-/// aspect ratio 1 to a minimum and rises again. Rows: the aspect ratio of the minimum of the
-/// mean porosity (band), and the rise from the minimum to the largest aspect ratio and to
-/// aspect 1, each in units of its standard error (band from 3 up).
-pub fn case_901(ctx: &CaseContext) -> Result<Vec<Row>> {
+/// Cases 901 and 902: seed 000 Figs. 3 and 5, platelets of fixed diameter and needles of fixed
+/// length (the table's `shape`): the layer porosity falls from aspect ratio 1 to a minimum and
+/// rises again. Rows: the aspect ratio of the minimum of the mean porosity (band), and the
+/// rise from the minimum to the largest aspect ratio and to aspect 1, each in units of its
+/// standard error (band from 3 up).
+pub fn case_901_902(ctx: &CaseContext) -> Result<Vec<Row>> {
     let t = ctx.expected_table()?;
     non_empty(&t)?;
     let seed = required_seed(ctx, "case 901 needs a seed")?;
@@ -550,16 +551,20 @@ pub fn case_901(ctx: &CaseContext) -> Result<Vec<Row>> {
     for i in 0..t.len() {
         let ar = t.f64(i, "aspect_ratio")?;
         let a = t.f64(i, "diameter_m")? / 2.0;
+        let axes = match t.str(i, "shape")? {
+            "platelet" => format!("[{a}, {a}, {}]", a / ar),
+            "needle" => format!("[{a}, {}, {}]", a / ar, a / ar),
+            o => return Err(Error::Validation(format!("unknown shape `{o}`"))),
+        };
         let text = format!(
             "kind = \"deposition\"\nseed = {}\nruns = {}\n[film]\nparticles = {}\n\
-             solids_percent = {}\n[[species]]\nname = \"clay\"\nsemi_axes_m = [{a}, {a}, {}]\n",
+             solids_percent = {}\n[[species]]\nname = \"p\"\nsemi_axes_m = {axes}\n",
             seed + i as u64,
             t.f64(i, "runs")? as usize,
             t.f64(i, "particles")? as usize,
             t.f64(i, "solids_percent")?,
-            a / ar
         );
-        let scene = crate::scene::deposition::parse_scene(&text, "case 901")?;
+        let scene = crate::scene::deposition::parse_scene(&text, &ctx.id)?;
         use rayon::prelude::*;
         let p: Vec<f64> = (0..scene.runs)
             .into_par_iter()
@@ -574,7 +579,7 @@ pub fn case_901(ctx: &CaseContext) -> Result<Vec<Row>> {
         let se = (p.iter().map(|x| (x - m) * (x - m)).sum::<f64>() / (n - 1.0) / n).sqrt();
         points.push((ar, m, se));
     }
-    let (k_min, &(ar_min, p_min, se_min)) = points
+    let (_, &(ar_min, p_min, se_min)) = points
         .iter()
         .enumerate()
         .min_by(|a, b| a.1 .1.partial_cmp(&b.1 .1).unwrap())
@@ -607,6 +612,5 @@ pub fn case_901(ctx: &CaseContext) -> Result<Vec<Row>> {
         503.0,
         500.0,
     ));
-    let _ = k_min;
     Ok(rows)
 }

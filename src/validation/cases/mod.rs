@@ -9,8 +9,8 @@ mod brownian_equilibrium;
 mod brownian_scenes;
 mod common;
 mod contact;
-mod deposition;
 mod dem;
+mod deposition;
 mod drag;
 mod elliptic_cases;
 mod field_analytic;
@@ -48,7 +48,7 @@ pub fn runner_for(id: &str) -> Option<Runner> {
         "606" => Some(deposition::case_606),
         "607" => Some(deposition::case_607),
         "608" => Some(deposition::case_608),
-        "901" => Some(deposition::case_901),
+        "901" => Some(deposition::case_901_902),
         "501" => Some(packing::case_501),
         "502" => Some(packing::case_502),
         "503" => Some(packing::case_503),
