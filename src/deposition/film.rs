@@ -192,6 +192,37 @@ pub fn build<R: Rng>(
     }
 }
 
+/// Puts grain `i` (scaled by `scales[i]`) at `pose` if it then overlaps nothing and stays in
+/// the film [0, lid]; true if it did.
+#[allow(clippy::too_many_arguments)]
+fn try_pose(
+    layer: &mut Layer,
+    cells: &mut super::cells::Cells,
+    positions: &mut [Vector3<f64>],
+    i: usize,
+    pose: GrainPose,
+    scales: &[f64],
+    lid: f64,
+    counts: &mut PrefilterCounts,
+) -> bool {
+    if !layer.fits(
+        cells,
+        positions,
+        i,
+        &pose,
+        scales[i],
+        Some(scales),
+        Some(lid),
+        counts,
+    ) {
+        return false;
+    }
+    layer.poses[i] = pose;
+    positions[i] = pose.position;
+    cells.moved(i, &pose.position);
+    true
+}
+
 /// A random pose of `g` scaled by `scale` lying flat inside the film [0, lid] of the box of
 /// side `box_side_m`; None when the film is thinner than the particle lying flat.
 fn random_flat_pose<R: Rng>(
@@ -342,20 +373,7 @@ fn grow<R: Rng>(
                     else {
                         break;
                     };
-                    let p = pose.position;
-                    if layer.fits(
-                        cells,
-                        positions,
-                        i,
-                        &pose,
-                        scales[i],
-                        Some(&scales),
-                        Some(lid),
-                        &mut counts,
-                    ) {
-                        layer.poses[i] = pose;
-                        positions[i] = p;
-                        cells.moved(i, &p);
+                    if try_pose(layer, cells, positions, i, pose, &scales, lid, &mut counts) {
                         break;
                     }
                 }
@@ -369,20 +387,7 @@ fn grow<R: Rng>(
             if !layer.grains[i].is_sphere {
                 pose.orientation = m.rotate(&pose.orientation);
             }
-            if layer.fits(
-                cells,
-                positions,
-                i,
-                &pose,
-                scales[i],
-                Some(&scales),
-                Some(lid),
-                &mut counts,
-            ) {
-                layer.poses[i] = pose;
-                positions[i] = pose.position;
-                cells.moved(i, &pose.position);
-            }
+            try_pose(layer, cells, positions, i, pose, &scales, lid, &mut counts);
         }
     }
     let solid: f64 = layer
