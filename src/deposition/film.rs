@@ -363,7 +363,7 @@ fn grow<R: Rng>(
         if since_growth > 1000 {
             break;
         }
-        if since_growth > 0 && since_growth % 100 == 0 {
+        if since_growth > 0 && since_growth.is_multiple_of(100) {
             // A particle caged by its neighbours (or a wall) is moved to a random free place
             // at its current size: a valid hard-core move, tried before giving up.
             for i in (0..n).filter(|&i| scales[i] < 1.0) {
