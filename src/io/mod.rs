@@ -1,6 +1,7 @@
 //! Readers and writers: CSV tables with units in the headers; atomic file writes; extended
 //! XYZ particle configurations ([`xyz`]).
 
+pub mod plot;
 pub mod vtk;
 pub mod xyz;
 

@@ -1,0 +1,244 @@
+//! SVG line plots of a run's main result, written beside its CSV (plotters' SVG backend: text
+//! stays text, so no font files are needed and a browser or Inkscape opens the file).
+//!
+//! One small description type, [`Plot`], for every engine: a title, axis labels with units,
+//! optional logarithmic axes and any number of labelled series with optional error bars.
+
+use crate::error::{invalid, Error};
+use crate::Result;
+use plotters::coord::ranged1d::{AsRangedCoord, ValueFormatter};
+use plotters::prelude::*;
+use std::path::Path;
+
+/// One labelled curve: points `(x, y)` in the axes' units, and optionally a half-width error
+/// bar per point (one standard error, say), drawn as a vertical segment.
+#[derive(Debug, Clone, Default)]
+pub struct Series {
+    pub label: String,
+    pub points: Vec<(f64, f64)>,
+    pub y_err: Option<Vec<f64>>,
+}
+
+/// A line plot: axis labels carry the units, e.g. `"time (s)"`.
+#[derive(Debug, Clone, Default)]
+pub struct Plot {
+    pub title: String,
+    pub x_label: String,
+    pub y_label: String,
+    pub log_x: bool,
+    pub log_y: bool,
+    pub series: Vec<Series>,
+}
+
+/// Plot size in SVG pixels.
+const SIZE: (u32, u32) = (720, 460);
+
+/// Line colours, cycled over the series (a colour-blind-safe qualitative palette, Okabe & Ito).
+const PALETTE: [RGBColor; 7] = [
+    RGBColor(0, 114, 178),
+    RGBColor(213, 94, 0),
+    RGBColor(0, 158, 115),
+    RGBColor(204, 121, 167),
+    RGBColor(230, 159, 0),
+    RGBColor(86, 180, 233),
+    RGBColor(0, 0, 0),
+];
+
+/// The closed range of finite values (positive ones on a log axis), padded a little so no
+/// point sits on the frame; an empty or single-valued range is widened around its value.
+fn axis_range(values: impl Iterator<Item = f64>, log: bool) -> Option<(f64, f64)> {
+    let (lo, hi) = values
+        .filter(|v| v.is_finite() && (!log || *v > 0.0))
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), v| {
+            (lo.min(v), hi.max(v))
+        });
+    if lo > hi {
+        return None;
+    }
+    if log {
+        let (a, b) = (lo.log10(), hi.log10());
+        let pad = if b > a { 0.04 * (b - a) } else { 0.5 };
+        Some((10f64.powf(a - pad), 10f64.powf(b + pad)))
+    } else {
+        let pad = if hi > lo {
+            0.04 * (hi - lo)
+        } else {
+            0.5 * lo.abs().max(1e-300)
+        };
+        Some((lo - pad, hi + pad))
+    }
+}
+
+/// Writes `plot` as an SVG file at `path` (through a temporary file and a rename). A plot
+/// without a single finite point is refused, naming the file: an empty picture is no result.
+pub fn write_svg(path: &Path, plot: &Plot) -> Result<()> {
+    let ys = |s: &Series| -> Vec<f64> {
+        let err = s.y_err.as_deref();
+        s.points
+            .iter()
+            .enumerate()
+            .flat_map(|(i, &(_, y))| {
+                let e = err.and_then(|e| e.get(i).copied()).unwrap_or(0.0).abs();
+                [y - e, y + e]
+            })
+            .collect()
+    };
+    let x_range = axis_range(
+        plot.series
+            .iter()
+            .flat_map(|s| s.points.iter().map(|p| p.0)),
+        plot.log_x,
+    );
+    let y_range = axis_range(plot.series.iter().flat_map(ys), plot.log_y);
+    let (Some((x0, x1)), Some((y0, y1))) = (x_range, y_range) else {
+        return invalid(format!(
+            "{}: plot '{}' has no finite point to draw",
+            path.display(),
+            plot.title
+        ));
+    };
+    let mut svg = String::new();
+    {
+        let backend = SVGBackend::with_string(&mut svg, SIZE);
+        let drawn = match (plot.log_x, plot.log_y) {
+            (false, false) => draw(backend, plot, x0..x1, y0..y1),
+            (true, false) => draw(backend, plot, (x0..x1).log_scale(), y0..y1),
+            (false, true) => draw(backend, plot, x0..x1, (y0..y1).log_scale()),
+            (true, true) => draw(backend, plot, (x0..x1).log_scale(), (y0..y1).log_scale()),
+        };
+        drawn.map_err(|e| Error::File {
+            path: path.display().to_string(),
+            msg: format!("cannot draw the plot: {e}"),
+        })?;
+    }
+    super::write_atomic(path, svg.as_bytes())
+}
+
+/// Draws the frame, the mesh with labels, every series with its error bars, and the legend.
+fn draw<'a, X, Y>(
+    backend: SVGBackend<'a>,
+    plot: &'a Plot,
+    x: X,
+    y: Y,
+) -> std::result::Result<(), Box<dyn std::error::Error + 'a>>
+where
+    X: AsRangedCoord<Value = f64>,
+    Y: AsRangedCoord<Value = f64>,
+    X::CoordDescType: ValueFormatter<f64>,
+    Y::CoordDescType: ValueFormatter<f64>,
+{
+    let root = backend.into_drawing_area();
+    root.fill(&WHITE)?;
+    let mut chart = ChartBuilder::on(&root)
+        .caption(&plot.title, ("sans-serif", 18))
+        .margin(12)
+        .x_label_area_size(44)
+        .y_label_area_size(70)
+        .build_cartesian_2d(x, y)?;
+    chart
+        .configure_mesh()
+        .x_desc(plot.x_label.as_str())
+        .y_desc(plot.y_label.as_str())
+        .light_line_style(WHITE.mix(0.0))
+        .draw()?;
+    for (k, s) in plot.series.iter().enumerate() {
+        let colour = PALETTE[k % PALETTE.len()];
+        let finite: Vec<(f64, f64)> = s
+            .points
+            .iter()
+            .copied()
+            .filter(|(a, b)| a.is_finite() && b.is_finite())
+            .collect();
+        let line = chart.draw_series(LineSeries::new(finite.clone(), colour.stroke_width(2)))?;
+        if !s.label.is_empty() {
+            line.label(s.label.as_str()).legend(move |(px, py)| {
+                PathElement::new(vec![(px, py), (px + 20, py)], colour.stroke_width(2))
+            });
+        }
+        if finite.len() <= 60 {
+            chart.draw_series(finite.iter().map(|&p| Circle::new(p, 3, colour.filled())))?;
+        }
+        if let Some(err) = &s.y_err {
+            let bars = s
+                .points
+                .iter()
+                .zip(err)
+                .filter(|((a, b), e)| a.is_finite() && b.is_finite() && e.is_finite())
+                .map(|(&(a, b), &e)| {
+                    PathElement::new(vec![(a, b - e.abs()), (a, b + e.abs())], colour)
+                });
+            chart.draw_series(bars)?;
+        }
+    }
+    if plot.series.iter().any(|s| !s.label.is_empty()) {
+        chart
+            .configure_series_labels()
+            .background_style(WHITE.mix(0.85))
+            .border_style(BLACK)
+            .position(SeriesLabelPosition::UpperRight)
+            .draw()?;
+    }
+    root.present()?;
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn tmp(name: &str) -> std::path::PathBuf {
+        let dir = std::env::temp_dir().join(format!("porelab-plot-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        dir.join(name)
+    }
+
+    #[test]
+    fn writes_an_svg_with_its_labels_and_every_series() {
+        let path = tmp("a.svg");
+        let plot = Plot {
+            title: "capture".into(),
+            x_label: "time (s)".into(),
+            y_label: "captured fraction".into(),
+            series: vec![
+                Series {
+                    label: "TOP".into(),
+                    points: vec![(0.0, 0.0), (1.0, 0.5), (2.0, 0.9)],
+                    y_err: Some(vec![0.0, 0.05, 0.02]),
+                },
+                Series {
+                    label: "SIDE".into(),
+                    points: vec![(0.0, 0.0), (2.0, 0.3)],
+                    y_err: None,
+                },
+            ],
+            ..Default::default()
+        };
+        write_svg(&path, &plot).unwrap();
+        let text = std::fs::read_to_string(&path).unwrap();
+        assert!(text.starts_with("<svg"));
+        for s in ["capture", "time (s)", "captured fraction", "TOP", "SIDE"] {
+            assert!(text.contains(s), "{s} missing from the SVG");
+        }
+    }
+
+    #[test]
+    fn log_axes_drop_non_positive_values_and_empty_plots_are_refused() {
+        let path = tmp("b.svg");
+        let mut plot = Plot {
+            title: "K".into(),
+            x_label: "N".into(),
+            y_label: "error".into(),
+            log_x: true,
+            log_y: true,
+            series: vec![Series {
+                label: String::new(),
+                points: vec![(10.0, 1e-2), (100.0, 1e-4), (0.0, 0.0)],
+                y_err: None,
+            }],
+        };
+        write_svg(&path, &plot).unwrap();
+        plot.series[0].points = vec![(f64::NAN, 1.0), (0.0, -1.0)];
+        let e = write_svg(&path, &plot).unwrap_err().to_string();
+        assert!(e.contains("no finite point"), "{e}");
+    }
+}
