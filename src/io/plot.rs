@@ -72,6 +72,15 @@ fn axis_range(values: impl Iterator<Item = f64>, log: bool) -> Option<(f64, f64)
 /// Writes `plot` as an SVG file at `path` (through a temporary file and a rename). A plot
 /// without a single finite point is refused, naming the file: an empty picture is no result.
 pub fn write_svg(path: &Path, plot: &Plot) -> Result<()> {
+    let svg = render_svg(plot, SIZE).map_err(|e| Error::File {
+        path: path.display().to_string(),
+        msg: e.to_string(),
+    })?;
+    super::write_atomic(path, svg.as_bytes())
+}
+
+/// The SVG text of `plot` at `size` pixels (for embedding in an HTML page).
+pub fn render_svg(plot: &Plot, size: (u32, u32)) -> Result<String> {
     let ys = |s: &Series| -> Vec<f64> {
         let err = s.y_err.as_deref();
         s.points
@@ -91,27 +100,20 @@ pub fn write_svg(path: &Path, plot: &Plot) -> Result<()> {
     );
     let y_range = axis_range(plot.series.iter().flat_map(ys), plot.log_y);
     let (Some((x0, x1)), Some((y0, y1))) = (x_range, y_range) else {
-        return invalid(format!(
-            "{}: plot '{}' has no finite point to draw",
-            path.display(),
-            plot.title
-        ));
+        return invalid(format!("plot '{}' has no finite point to draw", plot.title));
     };
     let mut svg = String::new();
     {
-        let backend = SVGBackend::with_string(&mut svg, SIZE);
+        let backend = SVGBackend::with_string(&mut svg, size);
         let drawn = match (plot.log_x, plot.log_y) {
             (false, false) => draw(backend, plot, x0..x1, y0..y1),
             (true, false) => draw(backend, plot, (x0..x1).log_scale(), y0..y1),
             (false, true) => draw(backend, plot, x0..x1, (y0..y1).log_scale()),
             (true, true) => draw(backend, plot, (x0..x1).log_scale(), (y0..y1).log_scale()),
         };
-        drawn.map_err(|e| Error::File {
-            path: path.display().to_string(),
-            msg: format!("cannot draw the plot: {e}"),
-        })?;
+        drawn.map_err(|e| Error::InvalidInput(format!("cannot draw the plot: {e}")))?;
     }
-    super::write_atomic(path, svg.as_bytes())
+    Ok(svg)
 }
 
 /// Draws the frame, the mesh with labels, every series with its error bars, and the legend.
