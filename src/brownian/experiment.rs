@@ -66,7 +66,7 @@ pub fn table_6_1_moment(radius_m: f64) -> Result<f64> {
 }
 
 /// Where a particle started.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 pub enum Region {
     Top,
     Side,
@@ -298,7 +298,7 @@ pub struct CaptureExperiment {
 }
 
 /// One sample of a run.
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct Sample {
     pub time_s: f64,
     /// Captured fraction per region, in the order of [`RunResult::regions`].
@@ -307,8 +307,8 @@ pub struct Sample {
     pub chains: ChainStats,
 }
 
-/// The outcome of one run.
-#[derive(Debug, Clone)]
+/// The outcome of one run (serialisable: a finished run is a checkpoint of its ensemble).
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct RunResult {
     pub run: u64,
     /// The regions present, in a fixed order (TOP, SIDE, or BLOCK).
@@ -599,7 +599,7 @@ pub fn mean_and_stderr(values: &[f64]) -> (f64, f64) {
 }
 
 /// Clusters of particles bonded when their centres are closer than `bond_factor` x 2R.
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, PartialEq, Default, serde::Serialize, serde::Deserialize)]
 pub struct ChainStats {
     /// Number of clusters with at least two particles.
     pub chains: usize,

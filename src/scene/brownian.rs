@@ -667,9 +667,11 @@ pub fn run_scene(text: &str, origin: &str, out: &Path, opts: &RunOptions) -> Res
             "region_thickness_m": scene.particles.region_thickness_m,
         },
     });
+    // Finished runs are kept under out/runs/: a killed ensemble resumes where it stopped.
+    let store = super::run_store::RunStore::new(out, text);
     let results = match scene.experiment {
-        ExperimentKind::Capture => run_capture(&scene, &combos, &exps, out, opts)?,
-        ExperimentKind::Cascade => run_cascades(&scene, &exps, out, opts)?,
+        ExperimentKind::Capture => run_capture(&scene, &combos, &exps, out, opts, &store)?,
+        ExperimentKind::Cascade => run_cascades(&scene, &exps, out, opts, &store)?,
         ExperimentKind::CaptureVolume => run_volumes(&scene, &combos, &exps, out)?,
     };
     summary["results"] = results;
@@ -696,6 +698,7 @@ fn run_capture(
     exps: &[CaptureExperiment],
     out: &Path,
     opts: &RunOptions,
+    store: &super::run_store::RunStore,
 ) -> Result<serde_json::Value> {
     let runs = scene.run.runs;
     let total: u64 = exps.iter().map(|e| e.steps() * runs).sum();
@@ -707,9 +710,15 @@ fn run_capture(
         "aspect_ratio,radius_m,alpha_deg,run,particle,region,x0_m,y0_m,z0_m,x_m,y_m,z_m,captured,capture_time_s,brownian\n",
     );
     let mut finals = Vec::new();
-    for (c, exp) in combos.iter().zip(exps) {
+    for (point, (c, exp)) in combos.iter().zip(exps).enumerate() {
         let results: Vec<RunResult> = run_ensemble(runs, opts.threads, |run| {
-            exp.run(scene.run.seed, run, &|k| pb.inc(k))
+            let (r, loaded) = store.load_or_run(&format!("point{point:03}-run{run:04}"), || {
+                exp.run(scene.run.seed, run, &|k| pb.inc(k))
+            })?;
+            if loaded {
+                pb.inc(exp.steps());
+            }
+            Ok(r)
         })?;
         let regions = results[0].regions.clone();
         let volumes = exp.region_volumes(&regions)?;
@@ -878,6 +887,7 @@ fn run_cascades(
     exps: &[CaptureExperiment],
     out: &Path,
     opts: &RunOptions,
+    store: &super::run_store::RunStore,
 ) -> Result<serde_json::Value> {
     let cs = &scene.cascade;
     let modes = cs
@@ -904,15 +914,22 @@ fn run_cascades(
     let mut summary = serde_json::Map::new();
     for mode in modes {
         let curves = run_ensemble(runs, opts.threads, |run| {
-            run_cascade(
-                exp,
-                mode,
-                cs.stages,
-                cs.stage_time_s,
-                scene.run.seed,
-                run,
-                &|k| pb.inc(k),
-            )
+            let tag = format!("cascade-{mode:?}-run{run:04}").to_lowercase();
+            let (curve, loaded) = store.load_or_run(&tag, || {
+                run_cascade(
+                    exp,
+                    mode,
+                    cs.stages,
+                    cs.stage_time_s,
+                    scene.run.seed,
+                    run,
+                    &|k| pb.inc(k),
+                )
+            })?;
+            if loaded {
+                pb.inc(cs.stages as u64 * stage_steps);
+            }
+            Ok(curve)
         })?;
         // Curves stop early when every particle is captured: extend them at 1.
         let len = curves.iter().map(|c| c.len()).max().unwrap_or(0);
@@ -1094,5 +1111,47 @@ mod tests {
         std::fs::remove_dir_all(&base).ok();
         assert_eq!(outputs[0], outputs[1]);
         assert!(outputs[0].1.lines().count() == 1 + 3 * 6);
+    }
+
+    /// A killed ensemble resumes from its finished runs and ends with the same outputs as an
+    /// uninterrupted run; a run file of another scene is refused.
+    #[test]
+    fn resumes_from_finished_runs() {
+        let scene = "kind = \"brownian\"\n[run]\nseed = 11\nruns = 3\nt_max_s = 0.05\n\
+                     dt_s = 5e-4\nsample_every_s = 0.01\n[particles]\nradius_m = 212e-9\n\
+                     n_top = 3\nn_side = 3\nregion_thickness_m = 20e-6\n\
+                     [hydrodynamics]\nmobility = \"free-draining\"\n";
+        let base = std::env::temp_dir().join(format!("porelab-resume-{}", std::process::id()));
+        let opts = RunOptions {
+            quiet: true,
+            ..Default::default()
+        };
+        let read = |out: &Path| {
+            ["capture.csv", "positions.csv"].map(|f| std::fs::read_to_string(out.join(f)).unwrap())
+        };
+        let whole = base.join("whole");
+        run_scene(scene, "test", &whole, &opts).unwrap();
+        // The "killed" run: run 1 never finished (its file is gone, a stale temporary stays),
+        // and no outputs were written.
+        let killed = base.join("killed");
+        run_scene(scene, "test", &killed, &opts).unwrap();
+        let runs = killed.join("runs");
+        std::fs::remove_file(runs.join("point000-run0001.json")).unwrap();
+        std::fs::write(runs.join(".point000-run0001.json.tmp-1-0"), b"{half").unwrap();
+        for f in ["capture.csv", "positions.csv", "summary.json"] {
+            std::fs::remove_file(killed.join(f)).unwrap();
+        }
+        run_scene(scene, "test", &killed, &opts).unwrap();
+        assert!(read(&whole) == read(&killed), "resumed outputs differ");
+        // The same folder with another scene text is refused, naming the run file.
+        let other = scene.replace("seed = 11", "seed = 12");
+        let e = run_scene(&other, "test", &killed, &opts)
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.contains("different scene") && e.contains("run0000.json"),
+            "{e}"
+        );
+        std::fs::remove_dir_all(&base).ok();
     }
 }

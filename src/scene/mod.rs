@@ -14,6 +14,7 @@ pub mod dem;
 pub mod deposition;
 pub mod lbm;
 pub mod packing;
+pub mod run_store;
 
 use crate::error::{invalid, Error, Result};
 use std::path::{Path, PathBuf};
