@@ -66,6 +66,8 @@ enum Command {
     },
     /// Permeability of a periodic particle configuration (extended XYZ) by lattice Boltzmann.
     Permeability(porelab::lbm::pore::PermeabilityArgs),
+    /// Parameter sweeps and ensembles: plan, run locally or as a Slurm job array, collect.
+    Sweep(porelab::sweep::SweepArgs),
     /// Work-precision benchmarks.
     Bench {
         #[command(subcommand)]
@@ -143,6 +145,7 @@ fn main() -> ExitCode {
             },
         )
         .map(|_| ExitCode::SUCCESS),
+        Command::Sweep(args) => porelab::sweep::cli(&args),
         Command::Bench { what } => match what {
             BenchWhat::Field(args) => {
                 porelab::magnetics::bench::run(&args).map(|_| ExitCode::SUCCESS)

@@ -98,6 +98,21 @@ pub fn run_text(text: &str, origin: &str, out_stem: &str, opts: &RunOptions) -> 
     }
 }
 
+/// Parses and checks the scene in `text` as [`run_text`] does before it runs, without running
+/// it (each engine's own parse and validation; `porelab sweep plan` checks every job so).
+pub fn check_text(text: &str, origin: &str) -> Result<()> {
+    match scene_kind(text, origin)?.as_str() {
+        "brownian" => brownian::check_scene(text, origin),
+        "packing" => packing::parse_scene(text, origin).map(|_| ()),
+        "dem" => dem::parse_scene(text, origin).map(|_| ()),
+        "deposition" => deposition::parse_scene(text, origin).map(|_| ()),
+        "lbm" => lbm::check_scene(text, origin),
+        other => invalid(format!(
+            "{origin}: kind = \"{other}\": unknown engine (known: {KNOWN_KINDS})"
+        )),
+    }
+}
+
 /// `porelab run --show NAME`: prints the built-in scene's TOML to stdout, to start a scene
 /// file from (`porelab run --show packing-spheres > my.toml`).
 pub fn cli_show(name: &str) -> Result<()> {
