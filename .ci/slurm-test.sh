@@ -52,11 +52,18 @@ chown -R munge:munge /etc/munge /run/munge /var/log/munge /var/lib/munge
 chmod 0700 /etc/munge
 chmod 0400 /etc/munge/munge.key
 
+# Never overwrite a slurm.conf this script did not write (a real cluster's).
+MARK="# Written by porelab's .ci/slurm-test.sh"
+if [[ -f /etc/slurm/slurm.conf ]] && ! head -n 1 /etc/slurm/slurm.conf | grep -qF "$MARK"; then
+    echo "slurm-test: /etc/slurm/slurm.conf exists and was not written by this script: left alone" >&2
+    exit 1
+fi
+
 # The node line as slurmd itself sees this machine (NodeName, CPUs, sockets, memory).
 NODE=$(slurmd -C | head -n 1)
 HOST=$(hostname -s)
 cat >/etc/slurm/slurm.conf <<EOF
-# Written by porelab's .ci/slurm-test.sh: one node, no cgroups, no accounting database.
+$MARK: one node, no cgroups, no accounting database.
 ClusterName=porelab
 SlurmctldHost=$HOST
 SlurmUser=root

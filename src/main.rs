@@ -102,6 +102,8 @@ enum BenchWhat {
     /// DEM: particle-steps per second per core against N, one and two threads, neighbour
     /// share, side by side with LAMMPS.
     Dem(porelab::dem::bench::BenchArgs),
+    /// Sweeps: per-job overhead of plan, launch and collect; a 100-job sweep on 1 and 2 workers.
+    Sweep(porelab::sweep::bench::BenchArgs),
 }
 
 fn main() -> ExitCode {
@@ -161,6 +163,7 @@ fn main() -> ExitCode {
             }
             BenchWhat::Lbm(args) => porelab::lbm::bench::run(&args).map(|_| ExitCode::SUCCESS),
             BenchWhat::Dem(args) => porelab::dem::bench::run(&args).map(|_| ExitCode::SUCCESS),
+            BenchWhat::Sweep(args) => porelab::sweep::bench::run(&args).map(|_| ExitCode::SUCCESS),
         },
     };
     match result {

@@ -9,7 +9,7 @@ mod sweep_scene;
 
 use std::process::Command;
 use std::time::{Duration, Instant};
-use sweep_scene::{fresh_dir, porelab, write_sweep};
+use sweep_scene::{fresh_dir, ok, porelab, write_sweep};
 
 /// Why no cluster can be used, or None when `sinfo` answers with a node up.
 fn no_cluster() -> Option<String> {
@@ -34,15 +34,9 @@ fn no_cluster() -> Option<String> {
     }
 }
 
-fn ok(cmd: &mut Command) -> String {
-    let out = cmd.output().expect("command runs");
-    assert!(
-        out.status.success(),
-        "{cmd:?} failed: {}{}",
-        String::from_utf8_lossy(&out.stdout),
-        String::from_utf8_lossy(&out.stderr)
-    );
-    String::from_utf8_lossy(&out.stdout).into_owned()
+/// The stdout of a command that must succeed.
+fn ok_out(cmd: &mut Command) -> String {
+    ok(cmd).0
 }
 
 #[test]
@@ -56,13 +50,15 @@ fn a_slurm_job_array_collects_the_same_table_as_a_local_run() {
     let sweep = write_sweep(&root);
     let (on_slurm, local) = (root.join("on-slurm"), root.join("local"));
     for d in [&on_slurm, &local] {
-        ok(porelab()
-            .args(["sweep", "plan"])
-            .arg(&sweep)
-            .arg("--out")
-            .arg(d));
+        ok_out(
+            porelab()
+                .args(["sweep", "plan"])
+                .arg(&sweep)
+                .arg("--out")
+                .arg(d),
+        );
     }
-    let id = ok(porelab().args(["sweep", "slurm"]).arg(&on_slurm).args([
+    let id = ok_out(porelab().args(["sweep", "slurm"]).arg(&on_slurm).args([
         "--max-running",
         "2",
         "--time",
@@ -76,10 +72,10 @@ fn a_slurm_job_array_collects_the_same_table_as_a_local_run() {
     );
     println!("submitted array job {id}");
     // Meanwhile the same sweep locally.
-    ok(porelab().args(["sweep", "run"]).arg(&local));
+    ok_out(porelab().args(["sweep", "run"]).arg(&local));
     let started = Instant::now();
     loop {
-        let q = ok(Command::new("squeue").args(["-h", "-j", &id, "-o", "%i %T"]));
+        let q = ok_out(Command::new("squeue").args(["-h", "-j", &id, "-o", "%i %T"]));
         if q.trim().is_empty() {
             break;
         }
@@ -95,7 +91,7 @@ fn a_slurm_job_array_collects_the_same_table_as_a_local_run() {
     );
     // Every task ran under Slurm and ended COMPLETED with exit code 0 (scontrol keeps finished
     // jobs for MinJobAge; the test cluster sets 600 s).
-    let show = ok(Command::new("scontrol").args(["show", "job", &id]));
+    let show = ok_out(Command::new("scontrol").args(["show", "job", &id]));
     let tasks: Vec<&str> = show
         .split("\n\n")
         .filter(|rec| rec.contains("ArrayTaskId="))
@@ -115,15 +111,15 @@ fn a_slurm_job_array_collects_the_same_table_as_a_local_run() {
             "{text}"
         );
     }
-    let status = ok(porelab().args(["sweep", "status"]).arg(&on_slurm));
+    let status = ok_out(porelab().args(["sweep", "status"]).arg(&on_slurm));
     assert!(status.contains("6 done, 0 failed"), "{status}");
     for d in [&on_slurm, &local] {
-        ok(porelab().args(["sweep", "collect"]).arg(d));
+        ok_out(porelab().args(["sweep", "collect"]).arg(d));
     }
     let a = std::fs::read(on_slurm.join("collected.csv")).unwrap();
     let b = std::fs::read(local.join("collected.csv")).unwrap();
     assert!(a == b, "Slurm and local collected.csv differ");
     // Nothing left to submit.
-    ok(porelab().args(["sweep", "slurm"]).arg(&on_slurm));
+    ok_out(porelab().args(["sweep", "slurm"]).arg(&on_slurm));
     assert!(!on_slurm.join("sweep.sbatch").exists());
 }

@@ -6,19 +6,7 @@
 mod sweep_scene;
 
 use std::path::{Path, PathBuf};
-use std::process::Command;
-use sweep_scene::{fresh_dir, porelab, write_sweep};
-
-fn ok(cmd: &mut Command) -> String {
-    let out = cmd.output().expect("porelab runs");
-    assert!(
-        out.status.success(),
-        "{cmd:?} failed: {}\n{}",
-        String::from_utf8_lossy(&out.stdout),
-        String::from_utf8_lossy(&out.stderr)
-    );
-    String::from_utf8_lossy(&out.stderr).into_owned()
-}
+use sweep_scene::{fresh_dir, ok, porelab, write_sweep};
 
 fn planned(name: &str) -> (PathBuf, PathBuf) {
     let root = fresh_dir(name);
@@ -39,6 +27,11 @@ fn run(dir: &Path, jobs: usize) -> std::process::Output {
         .args(["--jobs", &jobs.to_string()])
         .output()
         .unwrap()
+}
+
+/// What `porelab sweep status DIR` prints.
+fn status(dir: &Path) -> String {
+    ok(porelab().args(["sweep", "status"]).arg(dir)).0
 }
 
 fn collected(dir: &Path) -> String {
@@ -176,12 +169,7 @@ fn a_killed_sweep_resumes_to_the_same_table() {
     .unwrap();
     // Job 4 killed between the rename and the record: out/ but no done.json.
     std::fs::remove_file(job(&dir, 4).join("done.json")).unwrap();
-    let st = porelab()
-        .args(["sweep", "status"])
-        .arg(&dir)
-        .output()
-        .unwrap();
-    let st = String::from_utf8_lossy(&st.stdout).into_owned();
+    let st = status(&dir);
     assert!(
         st.contains("4 done, 0 failed, 1 started") && st.contains("1 pending"),
         "{st}"
@@ -227,12 +215,7 @@ fn a_failing_job_is_recorded_and_the_others_finish() {
     for i in [0, 2, 3, 4, 5] {
         assert!(job(&dir, i).join("done.json").is_file(), "job {i}");
     }
-    let st = porelab()
-        .args(["sweep", "status"])
-        .arg(&dir)
-        .output()
-        .unwrap();
-    let st = String::from_utf8_lossy(&st.stdout).into_owned();
+    let st = status(&dir);
     assert!(
         st.contains("5 done, 1 failed") && st.contains("job 00001 failed: "),
         "{st}"

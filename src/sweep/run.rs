@@ -78,7 +78,8 @@ pub fn run_job(dir: &Path, plan: &Plan, i: usize, threads: Option<usize>) -> Res
             out: Some(tmp.clone()),
             threads,
             quiet: true,
-            checkpoint_every_seconds: None,
+            // As `porelab run`'s default: a killed job restarts from its scene anyway.
+            checkpoint_every_seconds: Some(10.0),
         };
         crate::scene::run_text(&text, &scene_path.display().to_string(), "job", &opts)
     };

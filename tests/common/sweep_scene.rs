@@ -5,19 +5,8 @@
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
-pub const BASE_SCENE: &str = r#"kind = "packing"
-title = "sweep test"
-[particles]
-shape = "sphere"
-n = 20
-[mcm]
-delta_v_per_particle = 0.05
-halvings = 2
-tries_per_particle = 50.0
-[analysis]
-gr_bins = 20
-s4_trials = 50
-"#;
+/// The base scene: 20 spheres (the sweep benchmark's scene).
+pub const BASE_SCENE: &str = porelab::sweep::bench::TINY_PACKING;
 
 pub const SWEEP: &str = r#"title = "2 sizes x 3 runs"
 scene = "base.toml"
@@ -46,4 +35,15 @@ pub fn write_sweep(root: &Path) -> PathBuf {
     let s = root.join("sweep.toml");
     std::fs::write(&s, SWEEP).unwrap();
     s
+}
+
+/// Runs `cmd` and asserts that it succeeded; returns its stdout and stderr.
+pub fn ok(cmd: &mut Command) -> (String, String) {
+    let out = cmd.output().expect("the command starts");
+    let (o, e) = (
+        String::from_utf8_lossy(&out.stdout).into_owned(),
+        String::from_utf8_lossy(&out.stderr).into_owned(),
+    );
+    assert!(out.status.success(), "{cmd:?} failed: {o}\n{e}");
+    (o, e)
 }
