@@ -59,7 +59,7 @@ pub fn write_plots(dir: &Path, c: &Collected) -> Result<usize> {
                     .collect();
                 Series {
                     label: if label.is_empty() {
-                        "mean +- standard error".into()
+                        "mean, bars: one standard error".into()
                     } else {
                         label.clone()
                     },
