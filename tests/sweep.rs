@@ -296,3 +296,88 @@ fn the_slurm_script_lists_only_unfinished_tasks() {
         .unwrap();
     assert!(String::from_utf8_lossy(&bad.stderr).contains("--time 10 min"));
 }
+
+#[test]
+fn a_point_that_passes_the_plan_but_fails_at_run_time_is_isolated() {
+    // 3e9 particles pass the packing schema; the run refuses them against the memory of the
+    // machine it runs on (about 2 kB per particle: 6 TB), which the plan cannot know.
+    let root = fresh_dir("runtime-failure");
+    std::fs::write(root.join("base.toml"), sweep_scene::BASE_SCENE).unwrap();
+    let sweep = root.join("sweep.toml");
+    std::fs::write(
+        &sweep,
+        "scene = \"base.toml\"\n[vary]\n\"particles.n\" = [3000000000, 20]\n",
+    )
+    .unwrap();
+    let dir = root.join("sweep");
+    ok(porelab()
+        .args(["sweep", "plan"])
+        .arg(&sweep)
+        .arg("--out")
+        .arg(&dir));
+    let out = run(&dir, 2);
+    assert_eq!(out.status.code(), Some(1));
+    let failed = json(&job(&dir, 0).join("failed.json"));
+    let msg = failed["error"].as_str().unwrap();
+    assert!(
+        msg.contains("n = 3000000000") && msg.contains("memory"),
+        "{msg}"
+    );
+    assert!(job(&dir, 1).join("done.json").is_file());
+    assert!(!job(&dir, 0).join("out").exists());
+    let rows = table(&collected(&dir));
+    assert_eq!(
+        (rows[0]["runs_done"].as_str(), rows[1]["runs_done"].as_str()),
+        ("0", "1")
+    );
+    assert_eq!(rows[0]["packing_fraction.n"], "0");
+    assert_eq!(rows[0]["packing_fraction.mean"], "");
+}
+
+#[test]
+fn a_run_killed_for_real_finishes_on_restart() {
+    use std::os::unix::process::CommandExt;
+    let (_, dir) = planned("sigkill");
+    let (_, reference) = planned("sigkill-reference");
+    assert!(run(&reference, 1).status.success());
+    // The runner and its job process in one process group, killed together with SIGKILL as
+    // soon as two jobs are done (the third is then starting, running or being recorded).
+    let mut child = porelab()
+        .args(["sweep", "run"])
+        .arg(&dir)
+        .process_group(0)
+        .stderr(std::process::Stdio::null())
+        .spawn()
+        .unwrap();
+    let started = std::time::Instant::now();
+    while (0..6)
+        .filter(|&i| job(&dir, i).join("done.json").is_file())
+        .count()
+        < 2
+    {
+        assert!(started.elapsed().as_secs() < 60, "no two jobs done in 60 s");
+        std::thread::sleep(std::time::Duration::from_millis(2));
+    }
+    let group = format!("-{}", child.id());
+    ok(std::process::Command::new("kill").args(["-KILL", "--", &group]));
+    let _ = child.wait();
+    let done = (0..6)
+        .filter(|&i| job(&dir, i).join("done.json").is_file())
+        .count();
+    assert!(
+        done < 6,
+        "the kill came too late to test anything ({done} done)"
+    );
+    assert!(run(&dir, 2).status.success());
+    for i in 0..6 {
+        let names: Vec<String> = std::fs::read_dir(job(&dir, i))
+            .unwrap()
+            .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+            .collect();
+        assert!(
+            !names.iter().any(|n| n.starts_with("tmp-")),
+            "job {i}: {names:?}"
+        );
+    }
+    assert_eq!(collected(&dir), collected(&reference));
+}

@@ -140,24 +140,28 @@ fn run_child(exe: &Path, dir: &Path, i: usize, threads: usize) -> Result<()> {
         .stdout(log.try_clone()?)
         .stderr(log)
         .status()?;
-    // A child that died without a record (killed, out of memory) leaves its failure here.
-    if !status.success() && job_state(dir, i) != JobState::Done {
-        if let JobState::Failed(_) = job_state(dir, i) {
-            return Ok(());
-        }
-        let record = serde_json::json!({
-            "job": i, "error": format!("the job's process ended with {status} and no record"),
-        });
-        write_atomic(
-            &job_dir(dir, i).join("failed.json"),
-            record.to_string().as_bytes(),
-        )?;
+    if status.success() || matches!(job_state(dir, i), JobState::Done | JobState::Failed(_)) {
+        return Ok(());
     }
+    // Ended by a signal (Ctrl-C, kill, the out-of-memory killer) before any record: left for
+    // the next run, which removes its tmp folder and starts it again.
+    #[cfg(unix)]
+    if std::os::unix::process::ExitStatusExt::signal(&status).is_some() {
+        return Ok(());
+    }
+    // Any other exit without a record is a failure of its own.
+    let record = serde_json::json!({
+        "job": i, "error": format!("the job's process ended with {status} and no record"),
+    });
+    write_atomic(
+        &job_dir(dir, i).join("failed.json"),
+        record.to_string().as_bytes(),
+    )?;
     Ok(())
 }
 
 /// `porelab sweep run DIR --jobs K`: the unfinished jobs, K at a time; exit code 1 when any
-/// job of the sweep is failed at the end.
+/// job of the sweep is not done at the end (failed, or interrupted).
 pub fn cli_run(
     dir: &Path,
     k: usize,
@@ -195,7 +199,10 @@ pub fn cli_run(
                 match job_state(dir, i) {
                     JobState::Done => eprintln!("  job {i:05} done ({took:.2} s)"),
                     JobState::Failed(m) => eprintln!("  job {i:05} FAILED: {m}"),
-                    other => eprintln!("  job {i:05} ended {other:?}"),
+                    _ => eprintln!(
+                        "  job {i:05} interrupted (its process was killed); the next run \
+                         starts it again"
+                    ),
                 }
             });
         }
@@ -207,26 +214,20 @@ pub fn cli_run(
             errors.len()
         )));
     }
-    let failed = plan
-        .jobs
-        .iter()
-        .filter(|j| matches!(job_state(dir, j.job), JobState::Failed(_)))
-        .count();
-    let done = plan
-        .jobs
-        .iter()
-        .filter(|j| job_state(dir, j.job) == JobState::Done)
-        .count();
+    let c = super::status::counts(dir, &plan);
+    let failed = c.failed.len();
     eprintln!(
-        "porelab sweep run: {done} of {} done, {failed} failed{}",
+        "porelab sweep run: {} of {} done, {failed} failed, {} not run or interrupted{}",
+        c.done,
         plan.jobs.len(),
+        c.started + c.pending,
         if failed > 0 {
             " (`porelab sweep status` shows why; --retry-failed runs them again)"
         } else {
             ""
         }
     );
-    Ok(if failed > 0 {
+    Ok(if c.done < plan.jobs.len() {
         ExitCode::from(1)
     } else {
         ExitCode::SUCCESS
