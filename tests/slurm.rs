@@ -9,7 +9,7 @@ mod sweep_scene;
 
 use std::process::Command;
 use std::time::{Duration, Instant};
-use sweep_scene::{fresh_dir, ok, porelab, write_sweep};
+use sweep_scene::{fresh_dir, ok, plan, porelab, write_sweep};
 
 /// Why no cluster can be used, or None when `sinfo` answers with a node up.
 fn no_cluster() -> Option<String> {
@@ -50,13 +50,7 @@ fn a_slurm_job_array_collects_the_same_table_as_a_local_run() {
     let sweep = write_sweep(&root);
     let (on_slurm, local) = (root.join("on-slurm"), root.join("local"));
     for d in [&on_slurm, &local] {
-        ok_out(
-            porelab()
-                .args(["sweep", "plan"])
-                .arg(&sweep)
-                .arg("--out")
-                .arg(d),
-        );
+        plan(&sweep, d);
     }
     let id = ok_out(porelab().args(["sweep", "slurm"]).arg(&on_slurm).args([
         "--max-running",

@@ -6,17 +6,13 @@
 mod sweep_scene;
 
 use std::path::{Path, PathBuf};
-use sweep_scene::{fresh_dir, ok, porelab, write_sweep};
+use sweep_scene::{fresh_dir, ok, plan, porelab, write_sweep};
 
 fn planned(name: &str) -> (PathBuf, PathBuf) {
     let root = fresh_dir(name);
     let sweep = write_sweep(&root);
     let dir = root.join("sweep");
-    ok(porelab()
-        .args(["sweep", "plan"])
-        .arg(&sweep)
-        .arg("--out")
-        .arg(&dir));
+    plan(&sweep, &dir);
     (sweep, dir)
 }
 
@@ -122,11 +118,7 @@ fn a_second_run_does_nothing_and_a_second_plan_keeps_the_results() {
     let again = run(&dir, 2);
     assert!(again.status.success());
     assert!(String::from_utf8_lossy(&again.stderr).contains("0 of 6 jobs to run"));
-    ok(porelab()
-        .args(["sweep", "plan"])
-        .arg(&sweep)
-        .arg("--out")
-        .arg(&dir));
+    plan(&sweep, &dir);
     let after = std::fs::metadata(job(&dir, 0).join("done.json"))
         .unwrap()
         .modified()
@@ -310,11 +302,7 @@ fn a_point_that_passes_the_plan_but_fails_at_run_time_is_isolated() {
     )
     .unwrap();
     let dir = root.join("sweep");
-    ok(porelab()
-        .args(["sweep", "plan"])
-        .arg(&sweep)
-        .arg("--out")
-        .arg(&dir));
+    plan(&sweep, &dir);
     let out = run(&dir, 2);
     assert_eq!(out.status.code(), Some(1));
     let failed = json(&job(&dir, 0).join("failed.json"));

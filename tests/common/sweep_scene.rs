@@ -47,3 +47,12 @@ pub fn ok(cmd: &mut Command) -> (String, String) {
     assert!(out.status.success(), "{cmd:?} failed: {o}\n{e}");
     (o, e)
 }
+
+/// `porelab sweep plan SWEEP --out DIR`, which must succeed.
+pub fn plan(sweep: &Path, dir: &Path) {
+    ok(porelab()
+        .args(["sweep", "plan"])
+        .arg(sweep)
+        .arg("--out")
+        .arg(dir));
+}
