@@ -72,6 +72,15 @@ fn axis_range(values: impl Iterator<Item = f64>, log: bool) -> Option<(f64, f64)
 /// Writes `plot` as an SVG file at `path` (through a temporary file and a rename). A plot
 /// without a single finite point is refused, naming the file: an empty picture is no result.
 pub fn write_svg(path: &Path, plot: &Plot) -> Result<()> {
+    let svg = render_svg(plot, SIZE).map_err(|e| Error::File {
+        path: path.display().to_string(),
+        msg: e.to_string(),
+    })?;
+    super::write_atomic(path, svg.as_bytes())
+}
+
+/// The SVG text of `plot` at `size` pixels (for embedding in an HTML page).
+pub fn render_svg(plot: &Plot, size: (u32, u32)) -> Result<String> {
     let ys = |s: &Series| -> Vec<f64> {
         let err = s.y_err.as_deref();
         s.points
@@ -91,27 +100,54 @@ pub fn write_svg(path: &Path, plot: &Plot) -> Result<()> {
     );
     let y_range = axis_range(plot.series.iter().flat_map(ys), plot.log_y);
     let (Some((x0, x1)), Some((y0, y1))) = (x_range, y_range) else {
-        return invalid(format!(
-            "{}: plot '{}' has no finite point to draw",
-            path.display(),
-            plot.title
-        ));
+        return invalid(format!("plot '{}' has no finite point to draw", plot.title));
     };
     let mut svg = String::new();
     {
-        let backend = SVGBackend::with_string(&mut svg, SIZE);
+        let backend = SVGBackend::with_string(&mut svg, size);
         let drawn = match (plot.log_x, plot.log_y) {
             (false, false) => draw(backend, plot, x0..x1, y0..y1),
             (true, false) => draw(backend, plot, (x0..x1).log_scale(), y0..y1),
             (false, true) => draw(backend, plot, x0..x1, (y0..y1).log_scale()),
             (true, true) => draw(backend, plot, (x0..x1).log_scale(), (y0..y1).log_scale()),
         };
-        drawn.map_err(|e| Error::File {
-            path: path.display().to_string(),
-            msg: format!("cannot draw the plot: {e}"),
-        })?;
+        drawn.map_err(|e| Error::InvalidInput(format!("cannot draw the plot: {e}")))?;
     }
-    super::write_atomic(path, svg.as_bytes())
+    Ok(svg)
+}
+
+/// A tick label: at most four significant digits, exponent form outside 1e-3..1e5.
+fn tick(v: &f64) -> String {
+    let v = *v;
+    if v == 0.0 {
+        return "0".into();
+    }
+    if !v.is_finite() {
+        return format!("{v}");
+    }
+    let mag = v.abs().log10().floor() as i32;
+    if (-3..5).contains(&mag) {
+        let text = format!("{v:.prec$}", prec = (3 - mag).max(0) as usize);
+        let text = if text.contains('.') {
+            text.trim_end_matches('0').trim_end_matches('.').to_string()
+        } else {
+            text
+        };
+        if text == "-0" {
+            "0".into()
+        } else {
+            text
+        }
+    } else {
+        let text = format!("{v:.3e}");
+        let (m, e) = text.split_once('e').unwrap_or((&text, "0"));
+        let m = if m.contains('.') {
+            m.trim_end_matches('0').trim_end_matches('.')
+        } else {
+            m
+        };
+        format!("{m}e{e}")
+    }
 }
 
 /// Draws the frame, the mesh with labels, every series with its error bars, and the legend.
@@ -139,6 +175,8 @@ where
         .configure_mesh()
         .x_desc(plot.x_label.as_str())
         .y_desc(plot.y_label.as_str())
+        .x_label_formatter(&tick)
+        .y_label_formatter(&tick)
         .light_line_style(WHITE.mix(0.0))
         .draw()?;
     for (k, s) in plot.series.iter().enumerate() {
@@ -182,6 +220,110 @@ where
     Ok(())
 }
 
+/// A plot of two columns of a CSV table (header row), one series per distinct value of the
+/// `group_by` columns: the one way every engine draws its main result from the CSV it wrote.
+#[derive(Debug, Clone, Default)]
+pub struct CsvPlot<'a> {
+    pub title: &'a str,
+    /// Column names of x, y and (optionally) the half-width of y's error bar.
+    pub x: &'a str,
+    pub y: &'a str,
+    pub y_err: Option<&'a str>,
+    /// Columns whose values name a series ("region=TOP, alpha_deg=90").
+    pub group_by: &'a [&'a str],
+    /// Axis labels with units.
+    pub x_label: &'a str,
+    pub y_label: &'a str,
+    pub log_x: bool,
+    pub log_y: bool,
+}
+
+impl CsvPlot<'_> {
+    /// The plot of `csv_text`; a missing column or a value that is not a number is an error
+    /// naming it (rows whose y is empty, a quantity not defined there, are left out).
+    pub fn build(&self, csv_text: &str) -> Result<Plot> {
+        let mut reader = csv::Reader::from_reader(csv_text.as_bytes());
+        let header = reader
+            .headers()
+            .map_err(|e| Error::InvalidInput(format!("plot '{}': {e}", self.title)))?
+            .clone();
+        let col = |name: &str| {
+            header.iter().position(|h| h == name).ok_or_else(|| {
+                Error::InvalidInput(format!("plot '{}': no column '{name}'", self.title))
+            })
+        };
+        let (ix, iy) = (col(self.x)?, col(self.y)?);
+        let ie = self.y_err.map(col).transpose()?;
+        let groups: Vec<usize> = self
+            .group_by
+            .iter()
+            .map(|g| col(g))
+            .collect::<Result<_>>()?;
+        let mut series: Vec<Series> = Vec::new();
+        for record in reader.records() {
+            let r =
+                record.map_err(|e| Error::InvalidInput(format!("plot '{}': {e}", self.title)))?;
+            let num = |i: usize| -> Result<Option<f64>> {
+                let text = r.get(i).unwrap_or("").trim();
+                if text.is_empty() || text == "null" {
+                    return Ok(None);
+                }
+                text.parse().map(Some).map_err(|_| {
+                    Error::InvalidInput(format!(
+                        "plot '{}': column '{}' holds '{text}', not a number",
+                        self.title, &header[i]
+                    ))
+                })
+            };
+            let (Some(x), Some(y)) = (num(ix)?, num(iy)?) else {
+                continue;
+            };
+            let label = groups
+                .iter()
+                .map(|&g| format!("{}={}", &header[g], r.get(g).unwrap_or("")))
+                .collect::<Vec<_>>()
+                .join(", ");
+            let k = match series.iter().position(|s| s.label == label) {
+                Some(k) => k,
+                None => {
+                    series.push(Series {
+                        label: label.clone(),
+                        points: Vec::new(),
+                        y_err: ie.map(|_| Vec::new()),
+                    });
+                    series.len() - 1
+                }
+            };
+            series[k].points.push((x, y));
+            if let (Some(i), Some(errs)) = (ie, series[k].y_err.as_mut()) {
+                errs.push(num(i)?.unwrap_or(0.0));
+            }
+        }
+        Ok(Plot {
+            title: self.title.to_string(),
+            x_label: self.x_label.to_string(),
+            y_label: self.y_label.to_string(),
+            log_x: self.log_x,
+            log_y: self.log_y,
+            series,
+        })
+    }
+
+    /// Builds the plot of `csv_text` and writes it as SVG at `path`.
+    pub fn write(&self, path: &Path, csv_text: &str) -> Result<()> {
+        write_svg(path, &self.build(csv_text)?)
+    }
+
+    /// As [`CsvPlot::write`], for a run's pictures: the CSV beside it holds the result, so a
+    /// plot that cannot be drawn (say, a kinetic energy that is 0 throughout on a log axis)
+    /// is reported on stderr, naming the file, and the run goes on.
+    pub fn write_or_warn(&self, path: &Path, csv_text: &str) {
+        if let Err(e) = self.write(path, csv_text) {
+            eprintln!("warning: {} not written: {e}", path.display());
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -219,6 +361,45 @@ mod tests {
         for s in ["capture", "time (s)", "captured fraction", "TOP", "SIDE"] {
             assert!(text.contains(s), "{s} missing from the SVG");
         }
+    }
+
+    #[test]
+    fn csv_plots_group_rows_into_series_and_name_bad_columns() {
+        let csv = "region,time_s,f,se\nTOP,0,0,0\nTOP,1,0.5,0.1\nSIDE,0,0,0\nSIDE,1,,\n";
+        let spec = CsvPlot {
+            title: "capture",
+            x: "time_s",
+            y: "f",
+            y_err: Some("se"),
+            group_by: &["region"],
+            x_label: "time (s)",
+            y_label: "captured fraction",
+            ..Default::default()
+        };
+        let p = spec.build(csv).unwrap();
+        assert_eq!(p.series.len(), 2);
+        assert_eq!(p.series[0].label, "region=TOP");
+        assert_eq!(p.series[0].points, vec![(0.0, 0.0), (1.0, 0.5)]);
+        assert_eq!(p.series[0].y_err, Some(vec![0.0, 0.1]));
+        assert_eq!(p.series[1].points.len(), 1, "an empty y is left out");
+        assert_eq!(tick(&9.999999999999998e-9), "1e-8");
+        assert_eq!(tick(&0.00012), "1.2e-4");
+        assert_eq!(tick(&0.0012), "0.0012");
+        assert_eq!(tick(&-0.0), "0");
+        assert_eq!(tick(&250.0), "250");
+        let e = CsvPlot {
+            y: "g",
+            ..spec.clone()
+        }
+        .build(csv)
+        .unwrap_err()
+        .to_string();
+        assert!(e.contains("no column 'g'"), "{e}");
+        let e = spec
+            .build("region,time_s,f,se\nTOP,x,1,0\n")
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("'time_s' holds 'x'"), "{e}");
     }
 
     #[test]

@@ -21,6 +21,7 @@ use crate::brownian::experiment::{
 use crate::brownian::{Hydrodynamics, LangevinMoment, NoiseMethod, Params, StepGuard};
 use crate::consts::MU0;
 use crate::error::{invalid, Error, Result};
+use crate::io::plot::CsvPlot;
 use crate::io::write_atomic;
 use indicatif::{ProgressBar, ProgressStyle};
 use nalgebra::Vector3;
@@ -863,6 +864,17 @@ fn run_capture(
     pb.finish_and_clear();
     write_atomic(&out.join("capture.csv"), csv.as_bytes())?;
     write_atomic(&out.join("positions.csv"), pos_csv.as_bytes())?;
+    CsvPlot {
+        title: "Captured fraction (mean over runs, one standard error)",
+        x: "time_s",
+        y: "captured_fraction_mean",
+        y_err: Some("captured_fraction_stderr"),
+        group_by: &["aspect_ratio", "radius_m", "alpha_deg", "region"],
+        x_label: "time (s)",
+        y_label: "captured fraction",
+        ..Default::default()
+    }
+    .write_or_warn(&out.join("capture.svg"), &csv);
     // The results on stdout (even with --quiet, which hides progress), the report on stderr.
     for f in &finals {
         println!(
@@ -938,6 +950,17 @@ fn run_cascades(
     }
     pb.finish_and_clear();
     write_atomic(&out.join("cascade.csv"), csv.as_bytes())?;
+    CsvPlot {
+        title: "Cascade: captured fraction (mean over runs, one standard error)",
+        x: "time_s",
+        y: "captured_fraction_mean",
+        y_err: Some("captured_fraction_stderr"),
+        group_by: &["mode"],
+        x_label: "time (s)",
+        y_label: "captured fraction",
+        ..Default::default()
+    }
+    .write_or_warn(&out.join("cascade.svg"), &csv);
     println!(
         "time to 90% capture: {}",
         serde_json::Value::Object(summary.clone())

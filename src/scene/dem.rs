@@ -59,6 +59,7 @@ use crate::dem::{
     Particles, TangentialModel, TopWall,
 };
 use crate::error::{invalid, Error};
+use crate::io::plot::CsvPlot;
 use crate::io::{write_atomic, xyz};
 use crate::Result;
 use nalgebra::{UnitQuaternion, Vector3};
@@ -710,6 +711,25 @@ pub fn run_scene(text: &str, origin: &str, out: &Path, opts: &RunOptions) -> Res
         let _ = writeln!(prof, "{a},{b},{e}");
     }
     write_atomic(&out.join("profile.csv"), prof.as_bytes())?;
+    CsvPlot {
+        title: "Porosity profile of the bed (exact sphere-slab volumes)",
+        x: "z_lo_m",
+        y: "porosity",
+        x_label: "height of the slab's lower face (m)",
+        y_label: "porosity",
+        ..Default::default()
+    }
+    .write_or_warn(&out.join("profile.svg"), &prof);
+    CsvPlot {
+        title: "Kinetic energy of the particles",
+        x: "time_s",
+        y: "kinetic_energy_J",
+        x_label: "time (s)",
+        y_label: "kinetic energy (J)",
+        log_y: true,
+        ..Default::default()
+    }
+    .write_or_warn(&out.join("history.svg"), &hist);
     let parts: Vec<xyz::XyzParticle> = (0..dem.p.len())
         .map(|i| {
             let r = dem.p.radius[i];

@@ -785,11 +785,13 @@ fn write_outputs(
     results: &[RunResult],
     seconds: f64,
 ) -> Result<()> {
+    use crate::io::plot::CsvPlot;
     use crate::io::write_atomic;
     let names: Vec<&str> = scene.species.iter().map(|s| s.name.as_str()).collect();
     let mut runs_csv = String::new();
     let header: Vec<String> = scalars(&results[0]).into_iter().map(|(n, _)| n).collect();
     let _ = writeln!(runs_csv, "run,{}", header.join(","));
+    let mut profiles_csv = String::from("run,z_mid_m,porosity\n");
     for r in results {
         let dir = out.join(format!("run-{:03}", r.run));
         let top = r
@@ -826,6 +828,8 @@ fn write_outputs(
         let mut prof = String::from("z_low_m,z_high_m,porosity\n");
         for b in &r.measures.profile {
             let _ = writeln!(prof, "{},{},{}", b.z_low_m, b.z_high_m, b.porosity);
+            let z_mid_m = 0.5 * (b.z_low_m + b.z_high_m);
+            let _ = writeln!(profiles_csv, "{},{z_mid_m},{}", r.run, b.porosity);
         }
         write_atomic(&dir.join("porosity_profile.csv"), prof.as_bytes())?;
         let mut hist = String::from("sweep,mean_displacement_m,acceptance,drainage_speed_m_s\n");
@@ -864,6 +868,16 @@ fn write_outputs(
         let _ = writeln!(runs_csv, "{},{}", r.run, vals.join(","));
     }
     write_atomic(&out.join("runs.csv"), runs_csv.as_bytes())?;
+    CsvPlot {
+        title: "Porosity profile of the deposit (exact slab volumes), one curve per run",
+        x: "z_mid_m",
+        y: "porosity",
+        group_by: &["run"],
+        x_label: "height above the substrate (m)",
+        y_label: "porosity",
+        ..Default::default()
+    }
+    .write_or_warn(&out.join("porosity_profile.svg"), &profiles_csv);
     let ens = ensemble(results);
     let mut ens_csv = String::from("quantity,mean,standard_error,runs\n");
     for (n, m, se, c) in &ens {

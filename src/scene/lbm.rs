@@ -33,6 +33,7 @@
 
 use super::{Builtin, RunOptions};
 use crate::error::{invalid, Error, Result};
+use crate::io::plot::CsvPlot;
 use crate::io::vtk::{write_image_data, CellField};
 use crate::io::write_atomic;
 use crate::lbm::choice::{dispatch, CollisionKind, Job, LatticeKind};
@@ -400,6 +401,33 @@ pub fn run_scene(text: &str, origin: &str, out: &Path, opts: &RunOptions) -> Res
             );
         }
         write_atomic(&out.join("profile.csv"), csv.as_bytes())?;
+        let column = |y: &'static str| CsvPlot {
+            title: "Velocity profile across the channel",
+            x: "y_m",
+            y,
+            x_label: "y (m)",
+            y_label: "u (m/s)",
+            ..Default::default()
+        };
+        // the lattice profile and the closed form as two labelled series of one picture
+        let mut series = Vec::new();
+        for (y, label) in [
+            ("u_m_s", "lattice Boltzmann"),
+            ("u_exact_m_s", "closed form"),
+        ] {
+            let built = column(y).build(&csv)?;
+            series.extend(built.series.into_iter().map(|mut s| {
+                s.label = label.into();
+                s
+            }));
+        }
+        let plot = crate::io::plot::Plot {
+            series,
+            ..column("u_m_s").build("y_m,u_m_s\n")?
+        };
+        if let Err(e) = crate::io::plot::write_svg(&out.join("profile.svg"), &plot) {
+            eprintln!("warning: profile.svg not written: {e}");
+        }
     }
     write_atomic(
         &out.join("summary.json"),

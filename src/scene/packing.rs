@@ -59,6 +59,7 @@ use super::{Builtin, RunOptions};
 use crate::analysis;
 use crate::contact::ContactShape;
 use crate::error::{invalid, Error};
+use crate::io::plot::CsvPlot;
 use crate::io::{write_atomic, xyz};
 use crate::packing::{
     self, Container, McmParams, McmState, Packing, Particles, Scheme, Stage, StepOutcome,
@@ -1035,6 +1036,15 @@ fn write_outputs(
         ));
     }
     write_atomic(&out.join("phi_history.csv"), csv.as_bytes())?;
+    CsvPlot {
+        title: "Packing fraction after each accepted compression step",
+        x: "step",
+        y: "packing_fraction",
+        x_label: "compression step",
+        y_label: "packing fraction",
+        ..Default::default()
+    }
+    .write_or_warn(&out.join("phi_history.svg"), &csv);
     if p.container == Container::Periodic {
         let rmax = scene.gr_r_max.unwrap_or(3.0).min(0.5 * p.box_length);
         let g = analysis::radial_distribution(&p.view(), rmax, scene.gr_bins)?;
@@ -1043,6 +1053,15 @@ fn write_outputs(
             gcsv.push_str(&format!("{rc},{v}\n"));
         }
         write_atomic(&out.join("gr.csv"), gcsv.as_bytes())?;
+        CsvPlot {
+            title: "Radial distribution function of the centres",
+            x: "r_D",
+            y: "g",
+            x_label: "r (particle diameters D)",
+            y_label: "g(r)",
+            ..Default::default()
+        }
+        .write_or_warn(&out.join("gr.svg"), &gcsv);
     }
     let h = analysis::orientation_histogram(&p.axes(), 9, 18)?;
     let mut hcsv = String::from("theta_lo_deg,theta_hi_deg,phi_lo_deg,phi_hi_deg,count\n");

@@ -1,7 +1,7 @@
 //! Case discovery, running a case, the comparison statistics and the snapshot summary.
 
 use super::case::{CaseContext, Row, Runner};
-use super::spec::{CaseSpec, Tier, Tolerance};
+use super::spec::{CaseSpec, Oracle, Tier, Tolerance};
 use super::table::{resolve_table_path, Table};
 use crate::Result;
 use std::path::{Path, PathBuf};
@@ -195,6 +195,25 @@ pub fn decade(err: f64) -> String {
     format!("1e{k}")
 }
 
+/// What a case's run amounts to.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Verdict {
+    Pass,
+    Fail,
+    /// Failed, and the case is a documented known deviation (case.toml `deviation`).
+    Deviation,
+}
+
+impl Verdict {
+    pub fn as_str(self) -> &'static str {
+        match self {
+            Verdict::Pass => "PASS",
+            Verdict::Fail => "FAIL",
+            Verdict::Deviation => "DEVIATION",
+        }
+    }
+}
+
 /// The result of running one case.
 #[derive(Debug, Clone)]
 pub struct Outcome {
@@ -212,6 +231,11 @@ pub struct Outcome {
     pub message: Option<String>,
     /// Every checked number the runner returned (empty when it returned none).
     pub rows: Vec<Row>,
+    /// The case's oracle and tolerance (None when its case.toml is broken).
+    pub oracle: Option<Oracle>,
+    pub policy: Option<Tolerance>,
+    /// The documented reason when the case is a known deviation.
+    pub deviation: Option<String>,
 }
 
 impl Outcome {
@@ -227,7 +251,24 @@ impl Outcome {
             passed: false,
             message: Some(msg),
             rows: Vec::new(),
+            oracle: case.spec.as_ref().ok().map(|s| s.oracle),
+            policy: case.spec.as_ref().ok().map(|s| s.tolerance()),
+            deviation: case.spec.as_ref().ok().and_then(|s| s.deviation.clone()),
         }
+    }
+
+    /// PASS, FAIL, or DEVIATION for a failing case documented as a known deviation.
+    pub fn verdict(&self) -> Verdict {
+        match (self.passed, &self.deviation) {
+            (true, _) => Verdict::Pass,
+            (false, Some(_)) => Verdict::Deviation,
+            (false, None) => Verdict::Fail,
+        }
+    }
+
+    /// True for outcomes that make a validation run fail (DEVIATION does not).
+    pub fn fails_run(&self) -> bool {
+        self.verdict() == Verdict::Fail
     }
 
     /// The compact summary stored as an insta snapshot: rounded so that it only changes when
@@ -244,7 +285,7 @@ impl Outcome {
         format!(
             "id: {}\nrows checked: {rows}\nworst relative error <= {worst}\nworst row: {label}\nresult: {}\n",
             self.id,
-            if self.passed { "PASS" } else { "FAIL" }
+            self.verdict().as_str()
         )
     }
 }
@@ -360,6 +401,9 @@ pub fn run_case_with(root: &Path, case: &Case, lookup: impl Fn(&str) -> Option<R
         passed,
         message,
         rows,
+        oracle: Some(spec.oracle),
+        policy: Some(tol),
+        deviation: spec.deviation.clone(),
     }
 }
 

@@ -14,7 +14,9 @@ pub mod spec;
 pub mod table;
 
 pub use case::{CaseContext, Row, Runner};
-pub use harness::{decade, discover, evaluate, run_case, run_case_with, Case, Outcome, Stats};
+pub use harness::{
+    decade, discover, evaluate, run_case, run_case_with, Case, Outcome, Stats, Verdict,
+};
 pub use report::write_atomic;
 pub use spec::{CaseSpec, Oracle, Tier, Tolerance};
 pub use table::Table;
@@ -96,7 +98,7 @@ pub fn cli_validate(ids: &[String], all: bool) -> Result<ExitCode> {
             eprintln!(
                 "[{k}/{n}] {} {} ({:.2} s)",
                 o.folder,
-                if o.passed { "PASS" } else { "FAIL" },
+                o.verdict().as_str(),
                 o.seconds
             );
             o
@@ -104,22 +106,30 @@ pub fn cli_validate(ids: &[String], all: bool) -> Result<ExitCode> {
         .collect();
     outcomes.sort_by(|a, b| a.folder.cmp(&b.folder));
     print!("{}", report::text_table(&outcomes));
-    let failed = outcomes.iter().filter(|o| !o.passed).count();
+    let count = |v: Verdict| outcomes.iter().filter(|o| o.verdict() == v).count();
+    let (failed, deviations) = (count(Verdict::Fail), count(Verdict::Deviation));
     let skipped = cases.len() - n;
     println!(
-        "\n{} passed, {failed} failed{}",
-        n - failed,
+        "\n{} passed, {failed} failed{}{}",
+        count(Verdict::Pass),
+        if deviations > 0 {
+            format!(", {deviations} documented deviation(s) (not passes)")
+        } else {
+            String::new()
+        },
         if skipped > 0 {
             format!(", {skipped} not selected")
         } else {
             String::new()
         }
     );
-    let [csv, md, rows] = report::write_reports(&root.join("target").join("porelab"), &outcomes)?;
+    let [csv, md, html, rows] =
+        report::write_reports(&root.join("target").join("porelab"), &outcomes)?;
     println!(
-        "reports: {} and {}; every checked number: {}",
+        "reports: {}, {} and {} (a browser opens it); every checked number: {}",
         csv.display(),
         md.display(),
+        html.display(),
         rows.display()
     );
     Ok(if failed == 0 {

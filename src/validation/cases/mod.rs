@@ -63,6 +63,7 @@ pub fn runner_for(id: &str) -> Option<Runner> {
         "516" => Some(packing::case_516),
         "517" => Some(packing::case_517),
         "512" => Some(packing::case_512),
+        "522" => Some(packing::case_522),
         "513" => Some(packing::case_513),
         "515" => Some(packing_confined::case_515),
         "520" => Some(packing::case_520),

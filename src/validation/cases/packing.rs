@@ -233,6 +233,43 @@ pub fn case_512(ctx: &CaseContext) -> Result<Vec<Row>> {
     band_rows(ctx, &got)
 }
 
+/// Case 522: the jamming schedule over 20 seeds, read as typical (median and extremes).
+pub fn case_522(ctx: &CaseContext) -> Result<Vec<Row>> {
+    use rayon::prelude::*;
+    let s = seed(ctx)?;
+    let seeds: Vec<u64> = (s..s + 20).collect();
+    let runs: Vec<Result<McmResult>> = seeds
+        .par_iter()
+        .map(|&k| packing::run(&McmParams::jammed_spheres(1000, k)))
+        .collect();
+    let (mut phis, mut contacts) = (Vec::new(), Vec::new());
+    let (mut deepest, mut jammed) = (0.0f64, 1.0f64);
+    for r in runs {
+        let r = r?;
+        deepest = deepest.max(deepest_overlap(&r)?);
+        if !r.jammed {
+            jammed = 0.0;
+        }
+        let v = r.packing.view();
+        let gaps = analysis::pair_gaps(&v, 1e-5)?;
+        let (c0, _) = analysis::extrapolated_contacts(v.n(), &gaps, &CONTACT_CUTOFFS, Some(4))?;
+        phis.push(r.packing.packing_fraction());
+        contacts.push(c0);
+    }
+    phis.sort_by(f64::total_cmp);
+    let median = 0.5 * (phis[phis.len() / 2 - 1] + phis[phis.len() / 2]);
+    let mut got = BTreeMap::new();
+    got.insert("packing_fraction_median", median);
+    got.insert("packing_fraction_min", phis[0]);
+    got.insert(
+        "contacts_extrapolated_no_rattlers_min",
+        contacts.iter().cloned().fold(f64::INFINITY, f64::min),
+    );
+    got.insert("deepest_overlap", deepest);
+    got.insert("jammed", jammed);
+    band_rows(ctx, &got)
+}
+
 /// Thin rods for case 513: cylinder length 24 D (aspect ratio Lambda = 25, eq. 2.1).
 fn rods_513(seed: u64) -> McmParams {
     let mut p = McmParams::new(2000, 24.0, seed);
