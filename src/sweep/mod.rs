@@ -1,5 +1,24 @@
 //! Parameter sweeps and ensembles: plan, run locally, Slurm job arrays, collect.
 //!
+//! Sweep file (TOML, unknown keys refused by name; defaults in brackets):
+//!
+//! ```toml
+//! title = "..."                  # free text, copied into every job's header
+//! scene = "base.toml"            # the base scene, relative to this file, or instead:
+//! builtin = "packing-spheres"    # a built-in scene (`porelab run --list`)
+//! combine = "grid"               # "grid" (every combination) | "zip" (equal-length lists
+//!                                # side by side) [grid]
+//! runs_per_point = 3             # runs (seeds) per point [1]
+//! base_seed = 1                  # [1]
+//! [vary]                         # dotted key path into the scene -> list of values (TOML
+//! "particles.n" = [500, 1000]    # types kept); a number indexes an array of tables,
+//! "species.0.fraction" = [0.5]   # e.g. the first [[species]] of a deposition scene
+//! ```
+//!
+//! Each job's seed goes to its engine's seed key ([`plan::seed_key`]: `run.seed` brownian,
+//! `mcm.seed` packing, `seed` deposition and DEM; LBM has none and takes one run per point):
+//! [`plan::job_seed`], a SplitMix64 chain of (base_seed, point, run).
+//!
 //! A sweep folder `DIR` (written by `porelab sweep plan`):
 //!
 //! ```text
