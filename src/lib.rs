@@ -21,6 +21,7 @@ pub mod reference;
 pub mod scene;
 pub mod shape;
 pub mod special;
+pub mod sweep;
 pub mod validation;
 
 pub use error::{Error, Result};

@@ -66,6 +66,8 @@ enum Command {
     },
     /// Permeability of a periodic particle configuration (extended XYZ) by lattice Boltzmann.
     Permeability(porelab::lbm::pore::PermeabilityArgs),
+    /// Parameter sweeps and ensembles: plan, run locally or as a Slurm job array, collect.
+    Sweep(porelab::sweep::SweepArgs),
     /// Work-precision benchmarks.
     Bench {
         #[command(subcommand)]
@@ -100,6 +102,8 @@ enum BenchWhat {
     /// DEM: particle-steps per second per core against N, one and two threads, neighbour
     /// share, side by side with LAMMPS.
     Dem(porelab::dem::bench::BenchArgs),
+    /// Sweeps: per-job overhead of plan, launch and collect; a 100-job sweep on 1 and 2 workers.
+    Sweep(porelab::sweep::bench::BenchArgs),
 }
 
 fn main() -> ExitCode {
@@ -143,6 +147,7 @@ fn main() -> ExitCode {
             },
         )
         .map(|_| ExitCode::SUCCESS),
+        Command::Sweep(args) => porelab::sweep::cli(&args),
         Command::Bench { what } => match what {
             BenchWhat::Field(args) => {
                 porelab::magnetics::bench::run(&args).map(|_| ExitCode::SUCCESS)
@@ -158,6 +163,7 @@ fn main() -> ExitCode {
             }
             BenchWhat::Lbm(args) => porelab::lbm::bench::run(&args).map(|_| ExitCode::SUCCESS),
             BenchWhat::Dem(args) => porelab::dem::bench::run(&args).map(|_| ExitCode::SUCCESS),
+            BenchWhat::Sweep(args) => porelab::sweep::bench::run(&args).map(|_| ExitCode::SUCCESS),
         },
     };
     match result {

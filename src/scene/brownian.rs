@@ -600,12 +600,11 @@ fn progress(total: u64, quiet: bool, what: &str) -> ProgressBar {
     pb
 }
 
-/// Runs a Brownian scene and writes its outputs to `out`.
-pub fn run_scene(text: &str, origin: &str, out: &Path, opts: &RunOptions) -> Result<()> {
+/// Parses a Brownian scene and builds (and so validates) the experiment of every point of
+/// its size/angle sweep, without running anything.
+fn prepare(text: &str, origin: &str) -> Result<(Scene, Vec<Combo>, Vec<CaptureExperiment>)> {
     let scene = parse(text, origin)?;
-    let started = Instant::now();
     let combos = scene.combos();
-    // Build (and so validate) every sweep point before running anything.
     let exps = combos
         .iter()
         .map(|c| scene.experiment(*c))
@@ -616,6 +615,19 @@ pub fn run_scene(text: &str, origin: &str, out: &Path, opts: &RunOptions) -> Res
             }
             other => other,
         })?;
+    Ok((scene, combos, exps))
+}
+
+/// Checks a Brownian scene as [`run_scene`] does before it runs (`porelab sweep plan`).
+pub fn check_scene(text: &str, origin: &str) -> Result<()> {
+    prepare(text, origin).map(|_| ())
+}
+
+/// Runs a Brownian scene and writes its outputs to `out`.
+pub fn run_scene(text: &str, origin: &str, out: &Path, opts: &RunOptions) -> Result<()> {
+    let started = Instant::now();
+    // Build (and so validate) every sweep point before running anything.
+    let (scene, combos, exps) = prepare(text, origin)?;
     let first = &exps[0];
     let terms = if scene.experiment == ExperimentKind::CaptureVolume {
         vec!["force on a moment aligned with the local field (eq. 6.20); no dynamics".to_string()]

@@ -199,7 +199,22 @@ impl Job for SceneRun {
     }
 }
 
-pub fn run_scene(text: &str, origin: &str, out: &Path, opts: &RunOptions) -> Result<()> {
+/// A parsed and checked LBM scene: its units, driving and a-priori velocity scale, everything
+/// [`run_scene`] fixes before it builds a lattice.
+struct Prepared {
+    sc: LbmScene,
+    lat: LatticeKind,
+    coll: CollisionKind,
+    u: Units,
+    g: f64,
+    wall_u: f64,
+    nu: f64,
+    h: f64,
+    porous: Option<(f64, f64, bool)>,
+    u_est: f64,
+}
+
+fn prepare(text: &str, origin: &str) -> Result<Prepared> {
     let sc: LbmScene = toml::from_str(text).map_err(|e| Error::File {
         path: origin.to_string(),
         msg: e.to_string().trim_end().to_string(),
@@ -258,6 +273,38 @@ pub fn run_scene(text: &str, origin: &str, out: &Path, opts: &RunOptions) -> Res
         }
     };
     check_mach(u_est, "estimated peak velocity")?;
+    Ok(Prepared {
+        sc,
+        lat,
+        coll,
+        u,
+        g,
+        wall_u,
+        nu,
+        h,
+        porous,
+        u_est,
+    })
+}
+
+/// Checks an LBM scene as [`run_scene`] does before it runs (`porelab sweep plan`).
+pub fn check_scene(text: &str, origin: &str) -> Result<()> {
+    prepare(text, origin).map(|_| ())
+}
+
+pub fn run_scene(text: &str, origin: &str, out: &Path, opts: &RunOptions) -> Result<()> {
+    let Prepared {
+        sc,
+        lat,
+        coll,
+        u,
+        g,
+        wall_u,
+        nu,
+        h,
+        porous,
+        u_est,
+    } = prepare(text, origin)?;
     println!(
         "lbm scene {origin}: {} {} {}, {} cells across {} m (dx = {:e} m, dt = {:e} s)",
         sc.flow,

@@ -63,6 +63,13 @@ pub struct RunOptions {
 /// The values of a scene's `kind`, as error messages list them.
 const KNOWN_KINDS: &str = "\"brownian\", \"packing\", \"deposition\", \"dem\", \"lbm\"";
 
+/// The error for a `kind` that names no engine.
+fn unknown_kind<T>(origin: &str, kind: &str) -> Result<T> {
+    invalid(format!(
+        "{origin}: kind = \"{kind}\": unknown engine (known: {KNOWN_KINDS})"
+    ))
+}
+
 /// The engine a scene names, read from its top-level `kind` key.
 fn scene_kind(text: &str, origin: &str) -> Result<String> {
     let value: toml::Table = toml::from_str(text).map_err(|e| Error::File {
@@ -93,9 +100,20 @@ pub fn run_text(text: &str, origin: &str, out_stem: &str, opts: &RunOptions) -> 
         "dem" => dem::run_scene(text, origin, &out, opts),
         "deposition" => deposition::run_scene(text, origin, &out, opts),
         "lbm" => lbm::run_scene(text, origin, &out, opts),
-        other => invalid(format!(
-            "{origin}: kind = \"{other}\": unknown engine (known: {KNOWN_KINDS})"
-        )),
+        other => unknown_kind(origin, other),
+    }
+}
+
+/// Parses and checks the scene in `text` as [`run_text`] does before it runs, without running
+/// it (each engine's own parse and validation; `porelab sweep plan` checks every job so).
+pub fn check_text(text: &str, origin: &str) -> Result<()> {
+    match scene_kind(text, origin)?.as_str() {
+        "brownian" => brownian::check_scene(text, origin),
+        "packing" => packing::parse_scene(text, origin).map(|_| ()),
+        "dem" => dem::parse_scene(text, origin).map(|_| ()),
+        "deposition" => deposition::parse_scene(text, origin).map(|_| ()),
+        "lbm" => lbm::check_scene(text, origin),
+        other => unknown_kind(origin, other),
     }
 }
 

@@ -1,0 +1,240 @@
+//! `porelab sweep collect DIR`: per point, the mean, standard error and count over its runs of
+//! every numeric scalar of the jobs' `out/summary.json` (nested objects flattened with dotted
+//! names, booleans as 0/1, arrays, strings and nulls left out). Timing-like keys (wall seconds,
+//! thread counts, the version, the seed) are left out, so the table depends only on the
+//! results: the same sweep run on a laptop or on Slurm gives the same bytes. Jobs that are not
+//! done are listed on stderr and in `DIR/collect-missing.txt` and never averaged over.
+//!
+//! Standard error of the mean: s / sqrt(n) with the sample standard deviation
+//! s^2 = sum (x - mean)^2 / (n - 1); empty for n = 1.
+
+use super::{job_dir, job_state, JobState, Plan};
+use crate::error::Result;
+use crate::io::write_atomic;
+use std::collections::{BTreeMap, BTreeSet};
+use std::path::Path;
+
+/// Last segments of the summary keys that describe how a job ran, not what it found: wall
+/// time (`seconds`, `*_seconds`), `threads`, `porelab_version`, the per-job `seed`, and the DEM's
+/// `neighbour_share` (a share of wall time).
+fn timing_like(key: &str) -> bool {
+    let last = key.rsplit('.').next().unwrap_or(key);
+    matches!(
+        last,
+        "seconds" | "threads" | "porelab_version" | "version" | "seed" | "neighbour_share"
+    ) || last.ends_with("_seconds")
+        || last.starts_with("elapsed")
+}
+
+/// The numeric scalars of a JSON value, flattened with dotted names.
+pub fn flatten(prefix: &str, v: &serde_json::Value, out: &mut BTreeMap<String, f64>) {
+    let name = |k: &str| {
+        if prefix.is_empty() {
+            k.to_string()
+        } else {
+            format!("{prefix}.{k}")
+        }
+    };
+    match v {
+        serde_json::Value::Object(m) => {
+            for (k, x) in m {
+                flatten(&name(k), x, out);
+            }
+        }
+        serde_json::Value::Number(n) if !timing_like(prefix) => {
+            if let Some(x) = n.as_f64().filter(|x| x.is_finite()) {
+                out.insert(prefix.to_string(), x);
+            }
+        }
+        serde_json::Value::Bool(b) if !timing_like(prefix) => {
+            out.insert(prefix.to_string(), if *b { 1.0 } else { 0.0 });
+        }
+        _ => {}
+    }
+}
+
+/// Mean, standard error (None for one value) and count.
+pub fn mean_sem(xs: &[f64]) -> (f64, Option<f64>, usize) {
+    let n = xs.len();
+    let mean = xs.iter().sum::<f64>() / n as f64;
+    let sem = (n > 1).then(|| {
+        let ss: f64 = xs.iter().map(|x| (x - mean) * (x - mean)).sum();
+        (ss / (n - 1) as f64 / n as f64).sqrt()
+    });
+    (mean, sem, n)
+}
+
+/// One row of the collected table.
+#[derive(Debug, Clone)]
+pub struct PointRow {
+    pub point: usize,
+    /// The varied keys' values.
+    pub values: Vec<String>,
+    pub runs_planned: usize,
+    pub runs_done: usize,
+    /// Quantity -> (mean, standard error, count).
+    pub stats: BTreeMap<String, (f64, Option<f64>, usize)>,
+}
+
+/// The collected table and the jobs left out of it.
+#[derive(Debug, Clone)]
+pub struct Collected {
+    pub keys: Vec<String>,
+    pub quantities: Vec<String>,
+    pub rows: Vec<PointRow>,
+    /// One line per job that is not in the table, with the reason.
+    pub missing: Vec<String>,
+}
+
+/// The summary of a finished job, or why it is not available.
+fn job_summary(
+    dir: &Path,
+    plan: &Plan,
+    j: usize,
+) -> std::result::Result<BTreeMap<String, f64>, String> {
+    match job_state(dir, j) {
+        JobState::Done => {}
+        JobState::Failed(m) => return Err(format!("failed: {m}")),
+        JobState::Started => return Err("started, not finished (running, or killed)".into()),
+        JobState::Pending => return Err("pending".into()),
+    }
+    let d = job_dir(dir, j);
+    let done: serde_json::Value = std::fs::read_to_string(d.join("done.json"))
+        .ok()
+        .and_then(|t| serde_json::from_str(&t).ok())
+        .ok_or("done.json unreadable")?;
+    let want = format!("{:016x}", plan.jobs[j].hash);
+    if done["scene_fnv1a64"].as_str() != Some(want.as_str()) {
+        return Err(format!(
+            "done.json names scene hash {}, the manifest {want}: the job ran another scene",
+            done["scene_fnv1a64"]
+        ));
+    }
+    let path = d.join("out").join("summary.json");
+    let v: serde_json::Value = std::fs::read_to_string(&path)
+        .ok()
+        .and_then(|t| serde_json::from_str(&t).ok())
+        .ok_or_else(|| format!("done, but {} is missing or not JSON", path.display()))?;
+    let mut m = BTreeMap::new();
+    flatten("", &v, &mut m);
+    Ok(m)
+}
+
+/// Reads every job of the sweep in `dir` and averages per point.
+pub fn collect(dir: &Path) -> Result<Collected> {
+    let plan = Plan::read(dir)?;
+    let mut per_point: Vec<Vec<BTreeMap<String, f64>>> = vec![vec![]; plan.points()];
+    let mut planned = vec![0usize; plan.points()];
+    let mut missing = Vec::new();
+    for j in &plan.jobs {
+        planned[j.point] += 1;
+        match job_summary(dir, &plan, j.job) {
+            Ok(m) => per_point[j.point].push(m),
+            Err(why) => missing.push(format!(
+                "job {:05} (point {}, run {}): {why}",
+                j.job, j.point, j.run
+            )),
+        }
+    }
+    let quantities: BTreeSet<String> = per_point
+        .iter()
+        .flatten()
+        .flat_map(|m| m.keys().cloned())
+        .collect();
+    let rows = per_point
+        .iter()
+        .enumerate()
+        .map(|(p, runs)| {
+            let first = plan
+                .jobs
+                .iter()
+                .find(|j| j.point == p)
+                .expect("every point has jobs");
+            let stats = quantities
+                .iter()
+                .filter_map(|q| {
+                    let xs: Vec<f64> = runs.iter().filter_map(|m| m.get(q).copied()).collect();
+                    (!xs.is_empty()).then(|| (q.clone(), mean_sem(&xs)))
+                })
+                .collect();
+            PointRow {
+                point: p,
+                values: first.values.clone(),
+                runs_planned: planned[p],
+                runs_done: runs.len(),
+                stats,
+            }
+        })
+        .collect();
+    Ok(Collected {
+        keys: plan.keys.clone(),
+        quantities: quantities.into_iter().collect(),
+        rows,
+        missing,
+    })
+}
+
+impl Collected {
+    /// The table as CSV: point, the varied keys, runs planned and done, then for every
+    /// quantity its mean, standard error and count (`Q.mean`, `Q.sem`, `Q.n`).
+    pub fn csv(&self) -> String {
+        let mut w = csv::Writer::from_writer(vec![]);
+        let mut head = vec!["point".to_string()];
+        head.extend(self.keys.iter().cloned());
+        head.push("runs_planned".into());
+        head.push("runs_done".into());
+        for q in &self.quantities {
+            head.extend([format!("{q}.mean"), format!("{q}.sem"), format!("{q}.n")]);
+        }
+        w.write_record(&head).expect("in-memory CSV");
+        for r in &self.rows {
+            let mut row = vec![r.point.to_string()];
+            row.extend(r.values.iter().cloned());
+            row.push(r.runs_planned.to_string());
+            row.push(r.runs_done.to_string());
+            for q in &self.quantities {
+                match r.stats.get(q) {
+                    Some((m, s, n)) => row.extend([
+                        m.to_string(),
+                        s.map(|s| s.to_string()).unwrap_or_default(),
+                        n.to_string(),
+                    ]),
+                    None => row.extend([String::new(), String::new(), "0".into()]),
+                }
+            }
+            w.write_record(&row).expect("in-memory CSV");
+        }
+        String::from_utf8(w.into_inner().expect("in-memory CSV")).expect("UTF-8 fields")
+    }
+}
+
+/// `porelab sweep collect DIR`: writes `collected.csv`, `collect-missing.txt` and the plots.
+pub fn cli_collect(dir: &Path) -> Result<()> {
+    let c = collect(dir)?;
+    write_atomic(&dir.join("collected.csv"), c.csv().as_bytes())?;
+    let mut missing = String::new();
+    for m in &c.missing {
+        missing += m;
+        missing.push('\n');
+    }
+    write_atomic(&dir.join("collect-missing.txt"), missing.as_bytes())?;
+    let plots = super::plots::write_plots(dir, &c)?;
+    eprintln!(
+        "porelab sweep collect: {} points, {} quantities -> {}; {plots} plots in {}",
+        c.rows.len(),
+        c.quantities.len(),
+        dir.join("collected.csv").display(),
+        dir.join("plots").display()
+    );
+    if !c.missing.is_empty() {
+        eprintln!(
+            "  {} job(s) not in the table (also in {}):",
+            c.missing.len(),
+            dir.join("collect-missing.txt").display()
+        );
+        for m in &c.missing {
+            eprintln!("  {m}");
+        }
+    }
+    Ok(())
+}

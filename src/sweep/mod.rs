@@ -1,0 +1,311 @@
+//! Parameter sweeps and ensembles: plan, run locally, Slurm job arrays, collect.
+//!
+//! Sweep file (TOML, unknown keys refused by name; defaults in brackets):
+//!
+//! ```toml
+//! title = "..."                  # free text, copied into every job's header
+//! scene = "base.toml"            # the base scene, relative to this file, or instead:
+//! builtin = "packing-spheres"    # a built-in scene (`porelab run --list`)
+//! combine = "grid"               # "grid" (every combination) | "zip" (equal-length lists
+//!                                # side by side) [grid]
+//! runs_per_point = 3             # runs (seeds) per point [1]
+//! base_seed = 1                  # [1]
+//! [vary]                         # dotted key path into the scene -> list of values (TOML
+//! "particles.n" = [500, 1000]    # types kept); a number indexes an array of tables,
+//! "species.0.fraction" = [0.5]   # e.g. the first [[species]] of a deposition scene
+//! ```
+//!
+//! Each job's seed goes to its engine's seed key ([`plan::seed_key`]: `run.seed` brownian,
+//! `mcm.seed` packing, `seed` deposition and DEM; LBM has none and takes one run per point):
+//! [`plan::job_seed`], a SplitMix64 chain of (base_seed, point, run).
+//!
+//! A sweep folder `DIR` (written by `porelab sweep plan`):
+//!
+//! ```text
+//! DIR/sweep.toml               copy of the sweep file
+//! DIR/manifest.csv             job,point,run,seed,<varied keys>,scene_fnv1a64 (written last)
+//! DIR/jobs/NNNNN/scene.toml    the complete scene of job NNNNN (header: point values, seed)
+//! DIR/jobs/NNNNN/tmp-<pid>/    a job under way (removed when stale)
+//! DIR/jobs/NNNNN/out/          its outputs, renamed from tmp-<pid>/ on success
+//! DIR/jobs/NNNNN/done.json     written atomically after the rename: the job is finished
+//! DIR/jobs/NNNNN/failed.json   the error of a failed job
+//! DIR/collected.csv            `porelab sweep collect`: per point mean, standard error, count
+//! ```
+//!
+//! Every job writes only into its own folder, so local workers and Slurm tasks never write the
+//! same file, and the collected table depends only on the jobs' results.
+
+pub mod bench;
+pub mod collect;
+pub mod plan;
+pub mod plots;
+pub mod run;
+pub mod slurm;
+pub mod status;
+
+use crate::error::{invalid, Error, Result};
+use std::path::{Path, PathBuf};
+use std::process::ExitCode;
+
+/// File names inside a sweep folder.
+pub const MANIFEST: &str = "manifest.csv";
+pub const SWEEP_COPY: &str = "sweep.toml";
+
+/// FNV-1a 64 (Fowler, Noll & Vo; the offset basis and prime of the IETF draft
+/// draft-eastlake-fnv): a stable hash of a job's scene text, the same on every machine.
+pub fn fnv1a64(bytes: &[u8]) -> u64 {
+    let mut h: u64 = 0xcbf2_9ce4_8422_2325;
+    for &b in bytes {
+        h ^= b as u64;
+        h = h.wrapping_mul(0x0000_0100_0000_01b3);
+    }
+    h
+}
+
+/// The folder of job `job`.
+pub fn job_dir(dir: &Path, job: usize) -> PathBuf {
+    dir.join("jobs").join(format!("{job:05}"))
+}
+
+/// One job of a plan.
+#[derive(Debug, Clone, PartialEq)]
+pub struct PlannedJob {
+    pub job: usize,
+    pub point: usize,
+    pub run: usize,
+    /// The scene's seed (None for engines without one).
+    pub seed: Option<u64>,
+    /// The varied keys' values at this point, as the manifest prints them.
+    pub values: Vec<String>,
+    /// FNV-1a 64 of the scene text.
+    pub hash: u64,
+    /// The scene text (empty when read back from a manifest).
+    pub scene: String,
+}
+
+/// The jobs of a sweep and the names of its varied keys.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Plan {
+    pub keys: Vec<String>,
+    pub jobs: Vec<PlannedJob>,
+}
+
+impl Plan {
+    /// The manifest text: one row per job.
+    pub fn manifest_csv(&self) -> String {
+        let mut w = csv::Writer::from_writer(vec![]);
+        let mut head = vec!["job", "point", "run", "seed"];
+        head.extend(self.keys.iter().map(String::as_str));
+        head.push("scene_fnv1a64");
+        w.write_record(&head).expect("in-memory CSV");
+        for j in &self.jobs {
+            let mut row = vec![
+                format!("{:05}", j.job),
+                j.point.to_string(),
+                j.run.to_string(),
+                j.seed.map(|s| s.to_string()).unwrap_or_default(),
+            ];
+            row.extend(j.values.iter().cloned());
+            row.push(format!("{:016x}", j.hash));
+            w.write_record(&row).expect("in-memory CSV");
+        }
+        String::from_utf8(w.into_inner().expect("in-memory CSV")).expect("UTF-8 fields")
+    }
+
+    /// Reads the plan of the sweep folder `dir` from its manifest.
+    pub fn read(dir: &Path) -> Result<Plan> {
+        let path = dir.join(MANIFEST);
+        let named = |msg: String| Error::File {
+            path: path.display().to_string(),
+            msg,
+        };
+        let text = std::fs::read_to_string(&path).map_err(|e| {
+            named(format!(
+                "{e} (is {} a sweep folder written by `porelab sweep plan`?)",
+                dir.display()
+            ))
+        })?;
+        let mut r = csv::Reader::from_reader(text.as_bytes());
+        let head: Vec<String> = r
+            .headers()
+            .map_err(|e| named(e.to_string()))?
+            .iter()
+            .map(String::from)
+            .collect();
+        let n = head.len();
+        if n < 5 || head[..4] != ["job", "point", "run", "seed"] || head[n - 1] != "scene_fnv1a64" {
+            return Err(named(format!("unexpected header {head:?}")));
+        }
+        let keys = head[4..n - 1].to_vec();
+        let mut jobs = Vec::new();
+        for (line, rec) in r.records().enumerate() {
+            let rec = rec.map_err(|e| named(e.to_string()))?;
+            let bad = |what: &str| named(format!("row {}: bad {what}", line + 2));
+            let num = |i: usize, what: &str| rec[i].parse::<usize>().map_err(|_| bad(what));
+            let job = num(0, "job")?;
+            if job != jobs.len() {
+                return Err(bad("job number (rows must be jobs 0, 1, 2, ...)"));
+            }
+            jobs.push(PlannedJob {
+                job,
+                point: num(1, "point")?,
+                run: num(2, "run")?,
+                seed: match &rec[3] {
+                    "" => None,
+                    s => Some(s.parse().map_err(|_| bad("seed"))?),
+                },
+                values: (4..n - 1).map(|i| rec[i].to_string()).collect(),
+                hash: u64::from_str_radix(&rec[n - 1], 16).map_err(|_| bad("scene_fnv1a64"))?,
+                scene: String::new(),
+            });
+        }
+        if jobs.is_empty() {
+            return Err(named("no jobs".into()));
+        }
+        Ok(Plan { keys, jobs })
+    }
+
+    /// The job of index `i`, or an error naming the valid range.
+    pub fn job(&self, i: usize) -> Result<&PlannedJob> {
+        self.jobs.get(i).ok_or_else(|| {
+            Error::InvalidInput(format!(
+                "job {i}: the sweep has jobs 0..={}",
+                self.jobs.len() - 1
+            ))
+        })
+    }
+
+    /// Number of points (the last job's point + 1).
+    pub fn points(&self) -> usize {
+        self.jobs.last().map_or(0, |j| j.point + 1)
+    }
+}
+
+/// Where a job stands, read from its folder.
+#[derive(Debug, Clone, PartialEq)]
+pub enum JobState {
+    /// `done.json` present.
+    Done,
+    /// `failed.json` present: its message.
+    Failed(String),
+    /// A `tmp-*` folder and neither record: running now, or killed (the next run cleans it).
+    Started,
+    Pending,
+}
+
+/// The state of job `job` of the sweep in `dir`.
+pub fn job_state(dir: &Path, job: usize) -> JobState {
+    let d = job_dir(dir, job);
+    if d.join("done.json").is_file() {
+        return JobState::Done;
+    }
+    if let Ok(text) = std::fs::read_to_string(d.join("failed.json")) {
+        let msg = serde_json::from_str::<serde_json::Value>(&text)
+            .ok()
+            .and_then(|v| v["error"].as_str().map(String::from))
+            .unwrap_or(text);
+        return JobState::Failed(msg);
+    }
+    let started = std::fs::read_dir(&d)
+        .into_iter()
+        .flatten()
+        .flatten()
+        .any(|e| e.file_name().to_string_lossy().starts_with("tmp-"));
+    if started {
+        JobState::Started
+    } else {
+        JobState::Pending
+    }
+}
+
+/// The jobs still to run: not done, and not failed unless `retry_failed`.
+pub fn unfinished(dir: &Path, plan: &Plan, retry_failed: bool) -> Vec<usize> {
+    plan.jobs
+        .iter()
+        .map(|j| j.job)
+        .filter(|&j| match job_state(dir, j) {
+            JobState::Done => false,
+            JobState::Failed(_) => retry_failed,
+            JobState::Started | JobState::Pending => true,
+        })
+        .collect()
+}
+
+/// `porelab sweep ...`
+#[derive(Debug, clap::Args)]
+pub struct SweepArgs {
+    #[command(subcommand)]
+    pub action: SweepAction,
+}
+
+#[derive(Debug, clap::Subcommand)]
+pub enum SweepAction {
+    /// Expand a sweep file into one checked scene per job under DIR (with a manifest).
+    Plan {
+        /// The sweep file (TOML).
+        sweep: PathBuf,
+        /// The sweep folder to write.
+        #[arg(long)]
+        out: PathBuf,
+    },
+    /// Run the unfinished jobs on this machine, K at a time (child processes).
+    Run {
+        dir: PathBuf,
+        /// Jobs at once.
+        #[arg(long, default_value_t = 1)]
+        jobs: usize,
+        /// Worker threads per job (default: the cores divided by --jobs); results do not
+        /// depend on it.
+        #[arg(long)]
+        threads: Option<usize>,
+        /// Run failed jobs again too.
+        #[arg(long)]
+        retry_failed: bool,
+    },
+    /// Run exactly one job (what a Slurm array task calls); exit code 0 done, 1 failed.
+    Job {
+        dir: PathBuf,
+        index: usize,
+        #[arg(long)]
+        threads: Option<usize>,
+    },
+    /// Write DIR/sweep.sbatch, a Slurm job array of the unfinished jobs; --submit sends it.
+    Slurm(slurm::SlurmArgs),
+    /// Counts of done, failed, started and pending jobs, with the failed jobs' messages.
+    Status { dir: PathBuf },
+    /// Per point mean, standard error and count of every numeric scalar of the jobs'
+    /// summary.json: DIR/collected.csv and DIR/plots/*.svg.
+    Collect { dir: PathBuf },
+}
+
+/// Runs a `porelab sweep` command.
+pub fn cli(args: &SweepArgs) -> Result<ExitCode> {
+    match &args.action {
+        SweepAction::Plan { sweep, out } => plan::cli_plan(sweep, out).map(|_| ExitCode::SUCCESS),
+        SweepAction::Run {
+            dir,
+            jobs,
+            threads,
+            retry_failed,
+        } => run::cli_run(dir, *jobs, *threads, *retry_failed),
+        SweepAction::Job {
+            dir,
+            index,
+            threads,
+        } => run::cli_job(dir, *index, *threads),
+        SweepAction::Slurm(a) => slurm::cli_slurm(a).map(|_| ExitCode::SUCCESS),
+        SweepAction::Status { dir } => status::cli_status(dir).map(|_| ExitCode::SUCCESS),
+        SweepAction::Collect { dir } => collect::cli_collect(dir).map(|_| ExitCode::SUCCESS),
+    }
+}
+
+/// Refuses a count option of 0.
+fn at_least_one(value: usize, option: &str) -> Result<()> {
+    if value == 0 {
+        return invalid(format!("--{option} 0: must be at least 1"));
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests;
