@@ -9,6 +9,14 @@ use crate::error::{invalid, Error};
 use crate::Result;
 use std::path::Path;
 
+/// FNV-1a 64 (Fowler, Noll & Vo; the offset basis and prime of the IETF draft
+/// draft-eastlake-fnv): a stable hash of a scene's text, the same on every machine and build.
+pub fn fnv1a64(bytes: &[u8]) -> u64 {
+    bytes.iter().fold(0xcbf2_9ce4_8422_2325, |h, &b| {
+        (h ^ u64::from(b)).wrapping_mul(0x0000_0100_0000_01b3)
+    })
+}
+
 /// Writes `bytes` to `path` through a temporary file in the same folder and a rename, so a
 /// reader never sees a half-written file.
 pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<()> {

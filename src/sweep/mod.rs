@@ -51,16 +51,7 @@ use std::process::ExitCode;
 pub const MANIFEST: &str = "manifest.csv";
 pub const SWEEP_COPY: &str = "sweep.toml";
 
-/// FNV-1a 64 (Fowler, Noll & Vo; the offset basis and prime of the IETF draft
-/// draft-eastlake-fnv): a stable hash of a job's scene text, the same on every machine.
-pub fn fnv1a64(bytes: &[u8]) -> u64 {
-    let mut h: u64 = 0xcbf2_9ce4_8422_2325;
-    for &b in bytes {
-        h ^= b as u64;
-        h = h.wrapping_mul(0x0000_0100_0000_01b3);
-    }
-    h
-}
+pub use crate::io::fnv1a64;
 
 /// The folder of job `job`.
 pub fn job_dir(dir: &Path, job: usize) -> PathBuf {
