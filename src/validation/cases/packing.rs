@@ -203,24 +203,50 @@ pub fn case_506(ctx: &CaseContext) -> Result<Vec<Row>> {
 /// Contact cut-offs of the extrapolation to zero cut-off (thesis sec. 2.2.5: 1e-8 - 1e-5).
 const CONTACT_CUTOFFS: [f64; 4] = [1e-8, 1e-7, 1e-6, 1e-5];
 
+/// Per run of the jamming schedule: packing fraction and extrapolated contacts (cut-offs
+/// 1e-8 ... 1e-5 D, rattlers with fewer than 4 contacts removed); over the runs: the deepest
+/// overlap (independent brute force) and 1 iff every run ended by its schedule.
+struct JammedSpheres {
+    phis: Vec<f64>,
+    contacts: Vec<f64>,
+    deepest: f64,
+    jammed: f64,
+}
+
+impl JammedSpheres {
+    fn of(runs: Vec<Result<McmResult>>) -> Result<JammedSpheres> {
+        let mut out = JammedSpheres {
+            phis: Vec::new(),
+            contacts: Vec::new(),
+            deepest: 0.0,
+            jammed: 1.0,
+        };
+        for r in runs {
+            let r = r?;
+            out.deepest = out.deepest.max(deepest_overlap(&r)?);
+            if !r.jammed {
+                out.jammed = 0.0;
+            }
+            let v = r.packing.view();
+            let gaps = analysis::pair_gaps(&v, 1e-5)?;
+            let (c0, _) = analysis::extrapolated_contacts(v.n(), &gaps, &CONTACT_CUTOFFS, Some(4))?;
+            out.phis.push(r.packing.packing_fraction());
+            out.contacts.push(c0);
+        }
+        Ok(out)
+    }
+}
+
 pub fn case_512(ctx: &CaseContext) -> Result<Vec<Row>> {
     let s = seed(ctx)?;
     // Independent runs in parallel, each with its own fixed seed.
     let runs = two_seeds(s, |k| McmParams::jammed_spheres(1000, k));
-    let (mut phis, mut contacts) = (Vec::new(), Vec::new());
-    let (mut deepest, mut jammed) = (0.0f64, 1.0f64);
-    for r in runs {
-        let r = r?;
-        deepest = deepest.max(deepest_overlap(&r)?);
-        if !r.jammed {
-            jammed = 0.0;
-        }
-        let v = r.packing.view();
-        let gaps = analysis::pair_gaps(&v, 1e-5)?;
-        let (c0, _) = analysis::extrapolated_contacts(v.n(), &gaps, &CONTACT_CUTOFFS, Some(4))?;
-        phis.push(r.packing.packing_fraction());
-        contacts.push(c0);
-    }
+    let JammedSpheres {
+        phis,
+        contacts,
+        deepest,
+        jammed,
+    } = JammedSpheres::of(runs)?;
     let lo = |x: &[f64]| x.iter().cloned().fold(f64::INFINITY, f64::min);
     let hi = |x: &[f64]| x.iter().cloned().fold(f64::NEG_INFINITY, f64::max);
     let mut got = BTreeMap::new();
@@ -242,20 +268,12 @@ pub fn case_522(ctx: &CaseContext) -> Result<Vec<Row>> {
         .par_iter()
         .map(|&k| packing::run(&McmParams::jammed_spheres(1000, k)))
         .collect();
-    let (mut phis, mut contacts) = (Vec::new(), Vec::new());
-    let (mut deepest, mut jammed) = (0.0f64, 1.0f64);
-    for r in runs {
-        let r = r?;
-        deepest = deepest.max(deepest_overlap(&r)?);
-        if !r.jammed {
-            jammed = 0.0;
-        }
-        let v = r.packing.view();
-        let gaps = analysis::pair_gaps(&v, 1e-5)?;
-        let (c0, _) = analysis::extrapolated_contacts(v.n(), &gaps, &CONTACT_CUTOFFS, Some(4))?;
-        phis.push(r.packing.packing_fraction());
-        contacts.push(c0);
-    }
+    let JammedSpheres {
+        mut phis,
+        contacts,
+        deepest,
+        jammed,
+    } = JammedSpheres::of(runs)?;
     phis.sort_by(f64::total_cmp);
     let median = 0.5 * (phis[phis.len() / 2 - 1] + phis[phis.len() / 2]);
     let mut got = BTreeMap::new();
