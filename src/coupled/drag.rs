@@ -107,8 +107,8 @@ mod tests {
             let slip = 0.013;
             let (lin, quad) = cell_coefficients(eps, d, nu, slip, Switch::Sharp);
             let uf = slip / eps;
-            let beta = 150.0 * (1.0 - eps).powi(2) * nu / (eps * d * d)
-                + 1.75 * (1.0 - eps) * uf / d;
+            let beta =
+                150.0 * (1.0 - eps).powi(2) * nu / (eps * d * d) + 1.75 * (1.0 - eps) * uf / d;
             let got = lin + quad * slip;
             assert!((got - beta / eps).abs() < 1e-14 * beta / eps, "eps {eps}");
         }

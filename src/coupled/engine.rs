@@ -192,11 +192,13 @@ impl Coupled {
         }
         let mut dem = dem;
         if !setup.frozen {
-            // the DEM's own stiffness rule refuses a dt_LBM / M too long for the contacts
+            // the DEM's stiffness rule at the largest impact speed the displacement refusal
+            // allows, 2 max_move_cells dx / dt_LBM
+            let v_max = 2.0 * setup.max_move_cells * dx / units.dt;
             let (tc, _) = crate::dem::engine::contact_times(
                 &dem.setup,
                 dem.p.radius.iter().cloned().fold(f64::INFINITY, f64::min),
-                1.0,
+                v_max,
             );
             let limit = crate::dem::engine::MAX_CONTACT_TIME_FRACTION * tc;
             if dt_dem > limit {
@@ -303,7 +305,12 @@ impl Coupled {
                 let vbar = [self.vv[c][0] / vs, self.vv[c][1] / vs, self.vv[c][2] / vs];
                 if eps < 1.0 {
                     let (lin, quad) = cell_coefficients(eps, d_cells, nu, self.slip[c], switch);
-                    (eps, lin, quad, [eps * vbar[0], eps * vbar[1], eps * vbar[2]])
+                    (
+                        eps,
+                        lin,
+                        quad,
+                        [eps * vbar[0], eps * vbar[1], eps * vbar[2]],
+                    )
                 } else {
                     (1.0, 0.0, 0.0, [0.0; 3])
                 }
@@ -361,7 +368,11 @@ impl Coupled {
             }
         }
         // SI: force = lattice force * rho dx^4 / dt^2, rate = lattice rate * rho dx^3 / dt
-        let (dx, dt, rho_si) = (self.setup.dx_m, self.units.dt, self.setup.fluid_density_kg_m3);
+        let (dx, dt, rho_si) = (
+            self.setup.dx_m,
+            self.units.dt,
+            self.setup.fluid_density_kg_m3,
+        );
         let f_si = rho_si * dx.powi(4) / (dt * dt);
         let g_si = rho_si * dx.powi(3) / dt;
         let to_l = dt / dx;

@@ -96,8 +96,16 @@ pub fn disc_rectangle_area(r: f64, a0: f64, a1: f64, b0: f64, b1: f64) -> f64 {
     }
     // breakpoints (x, s(x)): the ends of the x range, and where the chord half-height
     // s(x) = sqrt(r^2 - x^2) meets y = b, at x = +-sqrt(r^2 - b^2) with s = |b|
-    let lo = if a0 <= -r { (-r, 0.0) } else { (a0, chord(r, a0)) };
-    let hi = if a1 >= r { (r, 0.0) } else { (a1, chord(r, a1)) };
+    let lo = if a0 <= -r {
+        (-r, 0.0)
+    } else {
+        (a0, chord(r, a0))
+    };
+    let hi = if a1 >= r {
+        (r, 0.0)
+    } else {
+        (a1, chord(r, a1))
+    };
     let mut xs = [lo, hi, (0.0, 0.0), (0.0, 0.0), (0.0, 0.0), (0.0, 0.0)];
     let mut n = 2;
     for b in [b0, b1] {
@@ -145,8 +153,18 @@ pub fn sphere_box_volume(c: [f64; 3], r: f64, lo: [f64; 3], hi: [f64; 3]) -> f64
         return 0.0;
     }
     // nearest point of the box: no intersection beyond r
-    let near = |l: f64, h: f64| if l > 0.0 { l } else if h < 0.0 { -h } else { 0.0 };
-    let dmin2 = near(a[0], a[1]).powi(2) + near(b[0], b[1]).powi(2) + near(lo[2] - c[2], hi[2] - c[2]).powi(2);
+    let near = |l: f64, h: f64| {
+        if l > 0.0 {
+            l
+        } else if h < 0.0 {
+            -h
+        } else {
+            0.0
+        }
+    };
+    let dmin2 = near(a[0], a[1]).powi(2)
+        + near(b[0], b[1]).powi(2)
+        + near(lo[2] - c[2], hi[2] - c[2]).powi(2);
     if dmin2 >= r * r {
         return 0.0;
     }
@@ -156,9 +174,13 @@ pub fn sphere_box_volume(c: [f64; 3], r: f64, lo: [f64; 3], hi: [f64; 3]) -> f64
     }
     // box inside the sphere: its 8 corners within r
     let far = |l: f64, h: f64| l.abs().max(h.abs());
-    let dmax2 = far(a[0], a[1]).powi(2) + far(b[0], b[1]).powi(2) + far(lo[2] - c[2], hi[2] - c[2]).powi(2);
+    let dmax2 =
+        far(a[0], a[1]).powi(2) + far(b[0], b[1]).powi(2) + far(lo[2] - c[2], hi[2] - c[2]).powi(2);
     if dmax2 <= r * r {
         return (hi[0] - lo[0]) * (hi[1] - lo[1]) * (hi[2] - lo[2]);
+    }
+    if let Some(v) = separate_cuts(c, r, lo, hi) {
+        return v;
     }
     // breakpoints: the disc radius rho(z) = sqrt(r^2 - z^2) equals an edge or corner distance
     let mut zs: Vec<f64> = Vec::with_capacity(34);
@@ -211,6 +233,40 @@ pub fn sphere_box_volume(c: [f64; 3], r: f64, lo: [f64; 3], hi: [f64; 3]) -> f64
         vol += s * half * 0.5 * PI;
     }
     vol
+}
+
+/// Closed form when the faces cut the sphere independently: if no region outside two
+/// adjacent faces at once meets the sphere, sphere ∩ box = sphere minus the parts beyond each
+/// face, each a spherical cap pi h^2 (3r - h) / 3 (h = r - signed distance to the face).
+fn separate_cuts(c: [f64; 3], r: f64, lo: [f64; 3], hi: [f64; 3]) -> Option<f64> {
+    // signed distances of the centre inside each face: (axis, distance)
+    let d = [
+        c[0] - lo[0],
+        hi[0] - c[0],
+        c[1] - lo[1],
+        hi[1] - c[1],
+        c[2] - lo[2],
+        hi[2] - c[2],
+    ];
+    for i in 0..6 {
+        for j in (i / 2 + 1) * 2..6 {
+            // faces i, j on different axes: is {beyond i} ∩ {beyond j} ∩ sphere empty?
+            let (a, b) = (d[i], d[j]);
+            let empty = a >= r || b >= r || (a > 0.0 && b > 0.0 && a * a + b * b >= r * r);
+            if !empty {
+                return None;
+            }
+        }
+    }
+    let sphere = 4.0 / 3.0 * PI * r * r * r;
+    let mut v = sphere;
+    for &di in &d {
+        if di < r {
+            let h = r - di.max(-r);
+            v -= PI * h * h * (3.0 * r - h) / 3.0;
+        }
+    }
+    Some(v.max(0.0))
 }
 
 /// Volume of the lens where spheres of radii r1, r2 at centre distance d overlap.
@@ -290,7 +346,11 @@ mod tests {
         let rule = gauss_legendre(GL_NODES);
         for k in 0..2 * GL_NODES {
             let s: f64 = rule.iter().map(|(x, w)| w * x.powi(k as i32)).sum();
-            let want = if k % 2 == 1 { 0.0 } else { 2.0 / (k as f64 + 1.0) };
+            let want = if k % 2 == 1 {
+                0.0
+            } else {
+                2.0 / (k as f64 + 1.0)
+            };
             assert!((s - want).abs() < 1e-14, "x^{k}: {s} vs {want}");
         }
     }
@@ -333,7 +393,11 @@ mod tests {
             let hi = [5.0; 3];
             lo[k] = 1.0;
             let v = sphere_box_volume(c, r, lo, hi);
-            assert!((v - cap(r, h)).abs() < 1e-12 * sphere, "cap {k} {h}: {v} vs {}", cap(r, h));
+            assert!(
+                (v - cap(r, h)).abs() < 1e-12 * sphere,
+                "cap {k} {h}: {v} vs {}",
+                cap(r, h)
+            );
         }
     }
 
@@ -352,7 +416,10 @@ mod tests {
             sphere_cells(Overlap::Exact, c, r, n, dx, &mut out);
             let sum: f64 = out.iter().map(|e| e.1).sum();
             let want = 4.0 / 3.0 * PI * r * r * r;
-            assert!((sum - want).abs() < 1e-12 * want, "{c:?} {r}: {sum} vs {want}");
+            assert!(
+                (sum - want).abs() < 1e-12 * want,
+                "{c:?} {r}: {sum} vs {want}"
+            );
             assert!(out.iter().all(|e| (e.0 as usize) < n[0] * n[1] * n[2]));
         }
     }

@@ -158,7 +158,9 @@ impl Porous {
     /// lattice units, finite).
     pub fn set_matrix_velocity(&mut self, cell: usize, w: [f64; 3]) -> Result<(), String> {
         if !w.iter().all(|c| c.is_finite()) {
-            return Err(format!("matrix velocity {w:?} (lattice units): must be finite"));
+            return Err(format!(
+                "matrix velocity {w:?} (lattice units): must be finite"
+            ));
         }
         self.w[cell] = w;
         Ok(())
@@ -168,7 +170,6 @@ impl Porous {
     pub fn matrix_velocity(&self, cell: usize) -> [f64; 3] {
         self.w[cell]
     }
-
 
     /// Sets porosity `eps` (0 < eps <= 1) and permeability `k` (lattice units, > 0; infinity
     /// for no drag) of one cell. Returns the rule broken, if any.

@@ -223,7 +223,8 @@ impl<L: Lattice, C: Collision, F: Forcing> Solver<L, C, F> {
             }
             st.inv_eps[i] = s.inv_eps;
             st.uu[i] = (s.u[0] * s.u[0] + s.u[1] * s.u[1] + s.u[2] * s.u[2]) * s.inv_eps;
-            st.ua[i] = s.u[0] * s.a[0] + s.u[1] * s.a[1] + s.u[2] * s.a[2];
+            // u.a / eps: the source term of Guo & Zhao eq. 14 then has zero mass
+            st.ua[i] = (s.u[0] * s.a[0] + s.u[1] * s.a[1] + s.u[2] * s.a[2]) * s.inv_eps;
         }
     }
 

@@ -10,6 +10,7 @@
 //! same files are the examples of the schema.
 
 pub mod brownian;
+pub mod coupled;
 pub mod dem;
 pub mod deposition;
 pub mod lbm;
@@ -32,6 +33,7 @@ pub fn builtins() -> Vec<Builtin> {
     v.extend(deposition::builtins());
     v.extend(lbm::builtins());
     v.extend(dem::builtins());
+    v.extend(coupled::builtins());
     v.sort_by_key(|b| b.name);
     v
 }
@@ -60,7 +62,8 @@ pub struct RunOptions {
 }
 
 /// The values of a scene's `kind`, as error messages list them.
-const KNOWN_KINDS: &str = "\"brownian\", \"packing\", \"deposition\", \"dem\", \"lbm\"";
+const KNOWN_KINDS: &str =
+    "\"brownian\", \"packing\", \"deposition\", \"dem\", \"lbm\", \"coupled\"";
 
 /// The engine a scene names, read from its top-level `kind` key.
 fn scene_kind(text: &str, origin: &str) -> Result<String> {
@@ -92,6 +95,7 @@ pub fn run_text(text: &str, origin: &str, out_stem: &str, opts: &RunOptions) -> 
         "dem" => dem::run_scene(text, origin, &out, opts),
         "deposition" => deposition::run_scene(text, origin, &out, opts),
         "lbm" => lbm::run_scene(text, origin, &out, opts),
+        "coupled" => coupled::run_scene(text, origin, &out, opts),
         other => invalid(format!(
             "{origin}: kind = \"{other}\": unknown engine (known: {KNOWN_KINDS})"
         )),
