@@ -100,6 +100,9 @@ enum BenchWhat {
     /// DEM: particle-steps per second per core against N, one and two threads, neighbour
     /// share, side by side with LAMMPS.
     Dem(porelab::dem::bench::BenchArgs),
+    /// Coupled LBM-DEM: seconds per simulated second of the built-in scenes and the shares of
+    /// LBM, DEM and the coupling, both porosity variants, one and two threads.
+    Coupled(porelab::coupled::bench::BenchArgs),
 }
 
 fn main() -> ExitCode {
@@ -158,6 +161,9 @@ fn main() -> ExitCode {
             }
             BenchWhat::Lbm(args) => porelab::lbm::bench::run(&args).map(|_| ExitCode::SUCCESS),
             BenchWhat::Dem(args) => porelab::dem::bench::run(&args).map(|_| ExitCode::SUCCESS),
+            BenchWhat::Coupled(args) => {
+                porelab::coupled::bench::run(&args).map(|_| ExitCode::SUCCESS)
+            }
         },
     };
     match result {

@@ -548,3 +548,88 @@ impl Coupled {
             .collect()
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::scene::coupled::{build, parse_scene};
+
+    fn quick(edit: impl Fn(String) -> String) -> Result<Coupled> {
+        let text = edit(include_str!("../scene/builtin/coupled-quick.toml").to_string());
+        build(&parse_scene(&text, "test")?)
+    }
+
+    /// A coupling interval too long for the motion is refused with the reason, never NaN.
+    #[test]
+    fn too_long_a_coupling_step_is_refused() {
+        let mut c = quick(|t| {
+            t.replace(
+                "pressure_gradient_pa_m = [0.0, 0.0, 500.0]",
+                "pressure_gradient_pa_m = [0.0, 0.0, 5e5]",
+            )
+        })
+        .unwrap();
+        let mut err = None;
+        for _ in 0..200 {
+            if let Err(e) = c.step() {
+                err = Some(e.to_string());
+                break;
+            }
+        }
+        let e = err.expect("a refusal");
+        assert!(
+            e.contains("max_move_cells")
+                || e.contains("Mach")
+                || e.contains("max_relaxation")
+                || e.contains("non-finite"),
+            "{e}"
+        );
+        // a drag relaxation beyond the limit is refused at the first step
+        let mut c = quick(|t| {
+            t.replace("tau = 0.515", "tau = 0.7").replace(
+                "dem_steps_per_lbm_step = 200",
+                "dem_steps_per_lbm_step = 3000",
+            )
+        })
+        .unwrap();
+        let e = c.step().err().expect("refused").to_string();
+        assert!(e.contains("max_relaxation"), "{e}");
+    }
+
+    /// Cells packed far beyond any real porosity (eps -> 0) stay finite: the floor eps_min
+    /// and Guo–Zhao's implicit drag keep the fluid stable, and the state is refused or finite.
+    #[test]
+    fn porosity_near_zero_stays_finite() {
+        let mut c = quick(|t| {
+            t.replace("eps_min = 0.1", "eps_min = 0.01")
+                .replace("[coupling]", "[coupling]\neps_min = 0.01")
+                .replace(
+                    "max_relaxation = 1.0",
+                    "max_relaxation = 1.0\nfrozen = true",
+                )
+        })
+        .unwrap();
+        // squeeze every sphere into the first cell column
+        for p in c.dem.p.pos.iter_mut() {
+            p.x = 2.5e-4;
+            p.y = 2.5e-4;
+        }
+        for _ in 0..20 {
+            c.step().unwrap();
+        }
+        assert!(c.eps.iter().any(|&e| e == 0.01));
+        assert!(c.record.u.iter().all(|u| u.iter().all(|v| v.is_finite())));
+        assert!(c.lbm.mass().is_finite());
+    }
+
+    /// The seed's lens weights do not add up to the particle volume, but the exchange still
+    /// balances: the shares are normalised by the solid volume of each cell.
+    #[test]
+    fn lens_variant_balances_momentum() {
+        let mut c = quick(|t| t.replace("overlap = \"exact\"", "overlap = \"seed-lens\"")).unwrap();
+        let b = c.step().unwrap();
+        let sum: f64 = c.hydro_n.iter().map(|f| f.z).sum();
+        assert!(sum.abs() > 0.0);
+        assert!(b.relative_error() < 1e-12, "{}", b.relative_error());
+    }
+}

@@ -9,6 +9,7 @@
 //! * [`drag`]: Carman–Kozeny K (eq. 11), Ergun / Wen–Yu drag and their switch;
 //! * [`engine`]: the coupling loop, momentum balance and the run-time refusals.
 
+pub mod bench;
 pub mod drag;
 pub mod engine;
 pub mod porosity;
