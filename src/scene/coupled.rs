@@ -47,12 +47,12 @@ pub fn builtins() -> Vec<Builtin> {
     vec![
         Builtin {
             name: "coupled-quick",
-            about: "coupled LBM-DEM: 300 spheres d = 400 um settling into a bed through water (< 1 min)",
+            about: "coupled LBM-DEM: 300 spheres d = 400 um consolidated by a drainage flow (seconds)",
             toml: include_str!("builtin/coupled-quick.toml"),
         },
         Builtin {
             name: "coupled-seed-bed",
-            about: "coupled LBM-DEM: seed 002 Fig. 12, 2014 spheres d = 800 um under a pressure drop",
+            about: "coupled LBM-DEM: seed 002 Fig. 12, 2014 spheres d = 400 um under a pressure drop",
             toml: include_str!("builtin/coupled-seed-bed.toml"),
         },
     ]
