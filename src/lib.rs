@@ -9,6 +9,7 @@ pub mod analysis;
 pub mod brownian;
 pub mod consts;
 pub mod contact;
+pub mod coupled;
 pub mod dem;
 pub mod deposition;
 pub mod error;

@@ -104,6 +104,9 @@ enum BenchWhat {
     Dem(porelab::dem::bench::BenchArgs),
     /// Sweeps: per-job overhead of plan, launch and collect; a 100-job sweep on 1 and 2 workers.
     Sweep(porelab::sweep::bench::BenchArgs),
+    /// Coupled LBM-DEM: seconds per simulated second of the built-in scenes and the shares of
+    /// LBM, DEM and the coupling, both porosity variants, one and two threads.
+    Coupled(porelab::coupled::bench::BenchArgs),
 }
 
 fn main() -> ExitCode {
@@ -164,6 +167,9 @@ fn main() -> ExitCode {
             BenchWhat::Lbm(args) => porelab::lbm::bench::run(&args).map(|_| ExitCode::SUCCESS),
             BenchWhat::Dem(args) => porelab::dem::bench::run(&args).map(|_| ExitCode::SUCCESS),
             BenchWhat::Sweep(args) => porelab::sweep::bench::run(&args).map(|_| ExitCode::SUCCESS),
+            BenchWhat::Coupled(args) => {
+                porelab::coupled::bench::run(&args).map(|_| ExitCode::SUCCESS)
+            }
         },
     };
     match result {

@@ -173,6 +173,8 @@ pub struct ActiveTerms {
     pub gravity: bool,
     pub drag: bool,
     pub pressure_wall: bool,
+    /// Per-particle external forces set through [`Dem::set_external_forces`].
+    pub external: bool,
 }
 
 impl ActiveTerms {
@@ -184,6 +186,7 @@ impl ActiveTerms {
             (self.gravity, "gravity"),
             (self.drag, "uniform Stokes drag"),
             (self.pressure_wall, "pressure-controlled top wall"),
+            (self.external, "per-particle external force"),
         ] {
             if on {
                 v.push(name);
@@ -225,6 +228,8 @@ pub struct Dem {
     pub active: ActiveTerms,
     /// Seconds spent rebuilding the neighbour list.
     pub neighbour_seconds: f64,
+    /// Per-particle external force (N), empty until set.
+    external: Vec<Vector3<f64>>,
 }
 
 impl Dem {
@@ -362,6 +367,7 @@ impl Dem {
             gravity: setup.gravity_m_s2 != Vector3::zeros(),
             drag: setup.drag.is_some(),
             pressure_wall: matches!(setup.top, TopWall::Pressure { .. }),
+            external: false,
         };
         let mut dem = Dem {
             pp: PairMaterial::new(&setup.particle_material, &setup.particle_material),
@@ -386,6 +392,7 @@ impl Dem {
             top_stiffness_n_per_m: 0.0,
             active,
             neighbour_seconds: 0.0,
+            external: Vec::new(),
             p,
             setup,
         };
@@ -403,6 +410,34 @@ impl Dem {
             pr.xi = Vector3::zeros();
         }
         Ok(dem)
+    }
+
+    /// Sets a constant external force on every particle (N, one per particle, finite) that
+    /// acts from now on, until the next call; the current step's forces are updated, so the
+    /// next half-kick already uses it.
+    pub fn set_external_forces(&mut self, f: &[Vector3<f64>]) -> Result<()> {
+        if f.len() != self.p.len() {
+            return invalid(format!(
+                "external forces: {} given for {} particles",
+                f.len(),
+                self.p.len()
+            ));
+        }
+        if let Some(i) = f.iter().position(|v| !v.iter().all(|c| c.is_finite())) {
+            return invalid(format!(
+                "external force on particle {i}: {:?} N is not finite",
+                f[i]
+            ));
+        }
+        if self.external.len() != f.len() {
+            self.external = vec![Vector3::zeros(); f.len()];
+        }
+        for ((tot, old), new) in self.force.iter_mut().zip(&mut self.external).zip(f) {
+            *tot += *new - *old;
+            *old = *new;
+        }
+        self.active.external = true;
+        Ok(())
     }
 
     fn rebuild(&mut self) -> Result<()> {
@@ -637,6 +672,7 @@ impl Dem {
         let top_v = self.top_v_m_s;
         let g = self.setup.gravity_m_s2 * self.buoyancy;
         let drag = self.setup.drag;
+        let external = &self.external;
         type Slot<'a> = (
             usize,
             (
@@ -707,6 +743,9 @@ impl Dem {
                 wfz[k] = fw.z;
             }
             f += g * mass[i];
+            if let Some(e) = external.get(i) {
+                f += *e;
+            }
             if let Some(d) = &drag {
                 f += (d.fluid_velocity_m_s - vf[i]) * (6.0 * PI * d.viscosity_pa_s * r);
             }

@@ -4,7 +4,7 @@
 //! For a pair with c = c_q the equilibrium (seed 002 eq. 5, with the porosity of Guo & Zhao
 //! eq. 13) splits into the even part e+ = w rho (1 + 9/2 (c.u)^2/eps - 3/2 u.u/eps) and the odd
 //! part e- = 3 w rho c.u; the source term (Guo & Zhao eq. 14) into
-//! S+ = w rho (9 (c.u)(c.a)/eps - 3 u.a) and S- = 3 w rho c.a. The even part relaxes at rate
+//! S+ = w rho (9 (c.u)(c.a)/eps - 3 u.a/eps) and S- = 3 w rho c.a. The even part relaxes at rate
 //! omega+ = 1/tau (the viscosity, eq. 8: nu = (tau - 1/2)/3), the odd part at omega-; each
 //! source part carries its factor (1 - omega/2). BGK is omega- = omega+.
 
@@ -86,7 +86,7 @@ pub struct RowState {
     pub u: [Vec<f64>; 3],
     pub a: [Vec<f64>; 3],
     pub inv_eps: Vec<f64>,
-    /// u.u / eps and u.a, shared by every direction.
+    /// u.u / eps and u.a / eps, shared by every direction.
     pub uu: Vec<f64>,
     pub ua: Vec<f64>,
 }

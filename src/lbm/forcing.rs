@@ -74,6 +74,11 @@ impl Forcing for BodyForce {
 /// Stored per cell: eps, the linear drag coefficient eps nu / K and the Forchheimer
 /// coefficient eps F_eps / sqrt(K), F_eps = 1.75 / sqrt(150 eps^3) (Ergun; Guo & Zhao eq. 4),
 /// so that a cell costs three loads and one square root more than a clear fluid.
+///
+/// The solid matrix of a cell may move: with the matrix velocity w (superficial, i.e. eps
+/// times the solid velocity; zero by default) the drag acts on the relative velocity,
+/// a = -(lin + quad |u - w|) (u - w) + eps G, and the implicit velocity of Guo & Zhao eq. 20-22
+/// is solved for u - w (with w = 0 every operation is the fixed medium's, bit for bit).
 #[derive(Debug, Clone)]
 pub struct Porous {
     /// Body force per unit mass G (lattice units).
@@ -85,6 +90,20 @@ pub struct Porous {
     eps: Vec<f64>,
     lin: Vec<f64>,
     quad: Vec<f64>,
+    w: Vec<[f64; 3]>,
+}
+
+/// The Guo-Zhao drag coefficients (lin, quad) = (eps nu / K, eps F_eps / sqrt K) of a cell of
+/// porosity `eps` and permeability `k` (lattice units; k = infinity: no drag), F_eps =
+/// 1.75 / sqrt(150 eps^3) (Ergun; Guo & Zhao eq. 4); quad = 0 without the Forchheimer term.
+pub fn guo_zhao_coefficients(eps: f64, k: f64, nu: f64, forchheimer: bool) -> (f64, f64) {
+    let lin = eps * nu / k;
+    let quad = if forchheimer && k.is_finite() {
+        eps * 1.75 / (150.0 * eps * eps * eps).sqrt() / k.sqrt()
+    } else {
+        0.0
+    };
+    (lin, quad)
 }
 
 impl Porous {
@@ -97,7 +116,59 @@ impl Porous {
             eps: vec![1.0; cells],
             lin: vec![0.0; cells],
             quad: vec![0.0; cells],
+            w: vec![[0.0; 3]; cells],
         }
+    }
+
+    /// Kinematic viscosity (lattice units) the coefficients of [`Porous::set`] use.
+    pub fn nu(&self) -> f64 {
+        self.nu
+    }
+
+    /// Whether [`Porous::set`] includes the Forchheimer term.
+    pub fn forchheimer(&self) -> bool {
+        self.forchheimer
+    }
+
+    /// Sets porosity `eps` (0 < eps <= 1) and the drag coefficients of one cell directly:
+    /// a = -(lin + quad |u - w|) (u - w) + eps G (lattice units, lin, quad >= 0 and finite).
+    /// Returns the rule broken, if any.
+    pub fn set_coefficients(
+        &mut self,
+        cell: usize,
+        eps: f64,
+        lin: f64,
+        quad: f64,
+    ) -> Result<(), String> {
+        if eps.is_nan() || eps <= 0.0 || eps > 1.0 {
+            return Err(format!("porosity eps = {eps}: must be in (0, 1]"));
+        }
+        if !(lin.is_finite() && lin >= 0.0 && quad.is_finite() && quad >= 0.0) {
+            return Err(format!(
+                "drag coefficients lin = {lin}, quad = {quad} (lattice units): must be finite and >= 0"
+            ));
+        }
+        self.eps[cell] = eps;
+        self.lin[cell] = lin;
+        self.quad[cell] = quad;
+        Ok(())
+    }
+
+    /// Sets the matrix velocity w of one cell (superficial: eps times the solid velocity;
+    /// lattice units, finite).
+    pub fn set_matrix_velocity(&mut self, cell: usize, w: [f64; 3]) -> Result<(), String> {
+        if !w.iter().all(|c| c.is_finite()) {
+            return Err(format!(
+                "matrix velocity {w:?} (lattice units): must be finite"
+            ));
+        }
+        self.w[cell] = w;
+        Ok(())
+    }
+
+    /// The matrix velocity w of a cell.
+    pub fn matrix_velocity(&self, cell: usize) -> [f64; 3] {
+        self.w[cell]
     }
 
     /// Sets porosity `eps` (0 < eps <= 1) and permeability `k` (lattice units, > 0; infinity
@@ -109,13 +180,10 @@ impl Porous {
         if k.is_nan() || k <= 0.0 {
             return Err(format!("permeability K = {k} (lattice units): must be > 0"));
         }
+        let (lin, quad) = guo_zhao_coefficients(eps, k, self.nu, self.forchheimer);
         self.eps[cell] = eps;
-        self.lin[cell] = eps * self.nu / k;
-        self.quad[cell] = if self.forchheimer && k.is_finite() {
-            eps * 1.75 / (150.0 * eps * eps * eps).sqrt() / k.sqrt()
-        } else {
-            0.0
-        };
+        self.lin[cell] = lin;
+        self.quad[cell] = quad;
         Ok(())
     }
 
@@ -139,26 +207,29 @@ impl Forcing for Porous {
         let quad = self.quad[cell];
         let r = 1.0 / rho;
         let g = self.g;
-        // Guo & Zhao eq. 20-22: v = j/rho + eps G/2, c0 = (1 + eps nu/(2K))/2, c1 = eps F_eps/(2 sqrt K).
+        let w = self.w[cell];
+        // Guo & Zhao eq. 20-22 for u - w: v = j/rho + eps G/2, c0 = (1 + eps nu/(2K))/2,
+        // c1 = eps F_eps/(2 sqrt K), u - w = (v - w) / (c0 + sqrt(c0^2 + c1 |v - w|)).
         let v = [
-            j[0] * r + 0.5 * eps * g[0],
-            j[1] * r + 0.5 * eps * g[1],
-            j[2] * r + 0.5 * eps * g[2],
+            j[0] * r + 0.5 * eps * g[0] - w[0],
+            j[1] * r + 0.5 * eps * g[1] - w[1],
+            j[2] * r + 0.5 * eps * g[2] - w[2],
         ];
         let c0 = 0.5 * (1.0 + 0.5 * lin);
         let c1 = 0.5 * quad;
         let vn = (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
         let s = 1.0 / (c0 + (c0 * c0 + c1 * vn).sqrt());
-        let u = [v[0] * s, v[1] * s, v[2] * s];
+        let rel = [v[0] * s, v[1] * s, v[2] * s];
         let un = vn * s;
-        // Seed 002 eq. 10: F = -(eps nu/K) u - (eps F_eps/sqrt K)|u| u + eps G.
+        // Seed 002 eq. 10 on the relative velocity: F = -(eps nu/K + eps F_eps/sqrt K |u - w|)
+        // (u - w) + eps G.
         let drag = lin + quad * un;
         CellState {
-            u,
+            u: [rel[0] + w[0], rel[1] + w[1], rel[2] + w[2]],
             a: [
-                eps * g[0] - drag * u[0],
-                eps * g[1] - drag * u[1],
-                eps * g[2] - drag * u[2],
+                eps * g[0] - drag * rel[0],
+                eps * g[1] - drag * rel[1],
+                eps * g[2] - drag * rel[2],
             ],
             inv_eps: 1.0 / eps,
         }

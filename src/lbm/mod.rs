@@ -21,7 +21,7 @@ pub use collision::{Bgk, Collision, Trt};
 pub use forcing::{BodyForce, Forcing, Porous, Unforced};
 pub use geometry::{Dims, Geometry};
 pub use lattice::{Lattice, D3Q15, D3Q19};
-pub use solver::{Fields, Solver};
+pub use solver::{Fields, Record, Solver};
 pub mod flows;
 pub mod steady;
 #[cfg(test)]

@@ -26,6 +26,28 @@ pub struct Fields {
     pub u: Vec<[f64; 3]>,
 }
 
+/// The state each fluid cell's collision used in one step: density, the forcing's velocity and
+/// the source term's acceleration (lattice units; solid cells keep zeros).
+#[derive(Debug, Clone)]
+pub struct Record {
+    pub rho: Vec<f64>,
+    pub u: Vec<[f64; 3]>,
+    pub a: Vec<[f64; 3]>,
+}
+
+impl Record {
+    pub fn zeros(cells: usize) -> Record {
+        Record {
+            rho: vec![0.0; cells],
+            u: vec![[0.0; 3]; cells],
+            a: vec![[0.0; 3]; cells],
+        }
+    }
+}
+
+/// One z-plane of a [`Record`].
+type PlaneRecord<'a> = (&'a mut [f64], &'a mut [[f64; 3]], &'a mut [[f64; 3]]);
+
 /// Bytes a solver of `cells` cells with `q` populations allocates (two population arrays,
 /// mask, and `extra_per_cell` bytes of forcing fields).
 pub fn bytes_needed(cells: usize, q: usize, extra_per_cell: usize) -> u128 {
@@ -201,7 +223,8 @@ impl<L: Lattice, C: Collision, F: Forcing> Solver<L, C, F> {
             }
             st.inv_eps[i] = s.inv_eps;
             st.uu[i] = (s.u[0] * s.u[0] + s.u[1] * s.u[1] + s.u[2] * s.u[2]) * s.inv_eps;
-            st.ua[i] = s.u[0] * s.a[0] + s.u[1] * s.a[1] + s.u[2] * s.a[2];
+            // u.a / eps: the source term of Guo & Zhao eq. 14 then has zero mass
+            st.ua[i] = (s.u[0] * s.a[0] + s.u[1] * s.a[1] + s.u[2] * s.a[2]) * s.inv_eps;
         }
     }
 
@@ -217,6 +240,7 @@ impl<L: Lattice, C: Collision, F: Forcing> Solver<L, C, F> {
         out: &mut [f64],
         buf: &mut [f64],
         st: &mut RowState,
+        rec: &mut Option<PlaneRecord>,
     ) {
         let d = geom.dims;
         for y in 0..d.ny {
@@ -224,6 +248,14 @@ impl<L: Lattice, C: Collision, F: Forcing> Solver<L, C, F> {
             for &(x0, x1) in geom.runs(z * d.ny + y) {
                 let (x0, x1) = (x0 as usize, x1 as usize);
                 Self::row_state(force, &d, buf, z, y, x0, x1, st);
+                if let Some((rho, u, a)) = rec {
+                    for i in 0..x1 - x0 {
+                        let k = y * d.nx + x0 + i;
+                        rho[k] = st.rho[i];
+                        u[k] = [st.u[0][i], st.u[1][i], st.u[2][i]];
+                        a[k] = [st.a[0][i], st.a[1][i], st.a[2][i]];
+                    }
+                }
                 if F::ACTIVE {
                     relax_run::<L, C, true>(coll, st, buf, d.nx, (x0, x1), out, d.ny, y);
                 } else {
@@ -249,32 +281,100 @@ impl<L: Lattice, C: Collision, F: Forcing> Solver<L, C, F> {
         out: &mut [f64],
         buf: &mut [f64],
         st: &mut RowState,
+        rec: &mut Option<PlaneRecord>,
     ) {
-        Self::plane_body(src, geom, coll, force, z, out, buf, st)
+        Self::plane_body(src, geom, coll, force, z, out, buf, st, rec)
     }
 
     /// One time step: stream, bounce back, collide.
     pub fn step(&mut self) {
+        self.step_inner(None);
+    }
+
+    /// One time step that also records, per fluid cell, the density, velocity and source
+    /// acceleration its collision used (the fluid's momentum changes by rho a per cell).
+    pub fn step_recording(&mut self, rec: &mut Record) -> Result<()> {
+        let cells = self.dims().cells();
+        if rec.rho.len() != cells || rec.u.len() != cells || rec.a.len() != cells {
+            return invalid(format!(
+                "record of {} cells for a lattice of {cells} cells",
+                rec.rho.len()
+            ));
+        }
+        self.step_inner(Some(rec));
+        Ok(())
+    }
+
+    fn step_inner(&mut self, rec: Option<&mut Record>) {
         let d = self.dims();
         let plane = L::Q * d.nx * d.ny;
+        let nxy = d.nx * d.ny;
         let nx = d.nx;
         #[cfg(target_arch = "x86_64")]
         let avx2 = is_x86_feature_detected!("avx2") && is_x86_feature_detected!("fma");
         let (src, geom, coll, force) = (&self.f, &self.geometry, &self.collision, &self.forcing);
-        self.g.par_chunks_mut(plane).enumerate().for_each_init(
-            || (vec![0.0; L::Q * nx], RowState::with_len(nx)),
-            |(buf, st), (z, out)| {
-                #[cfg(target_arch = "x86_64")]
-                if avx2 {
-                    // SAFETY: avx2 and fma were detected above.
-                    unsafe { Self::plane_avx2(src, geom, coll, force, z, out, buf, st) };
-                    return;
-                }
-                Self::plane_body(src, geom, coll, force, z, out, buf, st)
-            },
-        );
+        let mut planes: Vec<Option<PlaneRecord>> = match rec {
+            Some(r) => r
+                .rho
+                .chunks_mut(nxy)
+                .zip(r.u.chunks_mut(nxy))
+                .zip(r.a.chunks_mut(nxy))
+                .map(|((a, b), c)| Some((a, b, c)))
+                .collect(),
+            None => (0..d.nz).map(|_| None).collect(),
+        };
+        self.g
+            .par_chunks_mut(plane)
+            .zip(planes.par_iter_mut())
+            .enumerate()
+            .for_each_init(
+                || (vec![0.0; L::Q * nx], RowState::with_len(nx)),
+                |(buf, st), (z, (out, rec))| {
+                    #[cfg(target_arch = "x86_64")]
+                    if avx2 {
+                        // SAFETY: avx2 and fma were detected above.
+                        unsafe { Self::plane_avx2(src, geom, coll, force, z, out, buf, st, rec) };
+                        return;
+                    }
+                    Self::plane_body(src, geom, coll, force, z, out, buf, st, rec)
+                },
+            );
         std::mem::swap(&mut self.f, &mut self.g);
         self.steps += 1;
+    }
+
+    /// Total momentum sum f c of the post-collision populations of fluid cells (lattice
+    /// units), added plane by plane in order.
+    pub fn momentum(&self) -> [f64; 3] {
+        let d = self.dims();
+        let plane = L::Q * d.nx * d.ny;
+        let sums: Vec<[f64; 3]> = self
+            .f
+            .par_chunks(plane)
+            .enumerate()
+            .map(|(z, pl)| {
+                let mut s = [0.0; 3];
+                for y in 0..d.ny {
+                    for &(x0, x1) in self.geometry.runs(z * d.ny + y) {
+                        for q in 0..L::Q {
+                            let base = (q * d.ny + y) * d.nx;
+                            let f: f64 = pl[base + x0 as usize..base + x1 as usize].iter().sum();
+                            for (k, sk) in s.iter_mut().enumerate() {
+                                *sk += L::C[q][k] as f64 * f;
+                            }
+                        }
+                    }
+                }
+                s
+            })
+            .collect();
+        let mut t = [0.0; 3];
+        for s in sums {
+            for k in 0..3 {
+                t[k] += s[k];
+            }
+        }
+        t
     }
 
     /// `n` steps.

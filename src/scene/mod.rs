@@ -10,6 +10,7 @@
 //! same files are the examples of the schema.
 
 pub mod brownian;
+pub mod coupled;
 pub mod dem;
 pub mod deposition;
 pub mod lbm;
@@ -33,6 +34,7 @@ pub fn builtins() -> Vec<Builtin> {
     v.extend(deposition::builtins());
     v.extend(lbm::builtins());
     v.extend(dem::builtins());
+    v.extend(coupled::builtins());
     v.sort_by_key(|b| b.name);
     v
 }
@@ -61,7 +63,8 @@ pub struct RunOptions {
 }
 
 /// The values of a scene's `kind`, as error messages list them.
-const KNOWN_KINDS: &str = "\"brownian\", \"packing\", \"deposition\", \"dem\", \"lbm\"";
+const KNOWN_KINDS: &str =
+    "\"brownian\", \"packing\", \"deposition\", \"dem\", \"lbm\", \"coupled\"";
 
 /// The error for a `kind` that names no engine.
 fn unknown_kind<T>(origin: &str, kind: &str) -> Result<T> {
@@ -100,6 +103,7 @@ pub fn run_text(text: &str, origin: &str, out_stem: &str, opts: &RunOptions) -> 
         "dem" => dem::run_scene(text, origin, &out, opts),
         "deposition" => deposition::run_scene(text, origin, &out, opts),
         "lbm" => lbm::run_scene(text, origin, &out, opts),
+        "coupled" => coupled::run_scene(text, origin, &out, opts),
         other => unknown_kind(origin, other),
     }
 }
@@ -113,6 +117,7 @@ pub fn check_text(text: &str, origin: &str) -> Result<()> {
         "dem" => dem::parse_scene(text, origin).map(|_| ()),
         "deposition" => deposition::parse_scene(text, origin).map(|_| ()),
         "lbm" => lbm::check_scene(text, origin),
+        "coupled" => coupled::parse_scene(text, origin).map(|_| ()),
         other => unknown_kind(origin, other),
     }
 }

@@ -16,7 +16,7 @@
 //! ```
 //!
 //! Each job's seed goes to its engine's seed key ([`plan::seed_key`]: `run.seed` brownian,
-//! `mcm.seed` packing, `seed` deposition and DEM; LBM has none and takes one run per point):
+//! `mcm.seed` packing, `seed` deposition and DEM, `dem.seed` coupled; LBM has none and takes one run per point):
 //! [`plan::job_seed`], a SplitMix64 chain of (base_seed, point, run).
 //!
 //! A sweep folder `DIR` (written by `porelab sweep plan`):

@@ -52,6 +52,7 @@ pub fn seed_key(kind: &str) -> Option<&'static str> {
         "brownian" => Some("run.seed"),
         "packing" => Some("mcm.seed"),
         "deposition" | "dem" => Some("seed"),
+        "coupled" => Some("dem.seed"),
         _ => None,
     }
 }

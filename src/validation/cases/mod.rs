@@ -9,6 +9,7 @@ mod brownian_equilibrium;
 mod brownian_scenes;
 mod common;
 mod contact;
+mod coupled;
 mod dem;
 mod deposition;
 mod drag;
@@ -49,6 +50,10 @@ pub fn runner_for(id: &str) -> Option<Runner> {
         "607" => Some(deposition::case_607),
         "608" => Some(deposition::case_608),
         "901" => Some(deposition::case_901_902),
+        "811" => Some(coupled::case_811),
+        "812" => Some(coupled::case_812),
+        "813" => Some(coupled::case_813),
+        "814" => Some(coupled::case_814),
         "501" => Some(packing::case_501),
         "502" => Some(packing::case_502),
         "503" => Some(packing::case_503),

@@ -1,0 +1,635 @@
+//! The two-way coupling loop (seed 002, "Two-way coupling algorithm"): each coupling step
+//!
+//! 1. porosity per cell from the particles ([`super::porosity`]), the local mean diameter and
+//!    the solid velocity, hence the Guo–Zhao fields of every cell: eps, the drag coefficients
+//!    of [`super::drag`] (Carman–Kozeny K for the Ergun branch, seed 002 eq. 10-11) and the
+//!    matrix velocity w = eps u_s;
+//! 2. one LBM step, recording the density, velocity and source acceleration of each cell;
+//! 3. the force the fluid of each cell lost to its solid, F_c = rho_c (eps_c G - a_c) (G the
+//!    driving body force), shared among the particles in the cell by their volume in it (the
+//!    weights of the porosity): particle i gets sum_c (V_ic / V_c) [F_c + D_c eps_c (v_c - v_i)],
+//!    D_c = rho_c (lin_c + quad_c |u_c - w_c|) and v_c the cell's volume-weighted solid
+//!    velocity, i.e. the drag on its own relative velocity; the second term sums to zero over
+//!    a cell, so the particles gain exactly what the fluid lost;
+//! 4. M DEM steps with that force held constant, plus the buoyant weight (the DEM's
+//!    m (1 - rho_f / rho_p) g) and the mean pressure gradient on the particle volume,
+//!    -V_i grad p (the solid's share of the imposed pressure drop; the fluid gets the rest as
+//!    eps G, G = -grad p / rho_f).
+//!
+//! The local pressure variations of the LBM reach the particles through the drag: the fluid's
+//! momentum equation (Guo & Zhao 2002 eq. 9) carries them to the source term the particles
+//! receive, so no separate local pressure-gradient force is added (it would be counted twice).
+//!
+//! Refusals at run time: a particle moving more than [`CoupledSetup::max_move_cells`] of a
+//! cell in one coupling step, a drag relaxation gamma_i dt_LBM / m_i above
+//! [`CoupledSetup::max_relaxation`] (the force is explicit over the coupling step), and any
+//! non-finite state. Lattice units inside the LBM (dx = dt = 1, rho = 1); SI everywhere else.
+
+use super::drag::{cell_coefficients, Switch};
+use super::porosity::{sphere_cells, Overlap};
+use crate::dem::Dem;
+use crate::error::{invalid, Result};
+use crate::lbm::units::Units;
+use crate::lbm::{Bgk, Dims, Geometry, Porous, Record, Solver, D3Q15};
+use nalgebra::Vector3;
+use rayon::prelude::*;
+use std::f64::consts::PI;
+use std::time::Instant;
+
+/// The fluid and coupling parameters (SI).
+#[derive(Debug, Clone, PartialEq)]
+pub struct CoupledSetup {
+    /// Lattice spacing (m); the box must hold a whole number of cells in x and y.
+    pub dx_m: f64,
+    /// BGK relaxation time (sets dt = (tau - 1/2)/3 dx^2 / nu).
+    pub tau: f64,
+    pub fluid_density_kg_m3: f64,
+    pub viscosity_pa_s: f64,
+    /// Lattice height in cells (>= the DEM top wall over dx).
+    pub nz: usize,
+    pub overlap: Overlap,
+    pub switch: Switch,
+    /// Porosity floor of a cell (the Carman–Kozeny K stays finite and the 1/eps terms of the
+    /// equilibrium bounded).
+    pub eps_min: f64,
+    /// Imposed mean pressure gradient (Pa/m); the fluid is driven by G = -grad p / rho_f.
+    pub grad_p_pa_m: Vector3<f64>,
+    /// Add to grad p the gradient that carries the particles' buoyant weight, sum m'_i g /
+    /// V_box (a periodic suspension then has no net external force).
+    pub balance_weight: bool,
+    /// DEM steps per LBM step (M).
+    pub dem_steps: u64,
+    /// Largest particle displacement per coupling step, in cells.
+    pub max_move_cells: f64,
+    /// Largest drag relaxation gamma dt_LBM / m of a particle.
+    pub max_relaxation: f64,
+    /// Particles held fixed (no DEM steps): a fixed bed.
+    pub frozen: bool,
+}
+
+/// Seconds spent in each part of the loop.
+#[derive(Debug, Clone, Copy, Default, serde::Serialize)]
+pub struct Timing {
+    pub lbm_s: f64,
+    pub dem_s: f64,
+    pub coupling_s: f64,
+}
+
+/// The balance of one coupling step (SI, N s): fluid and particle momentum changes and the
+/// external impulse (driving, buoyant weight, pressure gradient on the particles; wall
+/// contacts are not included).
+#[derive(Debug, Clone, Copy, Default)]
+pub struct Balance {
+    pub fluid: Vector3<f64>,
+    pub particles: Vector3<f64>,
+    pub external: Vector3<f64>,
+    /// Magnitude the rounding scales with: the exchanged impulse plus the external one.
+    pub scale: f64,
+}
+
+impl Balance {
+    /// |dP_fluid + dP_particles - J_external| / scale.
+    pub fn relative_error(&self) -> f64 {
+        (self.fluid + self.particles - self.external).norm() / self.scale.max(f64::MIN_POSITIVE)
+    }
+}
+
+/// A coupled LBM–DEM system.
+pub struct Coupled {
+    pub dem: Dem,
+    pub lbm: Solver<D3Q15, Bgk, Porous>,
+    pub units: Units,
+    pub setup: CoupledSetup,
+    pub dims: Dims,
+    pub dt_dem_s: f64,
+    /// Coupling steps done.
+    pub steps: u64,
+    pub time_s: f64,
+    pub timing: Timing,
+    /// The last LBM step's record (lattice units).
+    pub record: Record,
+    /// Per cell: solid volume (m^3), porosity used, volume-weighted diameter sum and velocity.
+    pub solid_volume_m3: Vec<f64>,
+    pub eps: Vec<f64>,
+    vd: Vec<f64>,
+    vv: Vec<[f64; 3]>,
+    /// Per cell: lagged superficial slip |u - w| (lattice) and D_c = lin + quad |u - w|.
+    slip: Vec<f64>,
+    /// Hydrodynamic force on each particle of the last step (N) and its drag rate (kg/s).
+    pub hydro_n: Vec<Vector3<f64>>,
+    pub gamma_kg_s: Vec<f64>,
+    overlaps: Vec<Vec<(u32, f64)>>,
+    /// Worst relative momentum imbalance over all steps, and the last step's balance.
+    pub worst_balance: f64,
+    pub last_balance: Balance,
+    /// Largest displacement per coupling step seen (cells).
+    pub max_move_seen_cells: f64,
+}
+
+impl Coupled {
+    /// Builds the lattice around the DEM box and checks the two time steps.
+    pub fn new(dem: Dem, setup: CoupledSetup) -> Result<Coupled> {
+        let dx = setup.dx_m;
+        for (key, v) in [
+            ("fluid.dx_m", dx),
+            ("fluid.density_kg_m3", setup.fluid_density_kg_m3),
+            ("fluid.viscosity_pa_s", setup.viscosity_pa_s),
+            ("coupling.max_move_cells", setup.max_move_cells),
+            ("coupling.max_relaxation", setup.max_relaxation),
+        ] {
+            if !(v.is_finite() && v > 0.0) {
+                return invalid(format!("{key} = {v}: must be positive and finite"));
+            }
+        }
+        if !(setup.eps_min > 0.0 && setup.eps_min < 1.0) {
+            return invalid(format!(
+                "coupling.eps_min = {}: must be in (0, 1)",
+                setup.eps_min
+            ));
+        }
+        if !setup.grad_p_pa_m.iter().all(|c| c.is_finite()) {
+            return invalid("fluid.pressure_gradient_pa_m: must be finite");
+        }
+        if setup.dem_steps == 0 {
+            return invalid("coupling.dem_steps_per_lbm_step = 0: must be at least 1");
+        }
+        let cells_along = |l: f64, key: &str| -> Result<usize> {
+            let n = (l / dx).round();
+            if n < 1.0 || ((n * dx - l) / l).abs() > 1e-9 {
+                return invalid(format!(
+                    "{key} = {l} m is not a whole number of cells of fluid.dx_m = {dx} m \
+                     ({:.6} cells)",
+                    l / dx
+                ));
+            }
+            Ok(n as usize)
+        };
+        let nx = cells_along(dem.setup.lx_m, "box.lx_m")?;
+        let ny = cells_along(dem.setup.ly_m, "box.ly_m")?;
+        if (setup.nz as f64) * dx < dem.top_z_m * (1.0 - 1e-12) {
+            return invalid(format!(
+                "fluid height {} cells x {dx} m is below the DEM top wall at {} m",
+                setup.nz, dem.top_z_m
+            ));
+        }
+        let dims = Dims::new(nx, ny, setup.nz)?;
+        let nu = setup.viscosity_pa_s / setup.fluid_density_kg_m3;
+        let units = Units::from_tau(dx, nu, setup.fluid_density_kg_m3, setup.tau)?;
+        let dt_dem = units.dt / setup.dem_steps as f64;
+        if (dem.setup.fluid_density_kg_m3 - setup.fluid_density_kg_m3).abs()
+            > 1e-12 * setup.fluid_density_kg_m3
+        {
+            return invalid(format!(
+                "the DEM's buoyancy fluid density {} kg/m^3 differs from the fluid's {} kg/m^3",
+                dem.setup.fluid_density_kg_m3, setup.fluid_density_kg_m3
+            ));
+        }
+        if dem.setup.drag.is_some() {
+            return invalid(
+                "the DEM's uniform Stokes drag is on: the coupled fluid replaces it (remove \
+                 drivers.viscosity_pa_s from the [dem] table)",
+            );
+        }
+        let mut dem = dem;
+        if !setup.frozen {
+            // the DEM's stiffness rule at the largest impact speed the displacement refusal
+            // allows, 2 max_move_cells dx / dt_LBM
+            let v_max = 2.0 * setup.max_move_cells * dx / units.dt;
+            let (tc, _) = crate::dem::engine::contact_times(
+                &dem.setup,
+                dem.p.radius.iter().cloned().fold(f64::INFINITY, f64::min),
+                v_max,
+            );
+            let limit = crate::dem::engine::MAX_CONTACT_TIME_FRACTION * tc;
+            if dt_dem > limit {
+                return invalid(format!(
+                    "DEM step dt_LBM / M = {:e} s / {} = {dt_dem:e} s exceeds t_contact / 10 = \
+                     {limit:e} s: raise coupling.dem_steps_per_lbm_step to at least {}",
+                    units.dt,
+                    setup.dem_steps,
+                    (units.dt / limit).ceil()
+                ));
+            }
+            dem.dt_s = dt_dem;
+        }
+        let cells = dims.cells();
+        let geometry = Geometry::open::<D3Q15>(dims);
+        let porous = Porous::clear(cells, units.nu_lattice(), [0.0; 3], true);
+        let lbm = Solver::new(geometry, Bgk::from_tau(setup.tau), porous)?;
+        let n = dem.p.len();
+        Ok(Coupled {
+            dem,
+            lbm,
+            units,
+            dims,
+            dt_dem_s: dt_dem,
+            steps: 0,
+            time_s: 0.0,
+            timing: Timing::default(),
+            record: Record::zeros(cells),
+            solid_volume_m3: vec![0.0; cells],
+            eps: vec![1.0; cells],
+            vd: vec![0.0; cells],
+            vv: vec![[0.0; 3]; cells],
+            slip: vec![0.0; cells],
+            hydro_n: vec![Vector3::zeros(); n],
+            gamma_kg_s: vec![0.0; n],
+            overlaps: vec![Vec::new(); n],
+            worst_balance: 0.0,
+            last_balance: Balance::default(),
+            max_move_seen_cells: 0.0,
+            setup,
+        })
+    }
+
+    /// Cell volume (m^3).
+    pub fn cell_volume_m3(&self) -> f64 {
+        self.setup.dx_m.powi(3)
+    }
+
+    /// The pressure gradient in force (Pa/m): the imposed one plus, if asked, the weight's.
+    pub fn grad_p(&self) -> Vector3<f64> {
+        let mut g = self.setup.grad_p_pa_m;
+        if self.setup.balance_weight {
+            let b = 1.0 - self.setup.fluid_density_kg_m3 / self.dem.setup.density_kg_m3;
+            let w: f64 = self.dem.p.mass.iter().sum::<f64>() * b;
+            let v_box = self.dims.cells() as f64 * self.cell_volume_m3();
+            g += self.dem.setup.gravity_m_s2 * (w / v_box);
+        }
+        g
+    }
+
+    /// Step 1: solid volume, porosity, diameter and velocity per cell, and the Guo–Zhao fields.
+    pub fn update_porosity(&mut self) -> Result<()> {
+        let dx = self.setup.dx_m;
+        let n = [self.dims.nx, self.dims.ny, self.dims.nz];
+        let method = self.setup.overlap;
+        let p = &self.dem.p;
+        self.overlaps
+            .par_iter_mut()
+            .enumerate()
+            .with_min_len(16)
+            .for_each(|(i, out)| {
+                out.clear();
+                let c = p.pos[i];
+                sphere_cells(method, [c.x, c.y, c.z], p.radius[i], n, dx, out);
+            });
+        self.solid_volume_m3.fill(0.0);
+        self.vd.fill(0.0);
+        self.vv.fill([0.0; 3]);
+        let to_l = self.units.dt / dx;
+        for (i, ov) in self.overlaps.iter().enumerate() {
+            let d = 2.0 * p.radius[i];
+            let v = p.vel[i] * to_l;
+            for &(c, vol) in ov {
+                let c = c as usize;
+                self.solid_volume_m3[c] += vol;
+                self.vd[c] += vol * d;
+                for k in 0..3 {
+                    self.vv[c][k] += vol * v[k];
+                }
+            }
+        }
+        let vcell = self.cell_volume_m3();
+        let nu = self.units.nu_lattice();
+        let (eps_min, switch) = (self.setup.eps_min, self.setup.switch);
+        let g = -self.grad_p() / self.setup.fluid_density_kg_m3;
+        let gl = self.units.accel_to_lattice(1.0);
+        let porous = &mut self.lbm.forcing;
+        porous.g = [g.x * gl, g.y * gl, g.z * gl];
+        for c in 0..self.dims.cells() {
+            let vs = self.solid_volume_m3[c];
+            let (eps, lin, quad, w) = if vs > 0.0 {
+                let eps = (1.0 - vs / vcell).clamp(eps_min, 1.0);
+                let d_cells = self.vd[c] / vs / dx;
+                let vbar = [self.vv[c][0] / vs, self.vv[c][1] / vs, self.vv[c][2] / vs];
+                if eps < 1.0 {
+                    let (lin, quad) = cell_coefficients(eps, d_cells, nu, self.slip[c], switch);
+                    (
+                        eps,
+                        lin,
+                        quad,
+                        [eps * vbar[0], eps * vbar[1], eps * vbar[2]],
+                    )
+                } else {
+                    (1.0, 0.0, 0.0, [0.0; 3])
+                }
+            } else {
+                (1.0, 0.0, 0.0, [0.0; 3])
+            };
+            self.eps[c] = eps;
+            porous
+                .set_coefficients(c, eps, lin, quad)
+                .and_then(|_| porous.set_matrix_velocity(c, w))
+                .map_err(|e| crate::Error::InvalidInput(format!("cell {c}: {e}")))?;
+        }
+        Ok(())
+    }
+
+    /// Steps 2-3: one LBM step and the hydrodynamic force on every particle.
+    pub fn fluid_step(&mut self) -> Result<()> {
+        let t = Instant::now();
+        self.lbm.step_recording(&mut self.record)?;
+        self.timing.lbm_s += t.elapsed().as_secs_f64();
+        let t = Instant::now();
+        let cells = self.dims.cells();
+        let porous = &self.lbm.forcing;
+        let g = porous.g;
+        // per cell: lost force F_c and D_c (lattice)
+        let mut fc = vec![[0.0; 3]; cells];
+        let mut dc = vec![0.0; cells];
+        for c in 0..cells {
+            let rho = self.record.rho[c];
+            let a = self.record.a[c];
+            let u = self.record.u[c];
+            let eps = porous.eps(c);
+            let w = porous.matrix_velocity(c);
+            let r = [u[0] - w[0], u[1] - w[1], u[2] - w[2]];
+            let rn = (r[0] * r[0] + r[1] * r[1] + r[2] * r[2]).sqrt();
+            if !(rho.is_finite() && rn.is_finite()) {
+                return invalid(format!(
+                    "fluid cell {c}: non-finite state after LBM step {} (rho = {rho}, u = {u:?}): \
+                     the flow is unstable (lower the driving or the Mach number)",
+                    self.lbm.steps()
+                ));
+            }
+            self.slip[c] = rn;
+            if self.solid_volume_m3[c] > 0.0 {
+                for k in 0..3 {
+                    fc[c][k] = rho * (eps * g[k] - a[k]);
+                }
+                // D_c = rho (lin + quad |u - w|), from the acceleration's drag part
+                dc[c] = if rn > 0.0 {
+                    let drag: f64 = (0..3).map(|k| (eps * g[k] - a[k]) * r[k]).sum::<f64>();
+                    rho * drag / (rn * rn)
+                } else {
+                    0.0
+                };
+            }
+        }
+        // SI: force = lattice force * rho dx^4 / dt^2, rate = lattice rate * rho dx^3 / dt
+        let (dx, dt, rho_si) = (
+            self.setup.dx_m,
+            self.units.dt,
+            self.setup.fluid_density_kg_m3,
+        );
+        let f_si = rho_si * dx.powi(4) / (dt * dt);
+        let g_si = rho_si * dx.powi(3) / dt;
+        let to_l = dt / dx;
+        let (vs, vv, eps) = (&self.solid_volume_m3, &self.vv, &self.eps);
+        let p = &self.dem.p;
+        let ov = &self.overlaps;
+        self.hydro_n
+            .par_iter_mut()
+            .zip(self.gamma_kg_s.par_iter_mut())
+            .enumerate()
+            .with_min_len(64)
+            .for_each(|(i, (f, gam))| {
+                let v = p.vel[i] * to_l;
+                let mut s = [0.0; 3];
+                let mut rate = 0.0;
+                for &(c, vol) in &ov[i] {
+                    let c = c as usize;
+                    let share = vol / vs[c];
+                    let k_c = dc[c] * eps[c];
+                    for k in 0..3 {
+                        let vbar = vv[c][k] / vs[c];
+                        s[k] += share * (fc[c][k] + k_c * (vbar - v[k]));
+                    }
+                    rate += share * k_c;
+                }
+                *f = Vector3::new(s[0], s[1], s[2]) * f_si;
+                *gam = rate * g_si;
+            });
+        self.timing.coupling_s += t.elapsed().as_secs_f64();
+        Ok(())
+    }
+
+    /// One coupling step: porosity, one LBM step, M DEM steps. Returns its momentum balance.
+    pub fn step(&mut self) -> Result<Balance> {
+        let t = Instant::now();
+        let p_f0 = self.lbm.momentum();
+        let p_s0 = self.particle_momentum();
+        self.update_porosity()?;
+        self.timing.coupling_s += t.elapsed().as_secs_f64();
+        self.fluid_step()?;
+        let t = Instant::now();
+        let dt = self.units.dt;
+        let grad_p = self.grad_p();
+        let mut ext = Vec::with_capacity(self.dem.p.len());
+        let b = 1.0 - self.setup.fluid_density_kg_m3 / self.dem.setup.density_kg_m3;
+        let mut j_ext = Vector3::zeros();
+        let mut j_exchanged = 0.0;
+        for i in 0..self.dem.p.len() {
+            let m = self.dem.p.mass[i];
+            let gamma = self.gamma_kg_s[i];
+            if !self.setup.frozen && gamma * dt / m > self.setup.max_relaxation {
+                return invalid(format!(
+                    "coupling step {}: particle {i}'s drag relaxes its velocity at rate gamma / m \
+                     = {:.3e} 1/s, so dt_LBM = {dt:.3e} s is {:.3} relaxation times (limit \
+                     coupling.max_relaxation = {}): the drag, held over the coupling step, \
+                     would overshoot; refine the lattice time step (lower fluid.tau) or use \
+                     heavier particles",
+                    self.steps,
+                    gamma / m,
+                    gamma * dt / m,
+                    self.setup.max_relaxation
+                ));
+            }
+            let r = self.dem.p.radius[i];
+            let vol = 4.0 / 3.0 * PI * r * r * r;
+            let fp = -grad_p * vol;
+            ext.push(self.hydro_n[i] + fp);
+            j_exchanged += self.hydro_n[i].norm() * dt;
+            j_ext += (fp + self.dem.setup.gravity_m_s2 * (m * b)) * dt;
+        }
+        // the fluid's driving impulse: sum rho_c eps_c G over the cells (lattice -> SI)
+        let g = self.lbm.forcing.g;
+        let mut drive = [0.0; 3];
+        for c in 0..self.dims.cells() {
+            let re = self.record.rho[c] * self.lbm.forcing.eps(c);
+            for k in 0..3 {
+                drive[k] += re * g[k];
+            }
+        }
+        let imp = self.setup.fluid_density_kg_m3 * self.setup.dx_m.powi(4) / dt;
+        let drive = Vector3::new(drive[0], drive[1], drive[2]) * imp;
+        j_ext += drive;
+        self.timing.coupling_s += t.elapsed().as_secs_f64();
+        let t = Instant::now();
+        if !self.setup.frozen {
+            self.dem.set_external_forces(&ext)?;
+            let before = self.dem.p.pos.clone();
+            for _ in 0..self.setup.dem_steps {
+                self.dem.step()?;
+            }
+            self.dem.check_finite()?;
+            let (lx, ly) = (self.dem.setup.lx_m, self.dem.setup.ly_m);
+            let mut worst: f64 = 0.0;
+            for (a, b) in before.iter().zip(&self.dem.p.pos) {
+                let mut d = b - a;
+                d.x -= lx * (d.x / lx).round();
+                d.y -= ly * (d.y / ly).round();
+                worst = worst.max(d.norm());
+            }
+            let cells_moved = worst / self.setup.dx_m;
+            self.max_move_seen_cells = self.max_move_seen_cells.max(cells_moved);
+            if cells_moved > self.setup.max_move_cells {
+                return invalid(format!(
+                    "coupling step {}: a particle moved {cells_moved:.3} cells in one coupling \
+                     step of {dt:.3e} s (limit coupling.max_move_cells = {}): the porosity the \
+                     fluid saw is stale; lower fluid.tau (shorter dt_LBM) or the driving",
+                    self.steps, self.setup.max_move_cells
+                ));
+            }
+        }
+        self.timing.dem_s += t.elapsed().as_secs_f64();
+        let t = Instant::now();
+        let f_si = self.setup.fluid_density_kg_m3 * self.setup.dx_m.powi(4) / dt;
+        let p_f1 = self.lbm.momentum();
+        let dpf = Vector3::new(p_f1[0] - p_f0[0], p_f1[1] - p_f0[1], p_f1[2] - p_f0[2]) * f_si;
+        let dps = self.particle_momentum() - p_s0;
+        let bal = Balance {
+            fluid: dpf,
+            particles: dps,
+            external: j_ext,
+            scale: j_exchanged + j_ext.norm() + drive.norm(),
+        };
+        let m = self.lbm.mass();
+        if !m.is_finite() {
+            return invalid(format!(
+                "fluid mass is {m} after coupling step {}: unstable flow",
+                self.steps
+            ));
+        }
+        self.worst_balance = self.worst_balance.max(bal.relative_error());
+        self.last_balance = bal;
+        self.steps += 1;
+        self.time_s += dt;
+        self.timing.coupling_s += t.elapsed().as_secs_f64();
+        Ok(bal)
+    }
+
+    /// Total particle momentum sum m v (N s).
+    pub fn particle_momentum(&self) -> Vector3<f64> {
+        let mut s = Vector3::zeros();
+        for (m, v) in self.dem.p.mass.iter().zip(&self.dem.p.vel) {
+            s += v * *m;
+        }
+        s
+    }
+
+    /// Fluid velocity of every cell (m/s), superficial, from the last record.
+    pub fn velocity_si(&self) -> Vec<[f64; 3]> {
+        let s = self.setup.dx_m / self.units.dt;
+        self.record
+            .u
+            .iter()
+            .map(|u| [u[0] * s, u[1] * s, u[2] * s])
+            .collect()
+    }
+
+    /// Pressure deviation of every cell, c_s^2 (rho - 1) in SI (Pa), from the last record.
+    pub fn pressure_si(&self) -> Vec<f64> {
+        let s = self.setup.fluid_density_kg_m3 * (self.setup.dx_m / self.units.dt).powi(2);
+        self.record
+            .rho
+            .iter()
+            .map(|r| (r - 1.0) / 3.0 * s)
+            .collect()
+    }
+
+    /// Porosity averaged over each z-layer of cells (the profile along the flow).
+    pub fn porosity_profile(&self) -> Vec<f64> {
+        let nxy = self.dims.nx * self.dims.ny;
+        self.eps
+            .chunks(nxy)
+            .map(|l| l.iter().sum::<f64>() / nxy as f64)
+            .collect()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::scene::coupled::{build, parse_scene};
+
+    fn quick(edit: impl Fn(String) -> String) -> Result<Coupled> {
+        let text = edit(include_str!("../scene/builtin/coupled-quick.toml").to_string());
+        build(&parse_scene(&text, "test")?)
+    }
+
+    /// A coupling interval too long for the motion is refused with the reason, never NaN.
+    #[test]
+    fn too_long_a_coupling_step_is_refused() {
+        let mut c = quick(|t| {
+            t.replace(
+                "pressure_gradient_pa_m = [0.0, 0.0, 500.0]",
+                "pressure_gradient_pa_m = [0.0, 0.0, 5e5]",
+            )
+        })
+        .unwrap();
+        let mut err = None;
+        for _ in 0..200 {
+            if let Err(e) = c.step() {
+                err = Some(e.to_string());
+                break;
+            }
+        }
+        let e = err.expect("a refusal");
+        assert!(
+            e.contains("max_move_cells")
+                || e.contains("Mach")
+                || e.contains("max_relaxation")
+                || e.contains("non-finite"),
+            "{e}"
+        );
+        // a drag relaxation beyond the limit is refused at the first step
+        let mut c = quick(|t| {
+            t.replace("tau = 0.515", "tau = 0.7").replace(
+                "dem_steps_per_lbm_step = 200",
+                "dem_steps_per_lbm_step = 3000",
+            )
+        })
+        .unwrap();
+        let e = c.step().err().expect("refused").to_string();
+        assert!(e.contains("max_relaxation"), "{e}");
+    }
+
+    /// Cells packed far beyond any real porosity (eps -> 0) stay finite: the floor eps_min
+    /// and Guo–Zhao's implicit drag keep the fluid stable, and the state is refused or finite.
+    #[test]
+    fn porosity_near_zero_stays_finite() {
+        let mut c = quick(|t| {
+            t.replace("eps_min = 0.1", "eps_min = 0.01")
+                .replace("[coupling]", "[coupling]\neps_min = 0.01")
+                .replace(
+                    "max_relaxation = 1.0",
+                    "max_relaxation = 1.0\nfrozen = true",
+                )
+        })
+        .unwrap();
+        // squeeze every sphere into the first cell column
+        for p in c.dem.p.pos.iter_mut() {
+            p.x = 2.5e-4;
+            p.y = 2.5e-4;
+        }
+        for _ in 0..20 {
+            c.step().unwrap();
+        }
+        assert!(c.eps.iter().any(|&e| e == 0.01));
+        assert!(c.record.u.iter().all(|u| u.iter().all(|v| v.is_finite())));
+        assert!(c.lbm.mass().is_finite());
+    }
+
+    /// The seed's lens weights do not add up to the particle volume, but the exchange still
+    /// balances: the shares are normalised by the solid volume of each cell.
+    #[test]
+    fn lens_variant_balances_momentum() {
+        let mut c = quick(|t| t.replace("overlap = \"exact\"", "overlap = \"seed-lens\"")).unwrap();
+        let b = c.step().unwrap();
+        let sum: f64 = c.hydro_n.iter().map(|f| f.z).sum();
+        assert!(sum.abs() > 0.0);
+        assert!(b.relative_error() < 1e-12, "{}", b.relative_error());
+    }
+}
