@@ -741,6 +741,8 @@ fn run_scene_limited(
     let base = seconds;
     let mut new_steps = 0usize;
     let mut last_checkpoint = Instant::now();
+    let (mut stage_seen, mut stage_t0, mut stage_tries0) =
+        (state.stage, Instant::now(), state.stage_tries);
     while !state.is_done() {
         if max_new_steps.is_some_and(|m| new_steps >= m) {
             bar.finish_and_clear();
@@ -759,12 +761,26 @@ fn run_scene_limited(
         }
         if o != StepOutcome::Finished {
             // With a stage budget: how much of it the running stage has used.
+            // and, from the rate so far, the most time the stage can still take (an ETA: the
+            // stage may end sooner, on its halvings).
+            if state.stage != stage_seen {
+                (stage_seen, stage_t0, stage_tries0) =
+                    (state.stage, Instant::now(), state.stage_tries);
+            }
             let budget = prm
                 .stage_params(state.stage)
                 .stage_budget_per_particle
                 .map_or(String::new(), |b| {
-                    let used = state.stage_tries as f64 / state.packing.n() as f64;
-                    format!("  stage moves/N {used:.0} of {b:.0}")
+                    let n = state.packing.n() as f64;
+                    let used = state.stage_tries as f64 / n;
+                    let done_here = (state.stage_tries - stage_tries0) as f64 / n;
+                    let eta = (done_here > 0.0).then(|| {
+                        stage_t0.elapsed().as_secs_f64() * (b - used).max(0.0) / done_here
+                    });
+                    format!(
+                        "  stage moves/N {used:.0} of {b:.0}{}",
+                        eta.map_or(String::new(), |t| format!(" (stage ends within {t:.0} s)"))
+                    )
                 });
             bar.set_message(format!(
                 "stage {} step {}  phi = {:.5}  Delta V = {:.3e}  halvings left {}  tries {}{budget}",
