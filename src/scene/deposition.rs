@@ -103,10 +103,29 @@ fn d_water() -> f64 {
 #[serde(deny_unknown_fields)]
 struct SpeciesSpec {
     name: String,
-    semi_axes_m: [f64; 3],
-    /// Share of the pigment volume (normalised over the species).
-    #[serde(default = "d_one")]
-    volume_ratio: f64,
+    /// The three semi-axes; or give `shape`, `aspect_ratio` and `longest_semi_axis_m`.
+    #[serde(default)]
+    semi_axes_m: Option<[f64; 3]>,
+    /// `platelet` (oblate: a, a, a/AR), `needle` (prolate: a, a/AR, a/AR) or `sphere`.
+    #[serde(default)]
+    shape: Option<String>,
+    /// Longest over shortest semi-axis (seed 000's aspect ratio), with `shape`.
+    #[serde(default)]
+    aspect_ratio: Option<f64>,
+    /// The longest semi-axis a, with `shape`.
+    #[serde(default)]
+    longest_semi_axis_m: Option<f64>,
+    /// Or the particle volume, with `shape` (the seed's blends keep it as the aspect ratio
+    /// changes).
+    #[serde(default)]
+    particle_volume_m3: Option<f64>,
+    /// Share of the pigment volume (normalised over the species); default 1.
+    #[serde(default)]
+    volume_ratio: Option<f64>,
+    /// Or the share in percent: then every species gives one, but at most one that takes
+    /// the rest (100 minus the others).
+    #[serde(default)]
+    volume_percent: Option<f64>,
     /// Particle density (default: the film's pigment density).
     #[serde(default)]
     density_kg_m3: Option<f64>,
@@ -117,8 +136,114 @@ struct SpeciesSpec {
     #[serde(default)]
     size_table: Option<Vec<[f64; 2]>>,
 }
-fn d_one() -> f64 {
-    1.0
+
+/// The volume ratio of each species: `volume_ratio` [1], or `volume_percent` where at most
+/// one species omits it and takes the rest. Err: the message.
+fn volume_ratios(species: &[SpeciesSpec]) -> std::result::Result<Vec<f64>, String> {
+    if species.iter().all(|s| s.volume_percent.is_none()) {
+        return Ok(species.iter().map(|s| s.volume_ratio.unwrap_or(1.0)).collect());
+    }
+    if let Some(s) = species.iter().find(|s| s.volume_ratio.is_some()) {
+        return Err(format!(
+            "species `{}`: volume_ratio with volume_percent in the same scene: use one of them",
+            s.name
+        ));
+    }
+    let open: Vec<&SpeciesSpec> = species.iter().filter(|s| s.volume_percent.is_none()).collect();
+    let given: f64 = species.iter().filter_map(|s| s.volume_percent).sum();
+    for s in species {
+        if let Some(p) = s.volume_percent.filter(|p| !(p.is_finite() && *p >= 0.0 && *p <= 100.0)) {
+            return Err(format!(
+                "species `{}`.volume_percent = {p}: must be in [0, 100]",
+                s.name
+            ));
+        }
+    }
+    let rest = 100.0 - given;
+    match open.len() {
+        0 if (rest).abs() <= 1e-9 => {}
+        0 => return Err(format!("species volume_percent values sum to {given}, not 100")),
+        1 if rest >= -1e-9 => {}
+        1 => {
+            return Err(format!(
+                "species volume_percent values sum to {given}: above 100, nothing is left for \
+                 species `{}`",
+                open[0].name
+            ))
+        }
+        _ => {
+            return Err(format!(
+                "species volume_percent: {} species omit it; at most one may (it takes the rest)",
+                open.len()
+            ))
+        }
+    }
+    Ok(species
+        .iter()
+        .map(|s| s.volume_percent.unwrap_or(rest.max(0.0)))
+        .collect())
+}
+
+/// The semi-axes of a species: `semi_axes_m` as given, or built from `shape`, `aspect_ratio`
+/// and `longest_semi_axis_m` (seed 000: the aspect ratio is the longest semi-axis over the
+/// shortest; platelets keep their diameter, needles their length). Err: the message.
+fn species_semi_axes(s: &SpeciesSpec, at: &str) -> std::result::Result<[f64; 3], String> {
+    let size = match (s.longest_semi_axis_m, s.particle_volume_m3) {
+        (None, None) => None,
+        (Some(a), None) => Some(Ok(a)),
+        (None, Some(v)) => Some(Err(v)),
+        (Some(_), Some(_)) => {
+            return Err(format!(
+                "{at}: give longest_semi_axis_m or particle_volume_m3, not both"
+            ))
+        }
+    };
+    let by_shape = (&s.shape, s.aspect_ratio, size);
+    match (s.semi_axes_m, by_shape) {
+        (Some(axes), (None, None, None)) => Ok(axes),
+        (None, (Some(shape), ar, Some(size))) => {
+            let ar = ar.unwrap_or(1.0);
+            if !(ar.is_finite() && ar >= 1.0) {
+                return Err(format!("{at}.aspect_ratio = {ar}: must be >= 1 and finite"));
+            }
+            // From the volume 4/3 pi a b c: platelet a^3 / AR, needle a^3 / AR^2.
+            let a = match size {
+                Ok(a) => a,
+                Err(v) if v.is_finite() && v > 0.0 => {
+                    let per_ar = match shape.as_str() {
+                        "needle" => ar * ar,
+                        "platelet" => ar,
+                        _ => 1.0,
+                    };
+                    (3.0 * v * per_ar / (4.0 * std::f64::consts::PI)).cbrt()
+                }
+                Err(v) => {
+                    return Err(format!(
+                        "{at}.particle_volume_m3 = {v}: must be positive and finite"
+                    ))
+                }
+            };
+            match shape.as_str() {
+                "platelet" => Ok([a, a, a / ar]),
+                "needle" => Ok([a, a / ar, a / ar]),
+                "sphere" if ar == 1.0 => Ok([a, a, a]),
+                "sphere" => Err(format!(
+                    "{at}.aspect_ratio = {ar}: a sphere has aspect ratio 1"
+                )),
+                o => Err(format!(
+                    "{at}.shape = \"{o}\": one of \"platelet\", \"needle\", \"sphere\""
+                )),
+            }
+        }
+        (Some(_), _) => Err(format!(
+            "{at}: give either semi_axes_m or shape with aspect_ratio and longest_semi_axis_m \
+             (or particle_volume_m3), not both"
+        )),
+        (None, _) => Err(format!(
+            "{at}: give semi_axes_m = [a, b, c], or shape, aspect_ratio and longest_semi_axis_m \
+             (or particle_volume_m3)"
+        )),
+    }
 }
 
 #[derive(Debug, Clone, Deserialize, Serialize, PartialEq)]
@@ -319,32 +444,40 @@ pub fn parse_scene(text: &str, origin: &str) -> Result<DepositionScene> {
     if f.species.is_empty() {
         return bad("no [[species]]: give at least one".into());
     }
-    let total_ratio: f64 = f.species.iter().map(|s| s.volume_ratio).sum();
+    let ratios = match volume_ratios(&f.species) {
+        Ok(r) => r,
+        Err(e) => return bad(e),
+    };
+    let total_ratio: f64 = ratios.iter().sum();
     let mut species = Vec::new();
     for (k, s) in f.species.iter().enumerate() {
         let at = format!("species[{k}] (`{}`)", s.name);
         if s.name.is_empty() || s.name.contains(char::is_whitespace) {
             return bad(format!("{at}.name: must be non-empty without whitespace"));
         }
-        for (i, &a) in s.semi_axes_m.iter().enumerate() {
+        let semi_axes_m = match species_semi_axes(s, &at) {
+            Ok(axes) => axes,
+            Err(e) => return bad(e),
+        };
+        for (i, &a) in semi_axes_m.iter().enumerate() {
             if !(a.is_finite() && a > 0.0 && a < 1e-2) {
                 return bad(format!(
                     "{at}.semi_axes_m[{i}] = {a}: must be positive and below 1 cm"
                 ));
             }
         }
-        let mx = s.semi_axes_m.iter().cloned().fold(0.0, f64::max);
-        let mn = s.semi_axes_m.iter().cloned().fold(f64::INFINITY, f64::min);
+        let mx = semi_axes_m.iter().cloned().fold(0.0, f64::max);
+        let mn = semi_axes_m.iter().cloned().fold(f64::INFINITY, f64::min);
         if mx / mn > 100.0 {
             return bad(format!(
                 "{at}.semi_axes_m: aspect ratio {}: at most 100",
                 mx / mn
             ));
         }
-        if !(s.volume_ratio.is_finite() && s.volume_ratio >= 0.0) {
+        if !(ratios[k].is_finite() && ratios[k] >= 0.0) {
             return bad(format!(
                 "{at}.volume_ratio = {}: must be >= 0 and finite",
-                s.volume_ratio
+                ratios[k]
             ));
         }
         let density = s.density_kg_m3.unwrap_or(fs.pigment_density_kg_m3);
@@ -396,8 +529,8 @@ pub fn parse_scene(text: &str, origin: &str) -> Result<DepositionScene> {
         };
         species.push(Species {
             name: s.name.clone(),
-            semi_axes_m: s.semi_axes_m,
-            volume_share: s.volume_ratio / total_ratio,
+            semi_axes_m,
+            volume_share: ratios[k] / total_ratio,
             density_kg_m3: density,
             sizes,
         });
@@ -900,6 +1033,9 @@ fn write_outputs(
         "converged_runs": results.iter().filter(|r| r.outcome.converged).count(),
         "ensemble": ens.iter().map(|(n, m, se, c)| serde_json::json!({
             "quantity": n, "mean": m, "standard_error": se, "runs": c})).collect::<Vec<_>>(),
+        // The same means by name, as scalars that `porelab sweep collect` averages over jobs.
+        "ensemble_mean": ens.iter().map(|(n, m, _, _)| (n.clone(), serde_json::json!(m)))
+            .collect::<serde_json::Map<_, _>>(),
         "seconds": seconds,
     });
     write_atomic(
@@ -909,4 +1045,77 @@ fn write_outputs(
             .as_bytes(),
     )?;
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::parse_scene;
+
+    fn scene(species: &str) -> crate::Result<super::DepositionScene> {
+        parse_scene(
+            &format!(
+                "kind = \"deposition\"\n[film]\nparticles = 100\nsolids_percent = 60\n{species}"
+            ),
+            "test",
+        )
+    }
+
+    /// Shape and aspect ratio give the semi-axes of seed 000: platelets keep the diameter,
+    /// needles the length; a particle volume fixes a = (3 V AR^k / (4 pi))^(1/3).
+    #[test]
+    fn species_by_shape_aspect_ratio_and_volume() {
+        let s = scene(
+            "[[species]]\nname = \"c\"\nshape = \"platelet\"\naspect_ratio = 4\n\
+             longest_semi_axis_m = 0.5e-6\n\
+             [[species]]\nname = \"n\"\nshape = \"needle\"\naspect_ratio = 4\n\
+             longest_semi_axis_m = 0.5e-6\n",
+        )
+        .unwrap();
+        assert_eq!(s.species[0].semi_axes_m, [0.5e-6, 0.5e-6, 0.125e-6]);
+        assert_eq!(s.species[1].semi_axes_m, [0.5e-6, 0.125e-6, 0.125e-6]);
+        // A needle of aspect 4 with the volume 4/3 pi (0.5)(0.125)^2 um^3 has a = 0.5 um.
+        let v = 4.0 / 3.0 * std::f64::consts::PI * 0.5e-6 * 0.125e-6 * 0.125e-6;
+        let s = scene(&format!(
+            "[[species]]\nname = \"n\"\nshape = \"needle\"\naspect_ratio = 4\n\
+             particle_volume_m3 = {v:e}\n"
+        ))
+        .unwrap();
+        let a = s.species[0].semi_axes_m;
+        assert!((a[0] - 0.5e-6).abs() < 1e-21 && (a[1] - 0.125e-6).abs() < 1e-21, "{a:?}");
+    }
+
+    #[test]
+    fn species_shape_errors_name_the_key() {
+        let e = |sp: &str| scene(sp).unwrap_err().to_string();
+        assert!(e("[[species]]\nname = \"p\"\nshape = \"cube\"\nlongest_semi_axis_m = 1e-6\n")
+            .contains("shape = \"cube\""));
+        assert!(e("[[species]]\nname = \"p\"\nshape = \"platelet\"\naspect_ratio = 0.5\n\
+                   longest_semi_axis_m = 1e-6\n")
+        .contains("aspect_ratio = 0.5"));
+        assert!(e("[[species]]\nname = \"p\"\nsemi_axes_m = [1e-6, 1e-6, 1e-6]\n\
+                   shape = \"sphere\"\nlongest_semi_axis_m = 1e-6\n")
+        .contains("not both"));
+        assert!(e("[[species]]\nname = \"p\"\nshape = \"sphere\"\nlongest_semi_axis_m = 1e-6\n\
+                   particle_volume_m3 = 1e-18\n")
+        .contains("not both"));
+        assert!(e("[[species]]\nname = \"p\"\n").contains("semi_axes_m = [a, b, c]"));
+    }
+
+    /// volume_percent: the species without one takes the rest; sums are checked.
+    #[test]
+    fn volume_percent_takes_the_rest() {
+        let sp = |p: &str| {
+            format!(
+                "[[species]]\nname = \"a\"\nsemi_axes_m = [1e-6, 1e-6, 1e-6]\n{p}\n\
+                 [[species]]\nname = \"b\"\nsemi_axes_m = [1e-6, 1e-6, 0.5e-6]\n"
+            )
+        };
+        let s = scene(&sp("volume_percent = 30")).unwrap();
+        assert!((s.species[0].volume_share - 0.3).abs() < 1e-15);
+        assert!((s.species[1].volume_share - 0.7).abs() < 1e-15);
+        let e = scene(&sp("volume_percent = 130")).unwrap_err().to_string();
+        assert!(e.contains("volume_percent = 130"), "{e}");
+        let e = scene(&sp("volume_percent = 30\nvolume_ratio = 2")).unwrap_err().to_string();
+        assert!(e.contains("volume_ratio with volume_percent"), "{e}");
+    }
 }

@@ -36,6 +36,7 @@
 //! same file, and the collected table depends only on the jobs' results.
 
 pub mod bench;
+pub mod builtin;
 pub mod collect;
 pub mod plan;
 pub mod plots;
@@ -267,6 +268,9 @@ pub enum SweepAction {
     /// Per point mean, standard error and count of every numeric scalar of the jobs'
     /// summary.json: DIR/collected.csv and DIR/plots/*.svg.
     Collect { dir: PathBuf },
+    /// A built-in sweep that redraws a seed figure: plan, run and collect in one command
+    /// (again to resume); --list names them.
+    Figure(builtin::FigureArgs),
 }
 
 /// Runs a `porelab sweep` command.
@@ -287,6 +291,7 @@ pub fn cli(args: &SweepArgs) -> Result<ExitCode> {
         SweepAction::Slurm(a) => slurm::cli_slurm(a).map(|_| ExitCode::SUCCESS),
         SweepAction::Status { dir } => status::cli_status(dir).map(|_| ExitCode::SUCCESS),
         SweepAction::Collect { dir } => collect::cli_collect(dir).map(|_| ExitCode::SUCCESS),
+        SweepAction::Figure(a) => builtin::cli_figure(a),
     }
 }
 

@@ -22,6 +22,8 @@ struct SweepFile {
     scene: Option<String>,
     /// Or a built-in scene by name (`porelab run --list`).
     builtin: Option<String>,
+    /// Or the base scene itself, inline as a `[base]` table.
+    base: Option<toml::Table>,
     /// "grid" (every combination) or "zip" (the lists side by side, equal lengths).
     #[serde(default = "grid")]
     combine: String,
@@ -235,8 +237,14 @@ pub fn plan_text(text: &str, base: &Path, origin: &str) -> Result<Plan> {
         Error::InvalidInput(m) => Error::InvalidInput(format!("{origin}: {m}")),
         other => other,
     };
-    let (scene_text, scene_origin) = match (&f.scene, &f.builtin) {
-        (Some(p), None) => {
+    let (scene_text, scene_origin) = match (&f.scene, &f.builtin, &f.base) {
+        (None, None, Some(table)) => {
+            let t = toml::to_string(table).map_err(|e| {
+                Error::InvalidInput(format!("{origin}: [base]: cannot write the scene: {e}"))
+            })?;
+            (t, format!("{origin} [base]"))
+        }
+        (Some(p), None, None) => {
             let path = base.join(p);
             let t = std::fs::read_to_string(&path).map_err(|e| Error::File {
                 path: path.display().to_string(),
@@ -244,7 +252,7 @@ pub fn plan_text(text: &str, base: &Path, origin: &str) -> Result<Plan> {
             })?;
             (t, p.clone())
         }
-        (None, Some(name)) => {
+        (None, Some(name), None) => {
             let all = crate::scene::builtins();
             let Some(b) = all.iter().find(|b| b.name == name) else {
                 let names: Vec<_> = all.iter().map(|b| b.name).collect();
@@ -257,7 +265,8 @@ pub fn plan_text(text: &str, base: &Path, origin: &str) -> Result<Plan> {
         }
         _ => {
             return invalid(format!(
-                "{origin}: give exactly one of `scene = \"file.toml\"` or `builtin = \"name\"`"
+                "{origin}: give exactly one of `scene = \"file.toml\"`, `builtin = \"name\"` or \
+                 a `[base]` table"
             ))
         }
     };
@@ -374,6 +383,11 @@ pub fn plan_text(text: &str, base: &Path, origin: &str) -> Result<Plan> {
 /// the same plan is left as it is (its finished jobs stay); a different plan is refused.
 pub fn cli_plan(sweep_path: &Path, dir: &Path) -> Result<()> {
     let (text, plan) = plan_sweep(sweep_path)?;
+    write_plan(&text, &plan, dir)
+}
+
+/// Writes `plan` (from the sweep file `text`) to `dir`, as `porelab sweep plan` does.
+pub fn write_plan(text: &str, plan: &Plan, dir: &Path) -> Result<()> {
     let manifest = plan.manifest_csv();
     let existing = dir.join(MANIFEST);
     if existing.is_file() {

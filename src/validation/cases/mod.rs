@@ -12,6 +12,7 @@ mod contact;
 mod coupled;
 mod dem;
 mod deposition;
+mod deposition_figures;
 mod drag;
 mod elliptic_cases;
 mod field_analytic;
@@ -49,7 +50,11 @@ pub fn runner_for(id: &str) -> Option<Runner> {
         "606" => Some(deposition::case_606),
         "607" => Some(deposition::case_607),
         "608" => Some(deposition::case_608),
-        "901" => Some(deposition::case_901_902),
+        "901" => Some(deposition_figures::case_901_902),
+        "910" => Some(deposition_figures::case_910),
+        "911" => Some(deposition_figures::case_911),
+        "912" => Some(deposition_figures::case_912),
+        "913" => Some(deposition_figures::case_913),
         "811" => Some(coupled::case_811),
         "812" => Some(coupled::case_812),
         "813" => Some(coupled::case_813),
