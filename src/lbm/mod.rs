@@ -8,6 +8,7 @@
 //! the boundary and refuses unstable parameters.
 
 pub mod bench;
+pub mod boundary;
 pub mod choice;
 pub mod collision;
 pub mod forcing;

@@ -82,3 +82,4 @@ fn mass_conserved_and_thread_independent() {
     one.install(|| b.run(50));
     assert_eq!(a.populations(), b.populations());
 }
+

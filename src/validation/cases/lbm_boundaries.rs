@@ -1,0 +1,122 @@
+//! Cases 805 and 809-810: flows through boundaries built by non-equilibrium extrapolation
+//! (Guo, Zheng & Shi 2002) and the square duct, against closed forms, with measured
+//! convergence orders.
+
+use super::common::non_empty;
+use crate::lbm::choice::{dispatch, CollisionKind, Job, LatticeKind};
+use crate::lbm::flows::{channel_coordinate, poiseuille};
+use crate::lbm::problems::{DrivenChannel, Inlet};
+use crate::lbm::steady::SteadyControl;
+use crate::lbm::{Collision, Lattice};
+use crate::validation::{CaseContext, Row, Table};
+use crate::{Error, Result};
+
+/// Steady to a relative change of the mean velocity below 1e-11 per 1000 steps.
+const STEADY: SteadyControl = SteadyControl {
+    check_every: 1000,
+    tol: 1e-11,
+    max_steps: 2_000_000,
+};
+
+fn kinds(t: &Table, i: usize) -> Result<(LatticeKind, CollisionKind)> {
+    Ok((
+        LatticeKind::parse(t.str(i, "lattice")?, "lattice")?,
+        CollisionKind::parse(t.str(i, "collision")?, "collision")?,
+    ))
+}
+
+/// Relative L2 norm of got - want over paired samples.
+pub(super) fn rel_l2(pairs: impl Iterator<Item = (f64, f64)>) -> f64 {
+    let (mut e2, mut n2) = (0.0, 0.0);
+    for (got, want) in pairs {
+        e2 += (got - want).powi(2);
+        n2 += want * want;
+    }
+    (e2 / n2).sqrt()
+}
+
+fn not_steady(what: &str, steps: u64, residual: f64) -> Error {
+    Error::Validation(format!(
+        "{what} not steady after {steps} steps (residual {residual:e})"
+    ))
+}
+
+/// The x-velocity profile across the mid-length section of a driven channel against the
+/// parabola of peak `u_max`.
+struct DrivenError {
+    ch: DrivenChannel,
+    u_max: f64,
+}
+
+impl Job for DrivenError {
+    type Out = Result<f64>;
+    fn run<L: Lattice, C: Collision>(self, coll: C) -> Result<f64> {
+        let st = self.ch.steady::<L, C>(coll, STEADY)?;
+        if !st.converged {
+            return Err(not_steady("driven channel", st.steps, st.residual));
+        }
+        let d = self.ch.dims()?;
+        let (h, x) = (self.ch.h, self.ch.length / 2);
+        let hf = h as f64;
+        Ok(rel_l2((1..=h).map(|y| {
+            let yc = channel_coordinate(y);
+            (
+                st.fields.u[d.cell(x, y, 0)][0],
+                4.0 * self.u_max * yc * (hf - yc) / (hf * hf),
+            )
+        })))
+    }
+}
+
+/// Case 805: plane Poiseuille flow driven through non-equilibrium-extrapolation planes, by a
+/// density (pressure) difference or by a parabolic velocity inlet; the L2 error of the
+/// mid-length profile and its order between H and 2H under diffusive scaling.
+pub fn case_805(ctx: &CaseContext) -> Result<Vec<Row>> {
+    let t = ctx.expected_table()?;
+    non_empty(&t)?;
+    let mut rows = Vec::new();
+    for i in 0..t.len() {
+        let (lat, coll) = kinds(&t, i)?;
+        let tau = t.f64(i, "tau")?;
+        let nu = (tau - 0.5) / 3.0;
+        let inlet = t.str(i, "inlet")?.to_string();
+        let h0 = t.f64(i, "h_coarse")? as usize;
+        let err = |h: usize| -> Result<f64> {
+            // peak velocity u8 at H = 8, scaled as 8/H (diffusive scaling, Ma ~ 1/H)
+            let u_max = t.f64(i, "u_max_h8")? * 8.0 / h as f64;
+            let length = 2 * h;
+            let g = poiseuille(0.5 * h as f64, h as f64, 1.0, nu).recip() * u_max;
+            // pressure gradient c_s^2 (rho_in - rho_out) / L = g (mean density 1)
+            let drho = 3.0 * g * length as f64;
+            let inlet = match inlet.as_str() {
+                "density" => (Inlet::Density(1.0 + 0.5 * drho), 1.0 - 0.5 * drho),
+                "velocity" => (Inlet::Parabola(u_max), 1.0),
+                other => {
+                    return Err(Error::Validation(format!(
+                        "{} line {}: inlet = \"{other}\": must be \"density\" or \"velocity\"",
+                        t.path().display(),
+                        t.line(i)
+                    )))
+                }
+            };
+            let ch = DrivenChannel {
+                h,
+                length,
+                inlet: inlet.0,
+                rho_out: inlet.1,
+            };
+            dispatch(lat, coll, tau, DrivenError { ch, u_max })
+        };
+        let (e1, e2) = (err(h0)?, err(2 * h0)?);
+        let order = (e1 / e2).log2();
+        let label = format!(
+            "{inlet} {} {} tau={tau} H={h0}->{}",
+            lat.name(),
+            coll.name(),
+            2 * h0
+        );
+        eprintln!("805 {label}: L2 {e1:.3e} -> {e2:.3e}, order {order:.4}");
+        rows.push(Row::new(label, order, t.f64(i, "expected_order")?, 1.0));
+    }
+    Ok(rows)
+}
