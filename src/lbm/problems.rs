@@ -3,7 +3,7 @@
 //! mask under a small body force, and the Taylor-Green vortex decay.
 
 use super::boundary::{connected, Boundaries, Face, Plane};
-use super::flows::channel_mask;
+use super::flows::{channel_mask, duct_mask};
 use super::geometry::{Dims, Geometry};
 use super::steady::{run_steady, Steady, SteadyControl};
 use super::{BodyForce, Collision, Lattice, Porous, Solver, Unforced};
@@ -204,4 +204,26 @@ impl DrivenChannel {
         let mut s = Solver::<L, C, Unforced>::new(geom, coll, Unforced)?.with_boundaries(b)?;
         run_steady(&mut s, ctl, |_, _| {})
     }
+}
+
+/// Fully developed flow in a square duct of h x h fluid cells (walls: rows y, z = 0 and h + 1,
+/// halfway bounce-back) under body force g along x, one cell along x. Returns the steady x
+/// velocity of fluid cell (y, z), y, z = 1..=h, at index (z - 1) h + (y - 1), and the run.
+pub fn square_duct<L: Lattice, C: Collision>(
+    h: usize,
+    g: f64,
+    coll: C,
+    ctl: SteadyControl,
+) -> Result<(Vec<f64>, Steady)> {
+    let d = Dims::new(1, h + 2, h + 2)?;
+    let geom = Geometry::new::<L>(d, duct_mask(d), |_| [0.0; 3])?;
+    let mut s = Solver::<L, C, BodyForce>::new(geom, coll, BodyForce { g: [g, 0.0, 0.0] })?;
+    let st = run_steady(&mut s, ctl, |_, _| {})?;
+    let mut u = Vec::with_capacity(h * h);
+    for z in 1..=h {
+        for y in 1..=h {
+            u.push(st.fields.u[d.cell(0, y, z)][0]);
+        }
+    }
+    Ok((u, st))
 }

@@ -4,9 +4,9 @@
 
 use super::common::non_empty;
 use crate::lbm::choice::{dispatch, CollisionKind, Job, LatticeKind};
-use crate::lbm::flows::{channel_coordinate, poiseuille};
-use crate::lbm::problems::{DrivenChannel, Inlet};
-use crate::lbm::steady::SteadyControl;
+use crate::lbm::flows::{channel_coordinate, duct_series, poiseuille};
+use crate::lbm::problems::{square_duct, DrivenChannel, Inlet};
+use crate::lbm::steady::{Steady, SteadyControl};
 use crate::lbm::{Collision, Lattice};
 use crate::validation::{CaseContext, Row, Table};
 use crate::{Error, Result};
@@ -35,10 +35,22 @@ pub(super) fn rel_l2(pairs: impl Iterator<Item = (f64, f64)>) -> f64 {
     (e2 / n2).sqrt()
 }
 
-fn not_steady(what: &str, steps: u64, residual: f64) -> Error {
-    Error::Validation(format!(
-        "{what} not steady after {steps} steps (residual {residual:e})"
-    ))
+/// Refuses a run that did not reach the steady state.
+fn require_steady(what: &str, st: &Steady) -> Result<()> {
+    if st.converged {
+        return Ok(());
+    }
+    Err(Error::Validation(format!(
+        "{what} not steady after {} steps (residual {:e})",
+        st.steps, st.residual
+    )))
+}
+
+/// The row of a measured order log2(e1 / e2) between two grids, printed with its errors.
+fn order_row(id: &str, label: String, (e1, e2): (f64, f64), expected: f64) -> Row {
+    let order = (e1 / e2).log2();
+    eprintln!("{id} {label}: L2 {e1:.3e} -> {e2:.3e}, order {order:.4}");
+    Row::new(label, order, expected, 1.0)
 }
 
 /// The x-velocity profile across the mid-length section of a driven channel against the
@@ -52,9 +64,7 @@ impl Job for DrivenError {
     type Out = Result<f64>;
     fn run<L: Lattice, C: Collision>(self, coll: C) -> Result<f64> {
         let st = self.ch.steady::<L, C>(coll, STEADY)?;
-        if !st.converged {
-            return Err(not_steady("driven channel", st.steps, st.residual));
-        }
+        require_steady("driven channel", &st)?;
         let d = self.ch.dims()?;
         let (h, x) = (self.ch.h, self.ch.length / 2);
         let hf = h as f64;
@@ -107,16 +117,63 @@ pub fn case_805(ctx: &CaseContext) -> Result<Vec<Row>> {
             };
             dispatch(lat, coll, tau, DrivenError { ch, u_max })
         };
-        let (e1, e2) = (err(h0)?, err(2 * h0)?);
-        let order = (e1 / e2).log2();
+        let errs = (err(h0)?, err(2 * h0)?);
         let label = format!(
             "{inlet} {} {} tau={tau} H={h0}->{}",
             lat.name(),
             coll.name(),
             2 * h0
         );
-        eprintln!("805 {label}: L2 {e1:.3e} -> {e2:.3e}, order {order:.4}");
-        rows.push(Row::new(label, order, t.f64(i, "expected_order")?, 1.0));
+        rows.push(order_row("805", label, errs, t.f64(i, "expected_order")?));
+    }
+    Ok(rows)
+}
+
+struct DuctError {
+    h: usize,
+    g: f64,
+}
+
+impl Job for DuctError {
+    type Out = Result<f64>;
+    fn run<L: Lattice, C: Collision>(self, coll: C) -> Result<f64> {
+        let nu = (1.0 / coll.omega_plus() - 0.5) / 3.0;
+        let (u, st) = square_duct::<L, C>(self.h, self.g, coll, STEADY)?;
+        require_steady("square duct", &st)?;
+        let h = self.h;
+        let a = 0.5 * h as f64;
+        Ok(rel_l2(u.iter().enumerate().map(|(k, &got)| {
+            let (y, z) = (k % h + 1, k / h + 1);
+            let want = duct_series(
+                channel_coordinate(y) - a,
+                channel_coordinate(z) - a,
+                a,
+                a,
+                self.g,
+                nu,
+            );
+            (got, want)
+        })))
+    }
+}
+
+/// Case 810: square duct under a body force against the series solution; order of the L2
+/// error between H and 2H.
+pub fn case_810(ctx: &CaseContext) -> Result<Vec<Row>> {
+    let t = ctx.expected_table()?;
+    non_empty(&t)?;
+    let mut rows = Vec::new();
+    for i in 0..t.len() {
+        let (lat, coll) = kinds(&t, i)?;
+        let tau = t.f64(i, "tau")?;
+        let h0 = t.f64(i, "h_coarse")? as usize;
+        let g = t.f64(i, "g_lattice")?;
+        let errs = (
+            dispatch(lat, coll, tau, DuctError { h: h0, g })?,
+            dispatch(lat, coll, tau, DuctError { h: 2 * h0, g })?,
+        );
+        let label = format!("{} {} tau={tau} H={h0}->{}", lat.name(), coll.name(), 2 * h0);
+        rows.push(order_row("810", label, errs, t.f64(i, "expected_order")?));
     }
     Ok(rows)
 }

@@ -102,6 +102,7 @@ pub fn runner_for(id: &str) -> Option<Runner> {
         "804" => Some(lbm::case_804),
         "808" => Some(lbm::case_808),
         "805" => Some(lbm_boundaries::case_805),
+        "810" => Some(lbm_boundaries::case_810),
         "806" => Some(lbm::case_806_807),
         "807" => Some(lbm::case_806_807),
         "701" => Some(dem::case_701),
