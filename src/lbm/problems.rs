@@ -227,3 +227,31 @@ pub fn square_duct<L: Lattice, C: Collision>(
     }
     Ok((u, st))
 }
+
+/// Plane Couette flow with its walls on the lattice nodes y = 0 (at rest) and y = h (sliding
+/// at `u_wall` along x, lattice units), both velocity planes (non-equilibrium extrapolation),
+/// filled with a uniform medium `porous` = (eps, K in lattice units, Forchheimer on); one cell
+/// along x and z. Returns the steady x velocity at the nodes y = 0..=h and the run.
+pub fn node_couette<L: Lattice, C: Collision>(
+    h: usize,
+    u_wall: f64,
+    porous: (f64, f64, bool),
+    coll: C,
+    ctl: SteadyControl,
+) -> Result<(Vec<f64>, Steady)> {
+    let d = Dims::new(1, h + 1, 1)?;
+    let geom = Geometry::open::<L>(d);
+    let nu = (1.0 / coll.omega_plus() - 0.5) / 3.0;
+    let (eps, k, forch) = porous;
+    let mut p = Porous::clear(d.cells(), nu, [0.0; 3], forch);
+    for c in 0..d.cells() {
+        p.set(c, eps, k).map_err(crate::Error::InvalidInput)?;
+    }
+    let lower = Plane::velocity(&geom, Face { axis: 1, high: false }, |_| [0.0; 3])?;
+    let upper = Plane::velocity(&geom, Face { axis: 1, high: true }, |_| [u_wall, 0.0, 0.0])?;
+    let b = Boundaries::new(vec![lower, upper])?;
+    let mut s = Solver::<L, C, Porous>::new(geom, coll, p)?.with_boundaries(b)?;
+    let st = run_steady(&mut s, ctl, |_, _| {})?;
+    let prof = (0..=h).map(|y| st.fields.u[y][0]).collect();
+    Ok((prof, st))
+}

@@ -5,7 +5,7 @@
 use super::common::non_empty;
 use crate::lbm::choice::{dispatch, CollisionKind, Job, LatticeKind};
 use crate::lbm::flows::{channel_coordinate, duct_series, poiseuille};
-use crate::lbm::problems::{square_duct, DrivenChannel, Inlet};
+use crate::lbm::problems::{node_couette, square_duct, DrivenChannel, Inlet};
 use crate::lbm::steady::{Steady, SteadyControl};
 use crate::lbm::{Collision, Lattice};
 use crate::validation::{CaseContext, Row, Table};
@@ -174,6 +174,91 @@ pub fn case_810(ctx: &CaseContext) -> Result<Vec<Row>> {
         );
         let label = format!("{} {} tau={tau} H={h0}->{}", lat.name(), coll.name(), 2 * h0);
         rows.push(order_row("810", label, errs, t.f64(i, "expected_order")?));
+    }
+    Ok(rows)
+}
+
+struct CouetteProfile {
+    h: usize,
+    re: f64,
+    eps: f64,
+    da: f64,
+}
+
+impl Job for CouetteProfile {
+    /// u / U0 at the nodes y = 0..=h.
+    type Out = Result<Vec<f64>>;
+    fn run<L: Lattice, C: Collision>(self, coll: C) -> Self::Out {
+        let nu = (1.0 / coll.omega_plus() - 0.5) / 3.0;
+        let hf = self.h as f64;
+        let u_wall = self.re * nu / hf;
+        let k = self.da * hf * hf;
+        let (u, st) = node_couette::<L, C>(self.h, u_wall, (self.eps, k, true), coll, STEADY)?;
+        require_steady("porous Couette", &st)?;
+        Ok(u.iter().map(|v| v / u_wall).collect())
+    }
+}
+
+/// The finite-difference profile (eps, Re, Da) of reference/porous_couette.csv: u/U0 at
+/// y/H = j/128, refusing rows whose oracle error estimate exceeds 1e-9.
+fn couette_reference(ref_table: &Table, eps: f64, re: f64, da: f64) -> Result<Vec<f64>> {
+    let mut prof = Vec::new();
+    for r in 0..ref_table.len() {
+        let same = |col: &str, v: f64| -> Result<bool> {
+            Ok((ref_table.f64(r, col)? - v).abs() <= 1e-12 * v.abs())
+        };
+        if same("eps", eps)? && same("Re", re)? && same("Da", da)? {
+            if ref_table.f64(r, "est_abs_err")?.is_nan() || ref_table.f64(r, "est_abs_err")? > 1e-9 {
+                return Err(Error::Validation(format!(
+                    "{} line {}: oracle error estimate above 1e-9 (regenerate with `porelab \
+                     reference regen porous-couette`)",
+                    ref_table.path().display(),
+                    ref_table.line(r)
+                )));
+            }
+            prof.push(ref_table.f64(r, "u_over_U0")?);
+        }
+    }
+    if prof.len() != 129 {
+        return Err(Error::Validation(format!(
+            "{}: {} points for eps = {eps}, Re = {re}, Da = {da:e}; 129 expected",
+            ref_table.path().display(),
+            prof.len()
+        )));
+    }
+    Ok(prof)
+}
+
+/// Case 815: porous plane Couette flow (seed 002 Fig. 6a) against the finite-difference
+/// oracle; relative L2 error of the interior nodes, expected 0.
+pub fn case_815(ctx: &CaseContext) -> Result<Vec<Row>> {
+    let t = ctx.expected_table()?;
+    non_empty(&t)?;
+    let oracle = Table::read(&ctx.repo_root.join("reference/porous_couette.csv"))?;
+    non_empty(&oracle)?;
+    let mut rows = Vec::new();
+    for i in 0..t.len() {
+        let (lat, coll) = kinds(&t, i)?;
+        let tau = t.f64(i, "tau")?;
+        let (eps, re, da) = (t.f64(i, "eps")?, t.f64(i, "Re")?, t.f64(i, "Da")?);
+        let h = t.f64(i, "h")? as usize;
+        if h == 0 || 128 % h != 0 {
+            return Err(Error::Validation(format!(
+                "{} line {}: h = {h} must divide 128 (the oracle's points)",
+                t.path().display(),
+                t.line(i)
+            )));
+        }
+        let want = couette_reference(&oracle, eps, re, da)?;
+        let got = dispatch(lat, coll, tau, CouetteProfile { h, re, eps, da })?;
+        let e = rel_l2((1..h).map(|y| (got[y], want[y * 128 / h])));
+        let label = format!(
+            "{} {} tau={tau} eps={eps} Re={re} Da={da:e} H={h}",
+            lat.name(),
+            coll.name()
+        );
+        eprintln!("815 {label}: relative L2 {e:.3e}");
+        rows.push(Row::new(label, e, t.f64(i, "expected_rel_l2")?, 1.0));
     }
     Ok(rows)
 }
