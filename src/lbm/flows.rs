@@ -94,8 +94,8 @@ pub fn duct_series(y: f64, z: f64, a: f64, b: f64, g: f64, nu: f64) -> f64 {
         let nf = n as f64;
         let k = nf * pi / (2.0 * a);
         // cosh(k z)/cosh(k b) = (e^{k(|z|-b)} + e^{-k(|z|+b)}) / (1 + e^{-2kb})
-        let ratio = ((k * (z.abs() - b)).exp() + (-k * (z.abs() + b)).exp())
-            / (1.0 + (-2.0 * k * b).exp());
+        let ratio =
+            ((k * (z.abs() - b)).exp() + (-k * (z.abs() + b)).exp()) / (1.0 + (-2.0 * k * b).exp());
         let sign = if (n / 2) % 2 == 0 { 1.0 } else { -1.0 };
         sum += sign * ratio * (k * y).cos() / (nf * nf * nf);
         // remaining terms: |t_m| <= 2 e^{-m decay}/m^3, a geometric tail in odd m >= n + 2

@@ -185,15 +185,34 @@ impl DrivenChannel {
         let geom = Geometry::new::<L>(d, channel_mask(d), |_| [0.0; 3])?;
         let h = self.h as f64;
         let inlet = match self.inlet {
-            Inlet::Density(rho) => Plane::density(&geom, Face { axis: 0, high: false }, rho)?,
-            Inlet::Parabola(u_max) => {
-                Plane::velocity(&geom, Face { axis: 0, high: false }, |p| {
+            Inlet::Density(rho) => Plane::density(
+                &geom,
+                Face {
+                    axis: 0,
+                    high: false,
+                },
+                rho,
+            )?,
+            Inlet::Parabola(u_max) => Plane::velocity(
+                &geom,
+                Face {
+                    axis: 0,
+                    high: false,
+                },
+                |p| {
                     let y = super::flows::channel_coordinate(p[1]);
                     [4.0 * u_max * y * (h - y) / (h * h), 0.0, 0.0]
-                })?
-            }
+                },
+            )?,
         };
-        let outlet = Plane::density(&geom, Face { axis: 0, high: true }, self.rho_out)?;
+        let outlet = Plane::density(
+            &geom,
+            Face {
+                axis: 0,
+                high: true,
+            },
+            self.rho_out,
+        )?;
         if !connected::<L>(&geom, &inlet, &outlet) {
             return invalid(
                 "no fluid path joins the inlet plane to the outlet plane: the flow rate is 0 \
@@ -247,8 +266,22 @@ pub fn node_couette<L: Lattice, C: Collision>(
     for c in 0..d.cells() {
         p.set(c, eps, k).map_err(crate::Error::InvalidInput)?;
     }
-    let lower = Plane::velocity(&geom, Face { axis: 1, high: false }, |_| [0.0; 3])?;
-    let upper = Plane::velocity(&geom, Face { axis: 1, high: true }, |_| [u_wall, 0.0, 0.0])?;
+    let lower = Plane::velocity(
+        &geom,
+        Face {
+            axis: 1,
+            high: false,
+        },
+        |_| [0.0; 3],
+    )?;
+    let upper = Plane::velocity(
+        &geom,
+        Face {
+            axis: 1,
+            high: true,
+        },
+        |_| [u_wall, 0.0, 0.0],
+    )?;
     let b = Boundaries::new(vec![lower, upper])?;
     let mut s = Solver::<L, C, Porous>::new(geom, coll, p)?.with_boundaries(b)?;
     let st = run_steady(&mut s, ctl, |_, _| {})?;

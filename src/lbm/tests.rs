@@ -83,7 +83,6 @@ fn mass_conserved_and_thread_independent() {
     assert_eq!(a.populations(), b.populations());
 }
 
-
 /// The duct series against two independent facts: a wide duct (b = 40 a) is plane Poiseuille
 /// at its centre plane, and the mean velocity of the square duct, by midpoint quadrature of
 /// the series, equals the flow-rate series of White (eq. 3-49):

@@ -119,7 +119,7 @@ mod tests {
     /// r = sqrt(eps/Da); the same finite differences (Re = 0) must reach it at second order.
     #[test]
     fn linear_limit_is_the_sinh_profile() {
-        let (eps, da) = (0.1, 1e-3);
+        let (eps, da): (f64, f64) = (0.1, 1e-3);
         let r = (eps / da).sqrt();
         let err = |n: usize| {
             let u = solve(n, eps, 0.0, da);

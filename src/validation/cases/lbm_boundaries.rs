@@ -172,7 +172,12 @@ pub fn case_810(ctx: &CaseContext) -> Result<Vec<Row>> {
             dispatch(lat, coll, tau, DuctError { h: h0, g })?,
             dispatch(lat, coll, tau, DuctError { h: 2 * h0, g })?,
         );
-        let label = format!("{} {} tau={tau} H={h0}->{}", lat.name(), coll.name(), 2 * h0);
+        let label = format!(
+            "{} {} tau={tau} H={h0}->{}",
+            lat.name(),
+            coll.name(),
+            2 * h0
+        );
         rows.push(order_row("810", label, errs, t.f64(i, "expected_order")?));
     }
     Ok(rows)
@@ -208,7 +213,8 @@ fn couette_reference(ref_table: &Table, eps: f64, re: f64, da: f64) -> Result<Ve
             Ok((ref_table.f64(r, col)? - v).abs() <= 1e-12 * v.abs())
         };
         if same("eps", eps)? && same("Re", re)? && same("Da", da)? {
-            if ref_table.f64(r, "est_abs_err")?.is_nan() || ref_table.f64(r, "est_abs_err")? > 1e-9 {
+            if ref_table.f64(r, "est_abs_err")?.is_nan() || ref_table.f64(r, "est_abs_err")? > 1e-9
+            {
                 return Err(Error::Validation(format!(
                     "{} line {}: oracle error estimate above 1e-9 (regenerate with `porelab \
                      reference regen porous-couette`)",
