@@ -105,3 +105,79 @@ fn all_solid_mask_has_no_flow_path() {
             .to_string();
     assert!(e.contains("permeability is 0"), "{e}");
 }
+
+/// Boundary planes (non-equilibrium extrapolation): a plane in the solid, a plane too thin for
+/// the extrapolation, a mask with no path from inlet to outlet (flow rate 0, said plainly) and
+/// a pressure drop too large for the lattice (stopped with the Mach number, never NaN).
+#[test]
+fn boundary_planes_refuse_what_they_cannot_do() {
+    use porelab::lbm::boundary::{connected, Face, Plane};
+    use porelab::lbm::flows::channel_mask;
+    use porelab::lbm::problems::{DrivenChannel, Inlet};
+    let d = Dims::new(8, 6, 1).unwrap();
+    let geom = Geometry::new::<D3Q19>(d, channel_mask(d), |_| [0.0; 3]).unwrap();
+    let e = Plane::density(
+        &geom,
+        Face {
+            axis: 1,
+            high: false,
+        },
+        1.0,
+    )
+    .unwrap_err()
+    .to_string();
+    assert!(e.contains("y-") && e.contains("no fluid node"), "{e}");
+    let e = Plane::density(
+        &geom,
+        Face {
+            axis: 0,
+            high: true,
+        },
+        f64::NAN,
+    )
+    .unwrap_err()
+    .to_string();
+    assert!(e.contains("density NaN"), "{e}");
+    let thin = Dims::new(2, 6, 1).unwrap();
+    let g2 = Geometry::new::<D3Q19>(thin, channel_mask(thin), |_| [0.0; 3]).unwrap();
+    let e = Plane::density(
+        &g2,
+        Face {
+            axis: 0,
+            high: false,
+        },
+        1.0,
+    )
+    .unwrap_err()
+    .to_string();
+    assert!(e.contains("at least 3"), "{e}");
+    assert!(Face::parse("w+", "inlet")
+        .unwrap_err()
+        .to_string()
+        .contains("inlet = \"w+\""));
+    // a solid wall across the channel at x = 4: no path between the end planes
+    let mut mask = channel_mask(d);
+    for y in 0..6 {
+        mask[d.cell(4, y, 0)] = true;
+    }
+    let blocked = Geometry::new::<D3Q19>(d, mask, |_| [0.0; 3]).unwrap();
+    // the inlet (x-) and outlet (x+) planes of a geometry, joined or not
+    let joined = |g: &Geometry| {
+        let end = |high: bool, rho: f64| Plane::density(g, Face { axis: 0, high }, rho).unwrap();
+        connected::<D3Q19>(g, &end(false, 1.001), &end(true, 0.999))
+    };
+    assert!(!joined(&blocked));
+    assert!(joined(&geom));
+    // a pressure drop far beyond the lattice's range: stopped, with the reason
+    let ch = DrivenChannel {
+        h: 16,
+        length: 32,
+        inlet: Inlet::Density(1.4),
+        rho_out: 0.6,
+    };
+    let e = ch
+        .steady::<D3Q19, _>(Trt::magic(1.0), CTL)
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("Mach") || e.contains("non-finite"), "{e}");
+}

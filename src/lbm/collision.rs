@@ -8,6 +8,7 @@
 //! omega+ = 1/tau (the viscosity, eq. 8: nu = (tau - 1/2)/3), the odd part at omega-; each
 //! source part carries its factor (1 - omega/2). BGK is omega- = omega+.
 
+use super::forcing::CellState;
 use super::lattice::Lattice;
 
 /// A collision operator: its two rates (even, odd).
@@ -102,6 +103,21 @@ impl RowState {
             uu: v(),
             ua: v(),
         }
+    }
+
+    /// Entry `i`: density `rho` and the forcing's state `s` (velocity, acceleration, 1/eps),
+    /// with the shared products u.u / eps and u.a / eps (the latter makes the source term of
+    /// Guo & Zhao eq. 14 massless).
+    #[inline(always)]
+    pub fn set(&mut self, i: usize, rho: f64, s: &CellState) {
+        self.rho[i] = rho;
+        for k in 0..3 {
+            self.u[k][i] = s.u[k];
+            self.a[k][i] = s.a[k];
+        }
+        self.inv_eps[i] = s.inv_eps;
+        self.uu[i] = (s.u[0] * s.u[0] + s.u[1] * s.u[1] + s.u[2] * s.u[2]) * s.inv_eps;
+        self.ua[i] = (s.u[0] * s.a[0] + s.u[1] * s.a[1] + s.u[2] * s.a[2]) * s.inv_eps;
     }
 }
 

@@ -69,3 +69,54 @@ pub fn sangani_acrivos_sc(c: f64) -> f64 {
     let t = c.cbrt();
     1.0 / (1.0 - 1.7601 * t + c - 1.5593 * c * c + 3.9799 * c * c * t * t - 3.0734 * c * c * c * t)
 }
+
+/// Fully developed flow in a rectangular duct |y| < a, |z| < b under acceleration g (kinematic
+/// viscosity nu), by the Fourier series of White (Viscous Fluid Flow, 2nd ed., eq. 3-48):
+/// u = (16 g a^2 / (nu pi^3)) sum_{n odd} (-1)^((n-1)/2) [1 - cosh(n pi z/2a)/cosh(n pi b/2a)]
+/// cos(n pi y/2a) / n^3, written as the plane Poiseuille profile g (a^2 - y^2)/(2 nu) minus the
+/// cosh series, whose terms fall as exp(-n pi (b - |z|)/2a) / n^3; summed until the bound of
+/// the remaining terms is below 1e-17 of the plane profile's peak. For a square duct the
+/// coordinates are swapped where that makes the series shorter (u is symmetric).
+pub fn duct_series(y: f64, z: f64, a: f64, b: f64, g: f64, nu: f64) -> f64 {
+    let (y, z) = if a == b && z.abs() > y.abs() {
+        (z, y)
+    } else {
+        (y, z)
+    };
+    let pi = std::f64::consts::PI;
+    let peak = g * a * a / (2.0 * nu);
+    let pre = 16.0 * g * a * a / (nu * pi * pi * pi);
+    // the plane profile's coefficient series, cosh ratio written without overflow
+    let decay = (b - z.abs()) * pi / (2.0 * a);
+    let mut sum = 0.0;
+    let mut n = 1u64;
+    loop {
+        let nf = n as f64;
+        let k = nf * pi / (2.0 * a);
+        // cosh(k z)/cosh(k b) = (e^{k(|z|-b)} + e^{-k(|z|+b)}) / (1 + e^{-2kb})
+        let ratio =
+            ((k * (z.abs() - b)).exp() + (-k * (z.abs() + b)).exp()) / (1.0 + (-2.0 * k * b).exp());
+        let sign = if (n / 2) % 2 == 0 { 1.0 } else { -1.0 };
+        sum += sign * ratio * (k * y).cos() / (nf * nf * nf);
+        // remaining terms: |t_m| <= 2 e^{-m decay}/m^3, a geometric tail in odd m >= n + 2
+        let m = nf + 2.0;
+        let q = (-2.0 * decay).exp();
+        let tail = pre * 2.0 * (-m * decay).exp() / (m * m * m * (1.0 - q).max(1e-300));
+        if tail < 1e-17 * peak || n > 2_000_000 {
+            break;
+        }
+        n += 2;
+    }
+    g * (a * a - y * y) / (2.0 * nu) - pre * sum
+}
+
+/// Solid mask of a duct along x: the rows y = 0, y = ny - 1, z = 0, z = nz - 1 (walls halfway,
+/// at y, z = 1/2 and n - 3/2).
+pub fn duct_mask(d: Dims) -> Vec<bool> {
+    (0..d.cells())
+        .map(|c| {
+            let p = d.coords(c);
+            p[1] == 0 || p[1] == d.ny - 1 || p[2] == 0 || p[2] == d.nz - 1
+        })
+        .collect()
+}

@@ -24,6 +24,9 @@ pub trait Forcing: Send + Sync {
     const ACTIVE: bool;
     const NAME: &'static str;
     fn state(&self, cell: usize, rho: f64, j: [f64; 3]) -> CellState;
+    /// The state of a cell whose velocity `u` is prescribed (a boundary node): the source
+    /// term's acceleration at that velocity.
+    fn state_at_velocity(&self, cell: usize, rho: f64, u: [f64; 3]) -> CellState;
 }
 
 /// No force: u = j / rho.
@@ -38,6 +41,14 @@ impl Forcing for Unforced {
         let r = 1.0 / rho;
         CellState {
             u: [j[0] * r, j[1] * r, j[2] * r],
+            a: [0.0; 3],
+            inv_eps: 1.0,
+        }
+    }
+    #[inline(always)]
+    fn state_at_velocity(&self, _cell: usize, _rho: f64, u: [f64; 3]) -> CellState {
+        CellState {
+            u,
             a: [0.0; 3],
             inv_eps: 1.0,
         }
@@ -64,6 +75,14 @@ impl Forcing for BodyForce {
                 j[2] * r + 0.5 * g[2],
             ],
             a: g,
+            inv_eps: 1.0,
+        }
+    }
+    #[inline(always)]
+    fn state_at_velocity(&self, _cell: usize, _rho: f64, u: [f64; 3]) -> CellState {
+        CellState {
+            u,
+            a: self.g,
             inv_eps: 1.0,
         }
     }
@@ -231,6 +250,19 @@ impl Forcing for Porous {
                 eps * g[1] - drag * rel[1],
                 eps * g[2] - drag * rel[2],
             ],
+            inv_eps: 1.0 / eps,
+        }
+    }
+    /// Seed 002 eq. 10 at the prescribed velocity u (relative to the matrix velocity w).
+    fn state_at_velocity(&self, cell: usize, _rho: f64, u: [f64; 3]) -> CellState {
+        let eps = self.eps[cell];
+        let w = self.w[cell];
+        let rel = [u[0] - w[0], u[1] - w[1], u[2] - w[2]];
+        let un = (rel[0] * rel[0] + rel[1] * rel[1] + rel[2] * rel[2]).sqrt();
+        let drag = self.lin[cell] + self.quad[cell] * un;
+        CellState {
+            u,
+            a: [0, 1, 2].map(|k| eps * self.g[k] - drag * rel[k]),
             inv_eps: 1.0 / eps,
         }
     }

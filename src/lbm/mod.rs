@@ -2,12 +2,14 @@
 //!
 //! Pieces that a scene composes (after lbmpy/waLBerla): the velocity set ([`lattice`]: D3Q15,
 //! D3Q19), the collision ([`collision`]: BGK, TRT), the forcing ([`forcing`]: none, Guo body
-//! force, Guo-Zhao porous medium) and the geometry ([`geometry`]: periodic box, solid mask with
-//! halfway bounce-back, moving walls). [`solver::Solver`] fuses them into one kernel per
-//! choice. Everything inside is in lattice units (dx = dt = 1, rho ~ 1); [`units`] converts at
+//! force, Guo-Zhao porous medium), the geometry ([`geometry`]: periodic box, solid mask with
+//! halfway bounce-back, moving walls) and the boundary planes ([`boundary`]: velocity and
+//! density by non-equilibrium extrapolation, applied after the kernel). [`solver::Solver`]
+//! fuses the first four into one kernel per choice. Everything inside is in lattice units (dx = dt = 1, rho ~ 1); [`units`] converts at
 //! the boundary and refuses unstable parameters.
 
 pub mod bench;
+pub mod boundary;
 pub mod choice;
 pub mod collision;
 pub mod forcing;

@@ -2,7 +2,8 @@
 //! channel flows (plain, porous, with a moving wall), the permeability of a periodic solid
 //! mask under a small body force, and the Taylor-Green vortex decay.
 
-use super::flows::channel_mask;
+use super::boundary::{connected, Boundaries, Face, Plane};
+use super::flows::{channel_mask, duct_mask};
 use super::geometry::{Dims, Geometry};
 use super::steady::{run_steady, Steady, SteadyControl};
 use super::{BodyForce, Collision, Lattice, Porous, Solver, Unforced};
@@ -143,4 +144,147 @@ pub fn taylor_green_viscosity<L: Lattice, C: Collision>(
     s.run(t2 - t1);
     let e2 = energy(&s);
     Ok((e1 / e2).ln() / (4.0 * k * k * (t2 - t1) as f64))
+}
+
+/// What drives a [`DrivenChannel`] at its inlet plane x = 0.
+#[derive(Debug, Clone, Copy)]
+pub enum Inlet {
+    /// Inlet density (lattice units): the pressure drop is c_s^2 (rho_in - rho_out).
+    Density(f64),
+    /// Plane Poiseuille profile with this peak velocity (lattice units) at the inlet.
+    Parabola(f64),
+}
+
+/// A plane channel of width h cells between halfway bounce-back walls (rows y = 0 and h + 1)
+/// whose flow is driven through its ends: boundary planes (non-equilibrium extrapolation) at
+/// x = 0 (the inlet) and x = length (the outlet, density `rho_out`); one cell along z.
+#[derive(Debug, Clone, Copy)]
+pub struct DrivenChannel {
+    pub h: usize,
+    /// Distance between the inlet and outlet planes (cells).
+    pub length: usize,
+    pub inlet: Inlet,
+    pub rho_out: f64,
+}
+
+impl DrivenChannel {
+    /// The lattice: (length + 1) x (h + 2) x 1.
+    pub fn dims(&self) -> Result<Dims> {
+        Dims::new(self.length + 1, self.h + 2, 1)
+    }
+
+    /// Runs to steady state; returns the run (fields over the whole lattice).
+    pub fn steady<L: Lattice, C: Collision>(&self, coll: C, ctl: SteadyControl) -> Result<Steady> {
+        if self.length < 2 {
+            return invalid(format!(
+                "channel length {} cells: must be at least 2 (inlet, outlet and one node between)",
+                self.length
+            ));
+        }
+        let d = self.dims()?;
+        let geom = Geometry::new::<L>(d, channel_mask(d), |_| [0.0; 3])?;
+        let h = self.h as f64;
+        let inlet = match self.inlet {
+            Inlet::Density(rho) => Plane::density(
+                &geom,
+                Face {
+                    axis: 0,
+                    high: false,
+                },
+                rho,
+            )?,
+            Inlet::Parabola(u_max) => Plane::velocity(
+                &geom,
+                Face {
+                    axis: 0,
+                    high: false,
+                },
+                |p| {
+                    let y = super::flows::channel_coordinate(p[1]);
+                    [4.0 * u_max * y * (h - y) / (h * h), 0.0, 0.0]
+                },
+            )?,
+        };
+        let outlet = Plane::density(
+            &geom,
+            Face {
+                axis: 0,
+                high: true,
+            },
+            self.rho_out,
+        )?;
+        if !connected::<L>(&geom, &inlet, &outlet) {
+            return invalid(
+                "no fluid path joins the inlet plane to the outlet plane: the flow rate is 0 \
+                 (permeability 0)",
+            );
+        }
+        let b = Boundaries::new(vec![inlet, outlet])?;
+        let mut s = Solver::<L, C, Unforced>::new(geom, coll, Unforced)?.with_boundaries(b)?;
+        run_steady(&mut s, ctl, |_, _| {})
+    }
+}
+
+/// Fully developed flow in a square duct of h x h fluid cells (walls: rows y, z = 0 and h + 1,
+/// halfway bounce-back) under body force g along x, one cell along x. Returns the steady x
+/// velocity of fluid cell (y, z), y, z = 1..=h, at index (z - 1) h + (y - 1), and the run.
+pub fn square_duct<L: Lattice, C: Collision>(
+    h: usize,
+    g: f64,
+    coll: C,
+    ctl: SteadyControl,
+) -> Result<(Vec<f64>, Steady)> {
+    let d = Dims::new(1, h + 2, h + 2)?;
+    let geom = Geometry::new::<L>(d, duct_mask(d), |_| [0.0; 3])?;
+    let mut s = Solver::<L, C, BodyForce>::new(geom, coll, BodyForce { g: [g, 0.0, 0.0] })?;
+    let st = run_steady(&mut s, ctl, |_, _| {})?;
+    let mut u = Vec::with_capacity(h * h);
+    for z in 1..=h {
+        for y in 1..=h {
+            u.push(st.fields.u[d.cell(0, y, z)][0]);
+        }
+    }
+    Ok((u, st))
+}
+
+/// Plane Couette flow with its walls on the lattice nodes y = 0 (at rest) and y = h (sliding
+/// at `u_wall` along x, lattice units), both velocity planes (non-equilibrium extrapolation),
+/// filled with a uniform medium `porous` = (eps, K in lattice units, Forchheimer on); one cell
+/// along x and z. Returns the steady x velocity at the nodes y = 0..=h and the run.
+pub fn node_couette<L: Lattice, C: Collision>(
+    h: usize,
+    u_wall: f64,
+    porous: (f64, f64, bool),
+    coll: C,
+    ctl: SteadyControl,
+) -> Result<(Vec<f64>, Steady)> {
+    let d = Dims::new(1, h + 1, 1)?;
+    let geom = Geometry::open::<L>(d);
+    let nu = (1.0 / coll.omega_plus() - 0.5) / 3.0;
+    let (eps, k, forch) = porous;
+    let mut p = Porous::clear(d.cells(), nu, [0.0; 3], forch);
+    for c in 0..d.cells() {
+        p.set(c, eps, k).map_err(crate::Error::InvalidInput)?;
+    }
+    let lower = Plane::velocity(
+        &geom,
+        Face {
+            axis: 1,
+            high: false,
+        },
+        |_| [0.0; 3],
+    )?;
+    let upper = Plane::velocity(
+        &geom,
+        Face {
+            axis: 1,
+            high: true,
+        },
+        |_| [u_wall, 0.0, 0.0],
+    )?;
+    let b = Boundaries::new(vec![lower, upper])?;
+    let mut s = Solver::<L, C, Porous>::new(geom, coll, p)?.with_boundaries(b)?;
+    let st = run_steady(&mut s, ctl, |_, _| {})?;
+    let prof = (0..=h).map(|y| st.fields.u[y][0]).collect();
+    Ok((prof, st))
 }

@@ -11,6 +11,7 @@
 //! is the same at any thread count; sums (mass, mean velocity) are taken per plane and added
 //! in plane order.
 
+use super::boundary::Boundaries;
 use super::collision::{equilibrium, relax_run, Collision, RowState};
 use super::forcing::Forcing;
 use super::geometry::{Dims, Geometry};
@@ -90,6 +91,8 @@ pub struct Solver<L: Lattice, C: Collision, F: Forcing> {
     f: Vec<f64>,
     /// Scratch for the next step.
     g: Vec<f64>,
+    /// Velocity and density planes (non-equilibrium extrapolation), applied after the kernel.
+    boundaries: Boundaries,
     steps: u64,
     _l: PhantomData<L>,
 }
@@ -107,11 +110,31 @@ impl<L: Lattice, C: Collision, F: Forcing> Solver<L, C, F> {
             forcing,
             f: vec![0.0; n],
             g: vec![0.0; n],
+            boundaries: Boundaries::default(),
             steps: 0,
             _l: PhantomData,
         };
         s.init(|_| (1.0, [0.0; 3]));
         Ok(s)
+    }
+
+    /// Adds velocity and density planes (refuses a plane cell that is solid in the
+    /// geometry); the boundary nodes are rebuilt every step after the fused kernel.
+    pub fn with_boundaries(mut self, boundaries: Boundaries) -> Result<Self> {
+        for c in boundaries.planes().iter().flat_map(|p| p.cells()) {
+            if self.geometry.is_solid(c) {
+                return invalid(format!(
+                    "boundary node {:?} is solid in the geometry",
+                    self.dims().coords(c)
+                ));
+            }
+        }
+        self.boundaries = boundaries;
+        Ok(self)
+    }
+
+    pub fn boundaries(&self) -> &Boundaries {
+        &self.boundaries
     }
 
     pub fn dims(&self) -> Dims {
@@ -217,14 +240,7 @@ impl<L: Lattice, C: Collision, F: Forcing> Solver<L, C, F> {
         let base = (z * d.ny + y) * nx + x0;
         for i in 0..n {
             let s = force.state(base + i, st.rho[i], [st.a[0][i], st.a[1][i], st.a[2][i]]);
-            for k in 0..3 {
-                st.u[k][i] = s.u[k];
-                st.a[k][i] = s.a[k];
-            }
-            st.inv_eps[i] = s.inv_eps;
-            st.uu[i] = (s.u[0] * s.u[0] + s.u[1] * s.u[1] + s.u[2] * s.u[2]) * s.inv_eps;
-            // u.a / eps: the source term of Guo & Zhao eq. 14 then has zero mass
-            st.ua[i] = (s.u[0] * s.a[0] + s.u[1] * s.a[1] + s.u[2] * s.a[2]) * s.inv_eps;
+            st.set(i, st.rho[i], &s);
         }
     }
 
@@ -339,6 +355,10 @@ impl<L: Lattice, C: Collision, F: Forcing> Solver<L, C, F> {
                     Self::plane_body(src, geom, coll, force, z, out, buf, st, rec)
                 },
             );
+        if !self.boundaries.is_empty() {
+            self.boundaries
+                .apply::<L, C, F>(&self.f, &mut self.g, geom, coll, force);
+        }
         std::mem::swap(&mut self.f, &mut self.g);
         self.steps += 1;
     }
@@ -420,6 +440,11 @@ impl<L: Lattice, C: Collision, F: Forcing> Solver<L, C, F> {
         for (r, u) in per_plane {
             f.rho.extend(r);
             f.u.extend(u);
+        }
+        // boundary nodes: the state they were last rebuilt with
+        for (c, (rho, u)) in self.boundaries.last_states() {
+            f.rho[c] = rho;
+            f.u[c] = u;
         }
         f
     }

@@ -82,3 +82,38 @@ fn mass_conserved_and_thread_independent() {
     one.install(|| b.run(50));
     assert_eq!(a.populations(), b.populations());
 }
+
+/// The duct series against two independent facts: a wide duct (b = 40 a) is plane Poiseuille
+/// at its centre plane, and the mean velocity of the square duct, by midpoint quadrature of
+/// the series, equals the flow-rate series of White (eq. 3-49):
+/// <u> = (g a^2 / 3 nu) [1 - (192 a / pi^5 b) sum_{n odd} tanh(n pi b / 2a) / n^5].
+#[test]
+fn duct_series_limits_and_flow_rate() {
+    let (a, g, nu) = (1.0, 1.0, 1.0);
+    for y in [0.0, 0.3, 0.9] {
+        let got = duct_series(y, 0.0, a, 40.0, g, nu);
+        let want = poiseuille(y + a, 2.0 * a, g, nu);
+        assert!((got - want).abs() < 1e-14, "{y}: {got} vs {want}");
+    }
+    let pi = std::f64::consts::PI;
+    let s: f64 = (0..2000)
+        .map(|k| {
+            let n = (2 * k + 1) as f64;
+            (n * pi / 2.0).tanh() / n.powi(5)
+        })
+        .sum();
+    let want = g * a * a / (3.0 * nu) * (1.0 - 192.0 / pi.powi(5) * s);
+    let m = 200;
+    let h = 2.0 * a / m as f64;
+    let mut sum = 0.0;
+    for i in 0..m {
+        for j in 0..m {
+            let (y, z) = (-a + (i as f64 + 0.5) * h, -a + (j as f64 + 0.5) * h);
+            sum += duct_series(y, z, a, a, g, nu);
+        }
+    }
+    // composite midpoint rule: exact mean = M + (h^2/24) <lap u> + O(h^4), lap u = -g/nu
+    let got = sum / (m * m) as f64 - h * h * g / (24.0 * nu);
+    assert!((got / want - 1.0).abs() < 1e-8, "{got} vs {want}");
+    assert!((want - 0.140_57).abs() < 1e-5, "{want}");
+}

@@ -8,6 +8,7 @@
 
 // Generator modules (one `pub mod` line each), e.g. `pub mod cylinder_field;`.
 pub mod cylinder_field;
+pub mod porous_couette;
 pub mod shape_quadrature;
 
 use crate::{Error, Result};
@@ -38,6 +39,11 @@ pub static GENERATORS: &[Generator] = &[
         name: "shape-quadrature",
         description: "volume and inertia of superquadrics and spherocylinders by nested adaptive Gauss-Kronrod over z-slices (no Gamma functions)",
         generate: shape_quadrature::regen_shape_quadrature,
+    },
+    Generator {
+        name: "porous-couette",
+        description: "porous plane Couette flow (Brinkman-Forchheimer, seed 002 Fig. 6a) by second-order finite differences, Newton, Richardson over three grids",
+        generate: porous_couette::regen_porous_couette,
     },
 ];
 

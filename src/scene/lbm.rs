@@ -9,6 +9,9 @@
 //!                                 # wall_velocity_m_s also Couette) | "porous-channel"
 //!                                 # (Guo-Zhao Brinkman-Forchheimer medium between walls)
 //!                                 # | "sphere-array" (simple cubic, periodic)
+//!                                 # | "pressure-channel" (plane channel driven through
+//!                                 # its ends: inlet/outlet planes by non-equilibrium
+//!                                 # extrapolation, Guo, Zheng & Shi 2002)
 //! lattice = "D3Q19"               # "D3Q15" | "D3Q19"  [D3Q19]
 //! collision = "trt"               # "bgk" | "trt" (Lambda = 3/16)  [trt]
 //! tau = 1.0                       # relaxation time (>= 0.505) [1.0]
@@ -22,6 +25,12 @@
 //! permeability_m2 = 1e-9          # porous-channel: K (m^2)
 //! forchheimer = true              # porous-channel: Ergun's Forchheimer term [true]
 //! solid_fraction = 0.125          # sphere-array: phi in (0, pi/6]
+//! channel_length_m = 2e-3         # pressure-channel: inlet-to-outlet distance (m), a whole
+//!                                 # number of cells
+//! pressure_drop_pa = 1e-3         # pressure-channel: inlet minus outlet pressure (Pa), or
+//! inlet_velocity_m_s = 1e-3       # pressure-channel: peak of a parabolic inlet profile (m/s)
+//!                                 # (exactly one of the two; the outlet is at the reference
+//!                                 # pressure)
 //! tol = 1e-9                      # stop when <u> changes by less than this per check [1e-9]
 //! check_every = 200               # steps between checks [200]
 //! max_steps = 1000000             # [1e6]
@@ -37,9 +46,10 @@ use crate::io::plot::CsvPlot;
 use crate::io::vtk::{write_image_data, CellField};
 use crate::io::write_atomic;
 use crate::lbm::choice::{dispatch, CollisionKind, Job, LatticeKind};
+use crate::lbm::flows::channel_mask;
 use crate::lbm::flows::{brinkman_poiseuille, channel_coordinate, sphere_array_mask};
 use crate::lbm::geometry::{Dims, Geometry};
-use crate::lbm::problems::{permeability, Channel};
+use crate::lbm::problems::{permeability, Channel, DrivenChannel, Inlet};
 use crate::lbm::steady::{Steady, SteadyControl};
 use crate::lbm::units::{check_mach, describe, Units};
 use crate::lbm::{Collision, Lattice};
@@ -57,6 +67,11 @@ pub fn builtins() -> Vec<Builtin> {
             name: "lbm-porous-channel",
             about: "LBM: Guo-Zhao porous channel, eps 0.5, Da 1e-3 (seconds)",
             toml: include_str!("builtin/lbm-porous-channel.toml"),
+        },
+        Builtin {
+            name: "lbm-pressure-channel",
+            about: "LBM: plane Poiseuille flow driven by a 0.03 Pa pressure drop (inlet/outlet planes; seconds)",
+            toml: include_str!("builtin/lbm-pressure-channel.toml"),
         },
         Builtin {
             name: "lbm-sphere-array",
@@ -122,6 +137,9 @@ pub struct LbmScene {
     #[serde(default = "yes")]
     pub forchheimer: bool,
     pub solid_fraction: Option<f64>,
+    pub channel_length_m: Option<f64>,
+    pub pressure_drop_pa: Option<f64>,
+    pub inlet_velocity_m_s: Option<f64>,
     #[serde(default = "tol")]
     pub tol: f64,
     #[serde(default = "check")]
@@ -137,6 +155,8 @@ fn need(v: Option<f64>, key: &str, flow: &str) -> Result<f64> {
 /// The steady run of a scene, in lattice units.
 struct SceneRun {
     scene: LbmScene,
+    /// pressure-channel: (length in cells, inlet, outlet density).
+    driven: Option<(usize, Inlet, f64)>,
     g: f64,
     wall_u: f64,
     porous: Option<(f64, f64, bool)>,
@@ -150,6 +170,8 @@ struct Outcome {
     dims: Dims,
     /// Sphere array: k (lattice units).
     k: Option<f64>,
+    /// The x index of the section written to profile.csv.
+    profile_x: usize,
 }
 
 impl Job for SceneRun {
@@ -176,6 +198,27 @@ impl Job for SceneRun {
                 solid: mask,
                 porosity_field,
                 dims: d,
+                profile_x: 0,
+            });
+        }
+        if let Some((length, inlet, rho_out)) = self.driven {
+            let ch = DrivenChannel {
+                h: n,
+                length,
+                inlet,
+                rho_out,
+            };
+            let st = ch.steady::<L, C>(coll, self.ctl)?;
+            let d = ch.dims()?;
+            let solid = channel_mask(d);
+            let porosity_field = solid.iter().map(|&s| if s { 0.0 } else { 1.0 }).collect();
+            return Ok(Outcome {
+                steady: st,
+                solid,
+                porosity_field,
+                dims: d,
+                k: None,
+                profile_x: length / 2,
             });
         }
         let ch = Channel {
@@ -195,6 +238,7 @@ impl Job for SceneRun {
             porosity_field,
             dims: d,
             k: None,
+            profile_x: 0,
         })
     }
 }
@@ -211,6 +255,7 @@ struct Prepared {
     nu: f64,
     h: f64,
     porous: Option<(f64, f64, bool)>,
+    driven: Option<(usize, Inlet, f64)>,
     u_est: f64,
 }
 
@@ -235,6 +280,21 @@ fn prepare(text: &str, origin: &str) -> Result<Prepared> {
     let nu = u.nu_lattice();
     let h = sc.cells as f64;
     let mut porous = None;
+    let mut driven = None;
+    if sc.flow != "pressure-channel" {
+        for (key, v) in [
+            ("channel_length_m", sc.channel_length_m),
+            ("pressure_drop_pa", sc.pressure_drop_pa),
+            ("inlet_velocity_m_s", sc.inlet_velocity_m_s),
+        ] {
+            if v.is_some() {
+                return invalid(format!(
+                    "{key}: only flow = \"pressure-channel\" has it (flow = \"{}\")",
+                    sc.flow
+                ));
+            }
+        }
+    }
     // a-priori velocity scale (lattice units) for the Mach check
     let u_est = match sc.flow.as_str() {
         "channel" => g.abs() * h * h / (8.0 * nu) + wall_u.abs(),
@@ -256,6 +316,58 @@ fn prepare(text: &str, origin: &str) -> Result<Prepared> {
             porous = Some((eps, k, sc.forchheimer));
             (g.abs() * h * h / (8.0 * nu)).min(g.abs() * k / nu)
         }
+        "pressure-channel" => {
+            let len_m = need(sc.channel_length_m, "channel_length_m", &sc.flow)?;
+            let cells = len_m / u.dx;
+            let length = cells.round() as usize;
+            if !(len_m.is_finite() && length >= 2 && (cells - length as f64).abs() <= 1e-6 * cells)
+            {
+                return invalid(format!(
+                    "channel_length_m = {len_m}: must be a whole number (>= 2) of cells of \
+                     dx = {:e} m (it is {cells} cells)",
+                    u.dx
+                ));
+            }
+            if g != 0.0 || sc.wall_velocity_m_s != 0.0 {
+                return invalid(
+                    "pressure-channel: acceleration_m_s2 and wall_velocity_m_s must be 0 (the \
+                     ends drive the flow)",
+                );
+            }
+            let (inlet, est) =
+                match (sc.pressure_drop_pa, sc.inlet_velocity_m_s) {
+                    (Some(dp), None) => {
+                        // lattice pressure c_s^2 rho: drho = 3 dp dt^2 / (rho dx^2)
+                        let drho = 3.0 * dp * u.dt * u.dt / (sc.rho_kg_m3 * u.dx * u.dx);
+                        if !(drho.is_finite() && drho.abs() < 0.2) {
+                            return invalid(format!(
+                                "pressure_drop_pa = {dp}: a density difference of {drho:.3e} \
+                             (lattice units) must be finite and below 0.2 in magnitude \
+                             (compressibility); lower the pressure drop or refine the lattice"
+                            ));
+                        }
+                        let grad = drho / (3.0 * length as f64);
+                        (
+                            Inlet::Density(1.0 + 0.5 * drho),
+                            grad.abs() * h * h / (8.0 * nu),
+                        )
+                    }
+                    (None, Some(v)) => {
+                        let ul = u.velocity_to_lattice(v);
+                        (Inlet::Parabola(ul), ul.abs())
+                    }
+                    _ => return invalid(
+                        "flow = \"pressure-channel\" needs exactly one of pressure_drop_pa and \
+                         inlet_velocity_m_s",
+                    ),
+                };
+            let rho_out = match inlet {
+                Inlet::Density(rho_in) => 2.0 - rho_in,
+                Inlet::Parabola(_) => 1.0,
+            };
+            driven = Some((length, inlet, rho_out));
+            est
+        }
         "sphere-array" => {
             let phi = need(sc.solid_fraction, "solid_fraction", &sc.flow)?;
             if !(phi > 0.0 && phi <= std::f64::consts::PI / 6.0) {
@@ -268,7 +380,8 @@ fn prepare(text: &str, origin: &str) -> Result<Prepared> {
         }
         other => {
             return invalid(format!(
-                "flow = \"{other}\": must be \"channel\", \"porous-channel\" or \"sphere-array\""
+                "flow = \"{other}\": must be \"channel\", \"porous-channel\", \"sphere-array\" \
+                 or \"pressure-channel\""
             ))
         }
     };
@@ -283,6 +396,7 @@ fn prepare(text: &str, origin: &str) -> Result<Prepared> {
         nu,
         h,
         porous,
+        driven,
         u_est,
     })
 }
@@ -303,6 +417,7 @@ pub fn run_scene(text: &str, origin: &str, out: &Path, opts: &RunOptions) -> Res
         nu,
         h,
         porous,
+        driven,
         u_est,
     } = prepare(text, origin)?;
     println!(
@@ -329,6 +444,7 @@ pub fn run_scene(text: &str, origin: &str, out: &Path, opts: &RunOptions) -> Res
         tau,
         SceneRun {
             scene: sc.clone(),
+            driven,
             g,
             wall_u,
             porous,
@@ -386,12 +502,17 @@ pub fn run_scene(text: &str, origin: &str, out: &Path, opts: &RunOptions) -> Res
         );
     } else {
         let mut csv = String::from("y_m,u_m_s,u_exact_m_s\n");
-        for (y, v) in vel.iter().enumerate().take(sc.cells + 1).skip(1) {
+        for y in 1..=sc.cells {
+            let v = vel[d.cell(o.profile_x, y, 0)];
             let yc = channel_coordinate(y);
-            let exact = match porous {
-                None => Some(g * yc * (h - yc) / (2.0 * nu) + wall_u * yc / h),
-                Some((eps, k, false)) => Some(brinkman_poiseuille(yc, h, g, nu, eps, k)),
-                Some(_) => None,
+            let exact = match (driven, porous) {
+                (Some((len, Inlet::Density(rho_in), rho_out)), _) => {
+                    Some((rho_in - rho_out) / (3.0 * len as f64) * yc * (h - yc) / (2.0 * nu))
+                }
+                (Some((_, Inlet::Parabola(um), _)), _) => Some(4.0 * um * yc * (h - yc) / (h * h)),
+                (None, None) => Some(g * yc * (h - yc) / (2.0 * nu) + wall_u * yc / h),
+                (None, Some((eps, k, false))) => Some(brinkman_poiseuille(yc, h, g, nu, eps, k)),
+                (None, Some(_)) => None,
             };
             csv += &format!(
                 "{},{},{}\n",
@@ -495,5 +616,43 @@ mod tests {
         }
         assert!(tmp.join("fields.vtk").is_file() && tmp.join("summary.json").is_file());
         let _ = std::fs::remove_dir_all(&tmp);
+    }
+
+    /// The pressure-driven builtin reproduces the parabola of its pressure gradient at the
+    /// mid-length section (TRT walls are exact; what is left is the compressibility of a
+    /// 2.5e-3 density drop), and its keys are refused where they do not belong.
+    #[test]
+    fn pressure_channel_builtin_and_keys() {
+        let b = builtins()
+            .into_iter()
+            .find(|b| b.name == "lbm-pressure-channel")
+            .unwrap();
+        let tmp = std::env::temp_dir().join(format!("porelab-lbm-pch-{}", std::process::id()));
+        run_scene(b.toml, "builtin", &tmp, &RunOptions::default()).unwrap();
+        let text = std::fs::read_to_string(tmp.join("profile.csv")).unwrap();
+        let peak = text
+            .lines()
+            .skip(1)
+            .map(|l| l.split(',').nth(2).unwrap().parse::<f64>().unwrap())
+            .fold(0.0, f64::max);
+        for l in text.lines().skip(1) {
+            let v: Vec<f64> = l.split(',').map(|t| t.parse().unwrap()).collect();
+            assert!((v[1] - v[2]).abs() < 1e-3 * peak, "{l}");
+        }
+        let _ = std::fs::remove_dir_all(&tmp);
+        let both = format!("{}inlet_velocity_m_s = 1e-3\n", b.toml);
+        let e = check_scene(&both, "t").unwrap_err().to_string();
+        assert!(e.contains("exactly one of pressure_drop_pa"), "{e}");
+        let e = check_scene(&b.toml.replace("0.03", "300.0"), "t")
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("pressure_drop_pa = 300"), "{e}");
+        let e = check_scene(&b.toml.replace("2e-3", "2.01e-3"), "t")
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("whole number"), "{e}");
+        let stray = format!("{}pressure_drop_pa = 1.0\n", builtins()[0].toml);
+        let e = check_scene(&stray, "t").unwrap_err().to_string();
+        assert!(e.contains("only flow = \"pressure-channel\""), "{e}");
     }
 }

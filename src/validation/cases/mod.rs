@@ -18,6 +18,7 @@ mod elliptic_cases;
 mod field_analytic;
 mod field_oracle;
 mod lbm;
+mod lbm_boundaries;
 mod packing;
 mod packing_confined;
 mod shapes;
@@ -105,6 +106,9 @@ pub fn runner_for(id: &str) -> Option<Runner> {
         "803" => Some(lbm::case_803),
         "804" => Some(lbm::case_804),
         "808" => Some(lbm::case_808),
+        "805" => Some(lbm_boundaries::case_805),
+        "810" => Some(lbm_boundaries::case_810),
+        "815" => Some(lbm_boundaries::case_815),
         "806" => Some(lbm::case_806_807),
         "807" => Some(lbm::case_806_807),
         "701" => Some(dem::case_701),
