@@ -235,9 +235,9 @@ fn couette_reference(ref_table: &Table, eps: f64, re: f64, da: f64) -> Result<Ve
     Ok(prof)
 }
 
-/// Case 815: porous plane Couette flow (seed 002 Fig. 6a) against the finite-difference
+/// Case 809: porous plane Couette flow (seed 002 Fig. 6a) against the finite-difference
 /// oracle; relative L2 error of the interior nodes, expected 0.
-pub fn case_815(ctx: &CaseContext) -> Result<Vec<Row>> {
+pub fn case_809(ctx: &CaseContext) -> Result<Vec<Row>> {
     let t = ctx.expected_table()?;
     non_empty(&t)?;
     let oracle = Table::read(&ctx.repo_root.join("reference/porous_couette.csv"))?;
@@ -263,7 +263,7 @@ pub fn case_815(ctx: &CaseContext) -> Result<Vec<Row>> {
             lat.name(),
             coll.name()
         );
-        eprintln!("815 {label}: relative L2 {e:.3e}");
+        eprintln!("809 {label}: relative L2 {e:.3e}");
         rows.push(Row::new(label, e, t.f64(i, "expected_rel_l2")?, 1.0));
     }
     Ok(rows)

@@ -108,7 +108,7 @@ pub fn runner_for(id: &str) -> Option<Runner> {
         "808" => Some(lbm::case_808),
         "805" => Some(lbm_boundaries::case_805),
         "810" => Some(lbm_boundaries::case_810),
-        "815" => Some(lbm_boundaries::case_815),
+        "809" => Some(lbm_boundaries::case_809),
         "806" => Some(lbm::case_806_807),
         "807" => Some(lbm::case_806_807),
         "701" => Some(dem::case_701),
