@@ -221,45 +221,19 @@ impl Dem {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::dem::{
-        start::random_dispersion, ContactModel, DampingModel, DemSetup, Material, NormalModel,
-        Particles, TangentialModel, TopWall,
-    };
-    use rand::SeedableRng;
+    use crate::scene::dem::{build, parse_scene};
 
+    /// The built-in small bed with 120 spheres at 68 % porosity, thrown at the floor so that
+    /// contacts (with tangential springs) form within a few thousand steps.
     fn bed() -> Dem {
-        let mat = Material::new(1e7, 0.3).unwrap();
-        let r = vec![2e-4; 120];
-        let (l, h) = (2.4e-3, 3e-3);
-        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(5);
-        let pos = random_dispersion(&r, l, l, h, &mut rng).unwrap();
-        let setup = DemSetup {
-            lx_m: l,
-            ly_m: l,
-            contact: ContactModel {
-                normal: NormalModel::Hertz,
-                damping: DampingModel::restitution(0.5).unwrap(),
-                tangential: TangentialModel::Mindlin {
-                    mu: 0.5,
-                    damp_ratio: 1.0,
-                },
-            },
-            particle_material: mat,
-            wall_material: mat,
-            density_kg_m3: 2500.0,
-            gravity_m_s2: Vector3::new(0.0, 0.0, -9.81),
-            fluid_density_kg_m3: 0.0,
-            drag: None,
-            top: TopWall::Fixed { z_m: h },
-            dt_s: None,
-            skin_m: None,
-        };
-        let mut p = Particles::at_rest(pos, r, 2500.0);
-        for (k, v) in p.vel.iter_mut().enumerate() {
-            // towards the floor, with some spread so that spheres collide and roll
-            *v = Vector3::new(0.05 * ((k % 7) as f64 - 3.0), 0.0, -0.3);
+        let text = include_str!("../scene/builtin/dem-small.toml")
+            .replace("n = 300", "n = 120")
+            .replace("porosity = 0.75", "porosity = 0.68");
+        let mut dem = build(&parse_scene(&text, "test").unwrap()).unwrap();
+        for (k, v) in dem.p.vel.iter_mut().enumerate() {
+            *v = Vector3::new(0.05 * ((k % 7) as f64 - 3.0), 0.0, -0.5);
         }
-        Dem::new(setup, p, 1.0).unwrap()
+        dem
     }
 
     /// A run stopped half-way, saved through JSON and restored into a freshly built system
