@@ -111,6 +111,7 @@ pub fn runner_for(id: &str) -> Option<Runner> {
         "707" => Some(dem::case_707),
         "708" => Some(dem::case_708),
         "709" => Some(dem::case_709),
+        "710" => Some(dem::case_710),
         _ => None,
     }
 }
