@@ -59,8 +59,9 @@ enum Command {
         /// No progress bar.
         #[arg(long)]
         quiet: bool,
-        /// Packing runs: seconds between checkpoints (0: after every compression step). A
-        /// checkpoint is also written after every halving of Delta V and at the end.
+        /// Packing and DEM runs: seconds between checkpoints (0: after every compression step
+        /// or DEM check). A packing checkpoint is also written after every halving of Delta V
+        /// and at the end.
         #[arg(long, default_value_t = 10.0)]
         checkpoint_every: f64,
     },

@@ -15,6 +15,8 @@ use rayon::prelude::*;
 pub use sampled::{sampled_overlap, SampledOverlap};
 
 pub mod height_map;
+pub mod pore_size;
+pub mod rdf;
 mod sampled;
 pub mod slab;
 

@@ -212,24 +212,24 @@ pub struct Dem {
     /// Sum of the contact stiffnesses S_n of the top wall's contacts (N/m), last step.
     pub top_stiffness_n_per_m: f64,
     pub nl: NeighbourList,
-    force: Vec<Vector3<f64>>,
-    torque: Vec<Vector3<f64>>,
-    vel_full: Vec<Vector3<f64>>,
-    omega_full: Vec<Vector3<f64>>,
+    pub(super) force: Vec<Vector3<f64>>,
+    pub(super) torque: Vec<Vector3<f64>>,
+    pub(super) vel_full: Vec<Vector3<f64>>,
+    pub(super) omega_full: Vec<Vector3<f64>>,
     inv_mass: Vec<f64>,
     inv_inertia: Vec<f64>,
     /// Effective (buoyant) mass factor 1 - rho_f / rho_p.
     buoyancy: f64,
-    wall_xi: Vec<[Vector3<f64>; 2]>,
+    pub(super) wall_xi: Vec<[Vector3<f64>; 2]>,
     /// Per particle: z force of the floor, of the top wall, and the top contact's stiffness S_n.
-    wall_fz: Vec<[f64; 3]>,
+    pub(super) wall_fz: Vec<[f64; 3]>,
     pp: PairMaterial,
     pw: PairMaterial,
     pub active: ActiveTerms,
     /// Seconds spent rebuilding the neighbour list.
     pub neighbour_seconds: f64,
     /// Per-particle external force (N), empty until set.
-    external: Vec<Vector3<f64>>,
+    pub(super) external: Vec<Vector3<f64>>,
 }
 
 impl Dem {

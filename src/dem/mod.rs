@@ -11,10 +11,12 @@
 //! * [`engine`]: the velocity-Verlet integrator, drivers and the time-step rule.
 //! * [`start`]: the random overlap-free dispersion at a prescribed porosity.
 //! * [`observe`]: porosity profiles from exact sphere–slab volumes, bed height.
+//! * [`checkpoint`]: the exact dynamic state, for runs that resume bitwise.
 //!
 //! Vertical axis: z (the seed's x); SI units throughout.
 
 pub mod bench;
+pub mod checkpoint;
 pub mod engine;
 pub mod model;
 pub mod neighbour;

@@ -49,11 +49,19 @@
 //! ke_fraction = 1e-6                 # stop when KE < ke_fraction * peak KE ... [1e-6]
 //! height_tol_over_d = 1e-3           # ... and the bed top moved < this * <d> since last check
 //! profile_bins = 60                  # slabs of the porosity profile [60]
+//! trajectory_every_s = 0.05          # a trajectory frame at this interval [none]
+//! rdf_max_over_d = 3.0               # g(r) range in <d> [3, or half the narrower side]
+//! rdf_bins = 150                     # [150]
+//! pore_voxels_per_d = 10.0           # pore-size grid resolution, 0: none [10]
 //! ```
 //!
-//! Outputs (README, "DEM outputs"): `final.xyz`, `profile.csv`, `history.csv`, `summary.json`.
+//! Outputs (README, "Output formats"): `final.xyz`, `trajectory/frame_NNNNNN.xyz`,
+//! `profile.csv`, `history.csv`, `rdf.csv`, `pore_sizes.csv`, `summary.json`, and while running
+//! `checkpoint.json`, from which an interrupted run resumes bitwise.
 
 use super::{Builtin, RunOptions};
+use crate::analysis::{pore_size, rdf, rdf::Bed};
+use crate::dem::checkpoint::DemState;
 use crate::dem::{
     observe, start, ContactModel, DampingModel, Dem, DemSetup, Drag, Material, NormalModel,
     Particles, TangentialModel, TopWall,
@@ -179,6 +187,10 @@ struct RunSpec {
     ke_fraction: Option<f64>,
     height_tol_over_d: Option<f64>,
     profile_bins: Option<usize>,
+    trajectory_every_s: Option<f64>,
+    rdf_max_over_d: Option<f64>,
+    rdf_bins: Option<usize>,
+    pore_voxels_per_d: Option<f64>,
 }
 
 /// A parsed DEM scene: the engine setup, the radii and the run controls.
@@ -195,6 +207,15 @@ pub struct DemScene {
     pub profile_bins: usize,
     /// Relative impact speed scale for the time-step rule (m/s).
     pub v_scale: f64,
+    /// A trajectory frame every this many checks (`None`: no trajectory).
+    pub frame_every_checks: Option<u64>,
+    /// g(r) out to this many mean diameters (`None`: 3, or half the narrower lateral side).
+    pub rdf_max_over_d: Option<f64>,
+    pub rdf_bins: usize,
+    /// Voxels per mean diameter of the pore-size grid (0: no pore sizes).
+    pub pore_voxels_per_d: f64,
+    /// FNV-1a hash of the scene text: a checkpoint resumes only the scene that wrote it.
+    pub fingerprint: String,
 }
 
 fn positive(origin: &str, key: &str, v: f64) -> Result<f64> {
@@ -500,6 +521,35 @@ pub fn parse_scene(text: &str, origin: &str) -> Result<DemScene> {
             "{origin}: run.profile_bins = 0: must be at least 1"
         ));
     }
+    let check_every_s = positive(origin, "run.check_every_s", r.check_every_s.unwrap_or(0.01))?;
+    let frame_every_checks = match r.trajectory_every_s {
+        None => None,
+        Some(t) => {
+            let t = positive(origin, "run.trajectory_every_s", t)?;
+            if t < check_every_s * (1.0 - 1e-9) {
+                return invalid(format!(
+                    "{origin}: run.trajectory_every_s = {t}: must be at least run.check_every_s = \
+                     {check_every_s} (frames are written at checks)"
+                ));
+            }
+            Some((t / check_every_s).round() as u64)
+        }
+    };
+    let rdf_max_over_d = r
+        .rdf_max_over_d
+        .map(|x| positive(origin, "run.rdf_max_over_d", x))
+        .transpose()?;
+    let rdf_bins = r.rdf_bins.unwrap_or(150);
+    if rdf_bins == 0 {
+        return invalid(format!("{origin}: run.rdf_bins = 0: must be at least 1"));
+    }
+    let pore_voxels_per_d = r.pore_voxels_per_d.unwrap_or(10.0);
+    if !(pore_voxels_per_d.is_finite() && pore_voxels_per_d >= 0.0) {
+        return invalid(format!(
+            "{origin}: run.pore_voxels_per_d = {pore_voxels_per_d}: must be >= 0 and finite (0: \
+             no pore sizes)"
+        ));
+    }
     let v_wall = match top {
         TopWall::Pressure { speed_max_m_s, .. } => speed_max_m_s,
         TopWall::Fixed { .. } => 0.0,
@@ -511,7 +561,7 @@ pub fn parse_scene(text: &str, origin: &str) -> Result<DemScene> {
         radius,
         height_m: height,
         max_time_s: positive(origin, "run.max_time_s", r.max_time_s.unwrap_or(1.0))?,
-        check_every_s: positive(origin, "run.check_every_s", r.check_every_s.unwrap_or(0.01))?,
+        check_every_s,
         ke_fraction,
         height_tol_over_d: positive(
             origin,
@@ -520,6 +570,11 @@ pub fn parse_scene(text: &str, origin: &str) -> Result<DemScene> {
         )?,
         profile_bins: bins,
         v_scale: (2.0 * g * height).sqrt() + 2.0 * Vector3::from(u).norm() + 2.0 * v_wall,
+        frame_every_checks,
+        rdf_max_over_d,
+        rdf_bins,
+        pore_voxels_per_d,
+        fingerprint: format!("{:016x}", crate::io::fnv1a64(text.as_bytes())),
     })
 }
 
@@ -541,11 +596,29 @@ pub struct DemSummary {
     pub bulk_region_m: Option<(f64, f64)>,
     pub porosity_bulk: Option<f64>,
     pub mean_coordination: f64,
+    /// Mean sphere–sphere contacts of the spheres with centres in the bulk region.
+    pub coordination_bulk: Option<f64>,
     pub max_overlap_over_diameter: f64,
     pub floor_force_over_weight: Option<f64>,
     pub top_wall_z_m: f64,
     pub top_pressure_pa: f64,
     pub kinetic_energy_j: f64,
+    /// r / <D> of the highest bin of g(r) (the nearest-neighbour peak), when g was computed.
+    pub rdf_peak_r_over_d: Option<f64>,
+    /// Pore sizes (local thickness) between the lowest and highest centres, when computed.
+    pub pores: Option<PoreSummary>,
+}
+
+/// The pore-size part of the summary.
+#[derive(Debug, Clone, serde::Serialize)]
+pub struct PoreSummary {
+    pub voxel_m: [f64; 3],
+    pub grid: [usize; 3],
+    pub z_range_m: (f64, f64),
+    pub grid_porosity: f64,
+    /// Pore-volume-weighted mean and median of the pore diameter 2 LT over <D>.
+    pub mean_diameter_over_d: f64,
+    pub median_diameter_over_d: f64,
 }
 
 /// Builds the engine of a parsed scene from the random dispersion.
@@ -562,6 +635,28 @@ pub fn build(scene: &DemScene) -> Result<Dem> {
     Dem::new(scene.setup.clone(), p, scene.v_scale)
 }
 
+/// What the stop test remembers between checks (kept in checkpoints).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct RunProgress {
+    /// Largest kinetic energy seen at a check (J).
+    pub ke_peak_j: f64,
+    /// Bed top at the previous check (m).
+    pub top_prev_m: f64,
+    /// Checks done since the start.
+    pub checks: u64,
+}
+
+impl RunProgress {
+    pub fn start(dem: &Dem) -> RunProgress {
+        let z: Vec<f64> = dem.p.pos.iter().map(|p| p.z).collect();
+        RunProgress {
+            ke_peak_j: 0.0,
+            top_prev_m: observe::bed_top(&z, &dem.p.radius),
+            checks: 0,
+        }
+    }
+}
+
 /// Runs a parsed scene to its stop criterion; `on_check` sees every check (history rows).
 pub fn run(
     scene: &DemScene,
@@ -569,44 +664,140 @@ pub fn run(
     mut on_check: impl FnMut(&Dem, f64),
 ) -> Result<(String, f64)> {
     let start = Instant::now();
+    let mut progress = RunProgress::start(dem);
+    let stop = run_checks(scene, dem, &mut progress, None, |d, ke, _| {
+        on_check(d, ke);
+        Ok(())
+    })?;
+    Ok((stop.unwrap_or_default(), start.elapsed().as_secs_f64()))
+}
+
+/// Advances check by check from `progress` until the stop criterion (returns its reason) or,
+/// with `max_checks`, until that many checks are done (returns `None`, as an interrupted run).
+/// `on_check` sees every check after the stop test, with the updated progress.
+pub fn run_checks(
+    scene: &DemScene,
+    dem: &mut Dem,
+    progress: &mut RunProgress,
+    max_checks: Option<u64>,
+    mut on_check: impl FnMut(&Dem, f64, &RunProgress) -> Result<()>,
+) -> Result<Option<String>> {
     let steps_per_check = ((scene.check_every_s / dem.dt_s).round() as u64).max(1);
     let d_mean = 2.0 * scene.radius.iter().sum::<f64>() / scene.radius.len() as f64;
-    let z: Vec<f64> = dem.p.pos.iter().map(|p| p.z).collect();
-    let mut top_prev = observe::bed_top(&z, &dem.p.radius);
-    let mut ke_peak: f64 = 0.0;
-    let stop = loop {
+    let mut done = 0u64;
+    loop {
+        if max_checks.is_some_and(|m| done >= m) {
+            return Ok(None);
+        }
         dem.run(steps_per_check)?;
+        done += 1;
+        progress.checks += 1;
         let ke = dem.kinetic_energy();
-        ke_peak = ke_peak.max(ke);
+        progress.ke_peak_j = progress.ke_peak_j.max(ke);
         let z: Vec<f64> = dem.p.pos.iter().map(|p| p.z).collect();
         let top = observe::bed_top(&z, &dem.p.radius);
-        on_check(dem, ke);
         let ratio = dem.max_overlap_ratio();
         if ratio > 0.1 {
+            on_check(dem, ke, progress)?;
             return invalid(format!(
                 "overlap {ratio:.3} of a diameter at t = {:e} s: the contacts are too soft for the load \
                  (raise contact.young_pa or lower the driving force)",
                 dem.time_s
             ));
         }
-        if ke_peak > 0.0
-            && ke < scene.ke_fraction * ke_peak
-            && (top - top_prev).abs() < scene.height_tol_over_d * d_mean
+        let stop = if progress.ke_peak_j > 0.0
+            && ke < scene.ke_fraction * progress.ke_peak_j
+            && (top - progress.top_prev_m).abs() < scene.height_tol_over_d * d_mean
         {
-            break format!(
+            Some(format!(
                 "settled: KE < {} of its peak and bed top steady",
                 scene.ke_fraction
-            );
+            ))
+        } else if dem.time_s >= scene.max_time_s {
+            Some(format!(
+                "time limit {} s reached before settling",
+                scene.max_time_s
+            ))
+        } else {
+            None
+        };
+        progress.top_prev_m = top;
+        on_check(dem, ke, progress)?;
+        if stop.is_some() {
+            return Ok(stop);
         }
-        top_prev = top;
-        if dem.time_s >= scene.max_time_s {
-            break format!("time limit {} s reached before settling", scene.max_time_s);
-        }
-    };
-    Ok((stop, start.elapsed().as_secs_f64()))
+    }
 }
 
-/// The summary of a finished run.
+/// g(r) of a bed over its bulk region (`None`, with the reason, when it cannot be formed).
+pub fn bed_rdf(scene: &DemScene, dem: &Dem) -> std::result::Result<Vec<(f64, f64)>, String> {
+    let z: Vec<f64> = dem.p.pos.iter().map(|p| p.z).collect();
+    let top = observe::bed_top(&z, &dem.p.radius);
+    let bed = Bed {
+        pos: &dem.p.pos,
+        radius: &dem.p.radius,
+        lx_m: scene.setup.lx_m,
+        ly_m: scene.setup.ly_m,
+    };
+    let half_side = 0.5 * scene.setup.lx_m.min(scene.setup.ly_m) / bed.mean_diameter();
+    let r_max = scene.rdf_max_over_d.unwrap_or(half_side.min(3.0));
+    let (a, b) = observe::bulk_region(&z, &dem.p.radius, top)
+        .ok_or_else(|| "no bulk region (the bed is thinner than 4 <d>)".to_string())?;
+    rdf::slab_rdf(&bed, a, b, r_max, scene.rdf_bins).map_err(|e| e.to_string())
+}
+
+/// The pore-size distribution of a bed between its lowest and highest centres: rows (pore
+/// diameter 2 LT in m, pore volume fraction) and the grid (`Err` with the reason when not
+/// computed).
+pub fn bed_pore_sizes(
+    scene: &DemScene,
+    dem: &Dem,
+) -> std::result::Result<(Vec<(f64, f64)>, PoreSummary), String> {
+    if scene.pore_voxels_per_d == 0.0 {
+        return Err("run.pore_voxels_per_d = 0".into());
+    }
+    let bed = Bed {
+        pos: &dem.p.pos,
+        radius: &dem.p.radius,
+        lx_m: scene.setup.lx_m,
+        ly_m: scene.setup.ly_m,
+    };
+    let d = bed.mean_diameter();
+    let (lo, hi) = dem
+        .p
+        .pos
+        .iter()
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), p| {
+            (a.min(p.z), b.max(p.z))
+        });
+    let grid = pore_size::voxelize_bed(&bed, lo, hi, d / scene.pore_voxels_per_d)
+        .map_err(|e| e.to_string())?;
+    let rows: Vec<(f64, f64)> = pore_size::pore_size_distribution(&grid)
+        .map_err(|e| e.to_string())?
+        .into_iter()
+        .map(|(r, f)| (2.0 * r, f))
+        .collect();
+    let mean = rows.iter().map(|(dp, f)| dp * f).sum::<f64>() / d;
+    let mut acc = 0.0;
+    let median = rows
+        .iter()
+        .find(|(_, f)| {
+            acc += f;
+            acc >= 0.5
+        })
+        .map_or(f64::NAN, |(dp, _)| dp / d);
+    let summary = PoreSummary {
+        voxel_m: grid.spacing_m,
+        grid: grid.n,
+        z_range_m: (lo, hi),
+        grid_porosity: grid.porosity(),
+        mean_diameter_over_d: mean,
+        median_diameter_over_d: median,
+    };
+    Ok((rows, summary))
+}
+
+/// The summary of a finished run (without g(r) and pore sizes, which [`run_scene`] adds).
 pub fn summarize(scene: &DemScene, dem: &Dem, stop: String, seconds: f64) -> DemSummary {
     let z: Vec<f64> = dem.p.pos.iter().map(|p| p.z).collect();
     let r = &dem.p.radius;
@@ -631,18 +822,175 @@ pub fn summarize(scene: &DemScene, dem: &Dem, stop: String, seconds: f64) -> Dem
         bulk_region_m: bulk,
         porosity_bulk: bulk.map(|(a, b)| observe::slab_porosity(&z, r, area, a, b)),
         mean_coordination: counts.iter().sum::<usize>() as f64 / counts.len().max(1) as f64,
+        coordination_bulk: bulk
+            .and_then(|(a, b)| rdf::mean_coordination_in(&dem.p.pos, &counts, a, b)),
         max_overlap_over_diameter: dem.max_overlap_ratio(),
         floor_force_over_weight: (w > 0.0).then(|| dem.floor_force_n / w),
         top_wall_z_m: dem.top_z_m,
         top_pressure_pa: dem.top_force_n / area,
         kinetic_energy_j: dem.kinetic_energy(),
+        rdf_peak_r_over_d: None,
+        pores: None,
     }
+}
+
+/// The checkpoint file: the scene's fingerprint, the run's progress and history so far, and
+/// the engine state (floats as IEEE-754 bits).
+#[derive(serde::Serialize, serde::Deserialize)]
+struct Checkpoint {
+    format: u32,
+    scene: String,
+    seconds: u64,
+    ke_peak_j: u64,
+    top_prev_m: u64,
+    checks: u64,
+    history: String,
+    state: DemState,
+}
+
+const CHECKPOINT_FORMAT: u32 = 1;
+
+fn write_checkpoint(
+    path: &Path,
+    scene: &DemScene,
+    dem: &Dem,
+    progress: &RunProgress,
+    history: &str,
+    seconds: f64,
+) -> Result<()> {
+    let c = Checkpoint {
+        format: CHECKPOINT_FORMAT,
+        scene: scene.fingerprint.clone(),
+        seconds: seconds.to_bits(),
+        ke_peak_j: progress.ke_peak_j.to_bits(),
+        top_prev_m: progress.top_prev_m.to_bits(),
+        checks: progress.checks,
+        history: history.to_string(),
+        state: dem.save_state(),
+    };
+    let bytes = serde_json::to_vec(&c).map_err(|e| Error::InvalidInput(e.to_string()))?;
+    write_atomic(path, &bytes)
+}
+
+/// Restores `dem` from the checkpoint at `path`: (progress, history so far, seconds so far).
+fn read_checkpoint(
+    path: &Path,
+    scene: &DemScene,
+    dem: &mut Dem,
+) -> Result<(RunProgress, String, f64)> {
+    let file_err = |msg: String| Error::File {
+        path: path.display().to_string(),
+        msg,
+    };
+    let bytes =
+        std::fs::read(path).map_err(|e| file_err(format!("cannot read the checkpoint: {e}")))?;
+    let c: Checkpoint = serde_json::from_slice(&bytes)
+        .map_err(|e| file_err(format!("not a DEM checkpoint: {e}")))?;
+    if c.format != CHECKPOINT_FORMAT {
+        return Err(file_err(format!(
+            "checkpoint format {}: this porelab reads format {CHECKPOINT_FORMAT}",
+            c.format
+        )));
+    }
+    if c.scene != scene.fingerprint {
+        return Err(file_err(
+            "written by a different scene (its text differs): delete it to start afresh, or \
+             choose another output folder with --out"
+                .into(),
+        ));
+    }
+    dem.load_state(&c.state)
+        .map_err(|e| file_err(e.to_string()))?;
+    let f = f64::from_bits;
+    Ok((
+        RunProgress {
+            ke_peak_j: f(c.ke_peak_j),
+            top_prev_m: f(c.top_prev_m),
+            checks: c.checks,
+        },
+        c.history,
+        f(c.seconds),
+    ))
+}
+
+/// The particles of a DEM system as extended-XYZ rows (radius per particle).
+fn xyz_frame(scene: &DemScene, dem: &Dem) -> (xyz::Cell, Vec<xyz::XyzParticle>) {
+    let parts = (0..dem.p.len())
+        .map(|i| {
+            let r = dem.p.radius[i];
+            xyz::XyzParticle {
+                species: "S".into(),
+                position: dem.p.pos[i],
+                orientation: UnitQuaternion::identity(),
+                aspherical_shape: [r, r, r],
+                radius: r,
+                cylinder_length: 0.0,
+                roundness: [1.0, 1.0],
+            }
+        })
+        .collect();
+    let cell = xyz::Cell {
+        lengths: [scene.setup.lx_m, scene.setup.ly_m, dem.top_z_m],
+        origin: [0.0; 3],
+        pbc: [true, true, false],
+    };
+    (cell, parts)
+}
+
+/// Writes trajectory frame `k` (`trajectory/frame_NNNNNN.xyz`, atomically).
+fn write_frame(out: &Path, scene: &DemScene, dem: &Dem, k: u64) -> Result<()> {
+    let (cell, parts) = xyz_frame(scene, dem);
+    xyz::write(
+        &out.join("trajectory").join(format!("frame_{k:06}.xyz")),
+        &cell,
+        &parts,
+        &[("Time", format!("{}", dem.time_s)), ("Step", format!("{}", dem.steps))],
+    )
 }
 
 /// `porelab run` on a DEM scene.
 pub fn run_scene(text: &str, origin: &str, out: &Path, opts: &RunOptions) -> Result<()> {
+    run_scene_limited(text, origin, out, opts, None)
+}
+
+/// Runs (or resumes from `out/checkpoint.json`) a scene; with `max_checks` it stops after
+/// that many checks, leaving the checkpoint behind as an interrupted run would (for tests).
+fn run_scene_limited(
+    text: &str,
+    origin: &str,
+    out: &Path,
+    opts: &RunOptions,
+    max_checks: Option<u64>,
+) -> Result<()> {
+    if let Some(t) = opts.checkpoint_every_seconds {
+        if !(t.is_finite() && t >= 0.0) {
+            return invalid(format!(
+                "checkpoint interval {t} s: must be finite and not negative"
+            ));
+        }
+    }
     let scene = parse_scene(text, origin)?;
     let mut dem = build(&scene)?;
+    let ckpt_path = out.join("checkpoint.json");
+    let mut hist = String::from(
+        "time_s,kinetic_energy_J,bed_top_m,top_wall_z_m,top_pressure_Pa,floor_force_N,max_overlap_over_diameter\n",
+    );
+    let (mut progress, base_seconds) = if ckpt_path.exists() {
+        let (p, h, s) = read_checkpoint(&ckpt_path, &scene, &mut dem)?;
+        hist = h;
+        if !opts.quiet {
+            eprintln!(
+                "resuming {origin} from {} (step {}, t = {:e} s)",
+                ckpt_path.display(),
+                dem.steps,
+                dem.time_s
+            );
+        }
+        (p, s)
+    } else {
+        (RunProgress::start(&dem), 0.0)
+    };
+    crate::io::create_dir(out)?;
     eprintln!(
         "dem: {} spheres, dt = {:e} s, skin = {:e} m, active terms: {}",
         dem.p.len(),
@@ -650,6 +998,9 @@ pub fn run_scene(text: &str, origin: &str, out: &Path, opts: &RunOptions) -> Res
         dem.nl.skin,
         dem.active.names().join(", ")
     );
+    if let (Some(_), 0) = (scene.frame_every_checks, progress.checks) {
+        write_frame(out, &scene, &dem, 0)?;
+    }
     let bar = if opts.quiet {
         indicatif::ProgressBar::hidden()
     } else {
@@ -660,12 +1011,11 @@ pub fn run_scene(text: &str, origin: &str, out: &Path, opts: &RunOptions) -> Res
         );
         b
     };
-    let mut hist = String::from(
-        "time_s,kinetic_energy_J,bed_top_m,top_wall_z_m,top_pressure_Pa,floor_force_N,max_overlap_over_diameter\n",
-    );
     let area = scene.setup.lx_m * scene.setup.ly_m;
-    let mut run_it = || -> Result<(String, f64)> {
-        run(&scene, &mut dem, |d, ke| {
+    let t0 = Instant::now();
+    let mut last_checkpoint = Instant::now();
+    let mut run_it = || -> Result<Option<String>> {
+        run_checks(&scene, &mut dem, &mut progress, max_checks, |d, ke, pr| {
             let z: Vec<f64> = d.p.pos.iter().map(|p| p.z).collect();
             let ov = d.max_overlap_ratio();
             let _ = writeln!(
@@ -679,14 +1029,28 @@ pub fn run_scene(text: &str, origin: &str, out: &Path, opts: &RunOptions) -> Res
                 d.floor_force_n,
                 ov
             );
+            if let Some(k) = scene.frame_every_checks {
+                if pr.checks % k == 0 {
+                    write_frame(out, &scene, d, pr.checks / k)?;
+                }
+            }
+            let due = opts
+                .checkpoint_every_seconds
+                .is_none_or(|t| last_checkpoint.elapsed().as_secs_f64() >= t);
+            if due {
+                let seconds = base_seconds + t0.elapsed().as_secs_f64();
+                write_checkpoint(&ckpt_path, &scene, d, pr, &hist, seconds)?;
+                last_checkpoint = Instant::now();
+            }
             bar.set_position(((d.time_s / scene.max_time_s) * 1000.0) as u64);
             bar.set_message(format!(
                 "step {} t = {:.4} s KE = {ke:.2e} J overlap/d = {ov:.2e}",
                 d.steps, d.time_s
             ));
+            Ok(())
         })
     };
-    let (stop, seconds) = match opts.threads {
+    let stop = match opts.threads {
         Some(t) => rayon::ThreadPoolBuilder::new()
             .num_threads(t)
             .build()
@@ -695,8 +1059,12 @@ pub fn run_scene(text: &str, origin: &str, out: &Path, opts: &RunOptions) -> Res
         None => run_it()?,
     };
     bar.finish_and_clear();
-    let summary = summarize(&scene, &dem, stop, seconds);
-    std::fs::create_dir_all(out)?;
+    let seconds = base_seconds + t0.elapsed().as_secs_f64();
+    let Some(stop) = stop else {
+        // interrupted: the checkpoint holds the state reached
+        return write_checkpoint(&ckpt_path, &scene, &dem, &progress, &hist, seconds);
+    };
+    let mut summary = summarize(&scene, &dem, stop, seconds);
     write_atomic(&out.join("history.csv"), hist.as_bytes())?;
     let z: Vec<f64> = dem.p.pos.iter().map(|p| p.z).collect();
     let mut prof = String::from("z_lo_m,z_hi_m,porosity\n");
@@ -730,25 +1098,51 @@ pub fn run_scene(text: &str, origin: &str, out: &Path, opts: &RunOptions) -> Res
         ..Default::default()
     }
     .write_or_warn(&out.join("history.svg"), &hist);
-    let parts: Vec<xyz::XyzParticle> = (0..dem.p.len())
-        .map(|i| {
-            let r = dem.p.radius[i];
-            xyz::XyzParticle {
-                species: "S".into(),
-                position: dem.p.pos[i],
-                orientation: UnitQuaternion::identity(),
-                aspherical_shape: [r, r, r],
-                radius: r,
-                cylinder_length: 0.0,
-                roundness: [1.0, 1.0],
+    match bed_rdf(&scene, &dem) {
+        Ok(g) => {
+            let mut t = String::from("r_over_mean_d,g\n");
+            for (r, v) in &g {
+                let _ = writeln!(t, "{r},{v}");
             }
-        })
-        .collect();
-    let cell = xyz::Cell {
-        lengths: [scene.setup.lx_m, scene.setup.ly_m, dem.top_z_m],
-        origin: [0.0; 3],
-        pbc: [true, true, false],
-    };
+            write_atomic(&out.join("rdf.csv"), t.as_bytes())?;
+            CsvPlot {
+                title: "Radial distribution function of the bulk (seed 002 Fig. 3)",
+                x: "r_over_mean_d",
+                y: "g",
+                x_label: "r / <D>",
+                y_label: "g(r)",
+                ..Default::default()
+            }
+            .write_or_warn(&out.join("rdf.svg"), &t);
+            summary.rdf_peak_r_over_d = g
+                .iter()
+                .max_by(|a, b| a.1.total_cmp(&b.1))
+                .map(|x| x.0);
+        }
+        Err(why) => eprintln!("dem: g(r) not computed: {why}"),
+    }
+    match bed_pore_sizes(&scene, &dem) {
+        Ok((rows, ps)) => {
+            let d = 2.0 * scene.radius.iter().sum::<f64>() / scene.radius.len() as f64;
+            let mut t = String::from("pore_diameter_m,pore_diameter_over_mean_d,pore_volume_fraction\n");
+            for (dp, f) in &rows {
+                let _ = writeln!(t, "{dp},{},{f}", dp / d);
+            }
+            write_atomic(&out.join("pore_sizes.csv"), t.as_bytes())?;
+            CsvPlot {
+                title: "Pore size distribution (local thickness, seed 002 Fig. 11)",
+                x: "pore_diameter_over_mean_d",
+                y: "pore_volume_fraction",
+                x_label: "pore diameter / <D>",
+                y_label: "fraction of the pore volume",
+                ..Default::default()
+            }
+            .write_or_warn(&out.join("pore_sizes.svg"), &t);
+            summary.pores = Some(ps);
+        }
+        Err(why) => eprintln!("dem: pore sizes not computed: {why}"),
+    }
+    let (cell, parts) = xyz_frame(&scene, &dem);
     xyz::write(
         &out.join("final.xyz"),
         &cell,
@@ -758,8 +1152,15 @@ pub fn run_scene(text: &str, origin: &str, out: &Path, opts: &RunOptions) -> Res
     let json =
         serde_json::to_string_pretty(&summary).map_err(|e| Error::InvalidInput(e.to_string()))?;
     write_atomic(&out.join("summary.json"), json.as_bytes())?;
+    // the outputs are complete: the checkpoint is no longer needed
+    if ckpt_path.exists() {
+        std::fs::remove_file(&ckpt_path).map_err(|e| Error::File {
+            path: ckpt_path.display().to_string(),
+            msg: format!("cannot remove the finished run's checkpoint: {e}"),
+        })?;
+    }
     println!(
-        "{}: {} steps, dt = {:e} s, {:.1} s ({}); porosity below top {:.4}, bulk {}; coordination {:.2}; max overlap/d {:.2e}",
+        "{}: {} steps, dt = {:e} s, {:.1} s ({}); porosity below top {:.4}, bulk {}; coordination {:.2} (bulk {}); max overlap/d {:.2e}",
         origin,
         summary.steps,
         summary.dt_s,
@@ -768,6 +1169,7 @@ pub fn run_scene(text: &str, origin: &str, out: &Path, opts: &RunOptions) -> Res
         summary.porosity_below_top,
         summary.porosity_bulk.map_or("-".into(), |e| format!("{e:.4}")),
         summary.mean_coordination,
+        summary.coordination_bulk.map_or("-".into(), |c| format!("{c:.2}")),
         summary.max_overlap_over_diameter
     );
     println!("outputs in {}", out.display());
@@ -783,6 +1185,74 @@ mod tests {
         for b in builtins() {
             parse_scene(b.toml, b.name).unwrap();
         }
+    }
+
+    fn quiet() -> RunOptions {
+        RunOptions {
+            out: None,
+            threads: None,
+            quiet: true,
+            checkpoint_every_seconds: None,
+        }
+    }
+
+    /// 100 spheres for 0.03 s of settling, a frame every 0.01 s, coarse pore grid.
+    fn short_scene() -> String {
+        include_str!("builtin/dem-small.toml")
+            .replace("n = 300", "n = 100")
+            .replace("porosity = 0.75", "porosity = 0.7")
+            .replace("max_time_s = 1.0", "max_time_s = 0.03")
+            .replace(
+                "check_every_s = 0.01",
+                "check_every_s = 0.005\ntrajectory_every_s = 0.01\npore_voxels_per_d = 6\nrdf_max_over_d = 1.0",
+            )
+    }
+
+    /// A run stopped after two checks and resumed from its checkpoint writes bitwise the
+    /// outputs of the uninterrupted run (all but the wall-clock figures of the summary).
+    #[test]
+    fn interrupted_run_resumes_to_the_same_result() {
+        let base = std::env::temp_dir().join(format!("porelab-dem-resume-{}", std::process::id()));
+        let (whole, killed) = (base.join("whole"), base.join("killed"));
+        let text = short_scene();
+        run_scene(&text, "test", &whole, &quiet()).unwrap();
+        run_scene_limited(&text, "test", &killed, &quiet(), Some(2)).unwrap();
+        assert!(killed.join("checkpoint.json").exists());
+        assert!(!killed.join("final.xyz").exists());
+        run_scene(&text, "test", &killed, &quiet()).unwrap();
+        assert!(!killed.join("checkpoint.json").exists());
+        let read = |d: &Path, f: &str| std::fs::read_to_string(d.join(f)).unwrap();
+        for f in [
+            "final.xyz",
+            "history.csv",
+            "profile.csv",
+            "rdf.csv",
+            "pore_sizes.csv",
+            "trajectory/frame_000000.xyz",
+            "trajectory/frame_000001.xyz",
+            "trajectory/frame_000003.xyz",
+        ] {
+            assert!(read(&whole, f) == read(&killed, f), "{f} differs");
+        }
+        // every frame of the run is there and OVITO's reader sees radius per particle
+        let (_, parts) = xyz::parse(&read(&whole, "trajectory/frame_000003.xyz"), "t").unwrap();
+        assert_eq!(parts.len(), 100);
+        assert!(parts.iter().all(|p| p.radius == 2e-4));
+        let strip = |d: &Path| -> serde_json::Value {
+            let mut v: serde_json::Value = serde_json::from_str(&read(d, "summary.json")).unwrap();
+            for k in ["seconds", "neighbour_share"] {
+                v.as_object_mut().unwrap().remove(k);
+            }
+            v
+        };
+        assert_eq!(strip(&whole), strip(&killed));
+        // a checkpoint of another scene is refused, naming the file
+        run_scene_limited(&text, "test", &killed, &quiet(), Some(1)).unwrap();
+        let e = run_scene(&text.replace("seed = 1", "seed = 2"), "test", &killed, &quiet())
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("checkpoint.json") && e.contains("different scene"), "{e}");
+        let _ = std::fs::remove_dir_all(&base);
     }
 
     #[test]

@@ -120,6 +120,9 @@ pub fn runner_for(id: &str) -> Option<Runner> {
         "707" => Some(dem::case_707),
         "708" => Some(dem::case_708),
         "709" => Some(dem::case_709),
+        "710" => Some(dem::case_710),
+        "711" => Some(dem::case_711),
+        "712" => Some(dem::case_711),
         _ => None,
     }
 }
