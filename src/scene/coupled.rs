@@ -240,7 +240,7 @@ pub struct CoupledSummary {
     pub seconds: f64,
     pub timing: crate::coupled::Timing,
     pub coupling_share: f64,
-    pub momentum_imbalance_excluding_walls: f64,
+    pub momentum_imbalance: f64,
     pub fluid_mass_drift: f64,
     pub max_move_cells: f64,
     pub mean_particle_velocity_m_s: [f64; 3],
@@ -384,14 +384,14 @@ pub fn run_scene(text: &str, origin: &str, out: &Path, opts: &RunOptions) -> Res
     write_atomic(&out.join("summary.json"), json.as_bytes())?;
     println!(
         "{origin}: {} coupling steps ({:.3e} s simulated) in {:.1} s; shares LBM {:.1} %, DEM \
-         {:.1} %, coupling {:.1} %; momentum imbalance (wall contacts excluded) {:.1e}, mass drift {:.1e}",
+         {:.1} %, coupling {:.1} %; momentum imbalance (walls included) {:.1e}, mass drift {:.1e}",
         summary.coupling_steps,
         summary.simulated_time_s,
         seconds,
         100.0 * summary.timing.lbm_s / seconds,
         100.0 * summary.timing.dem_s / seconds,
         100.0 * summary.coupling_share,
-        summary.momentum_imbalance_excluding_walls,
+        summary.momentum_imbalance,
         summary.fluid_mass_drift
     );
     println!("outputs in {}", out.display());
@@ -432,7 +432,7 @@ pub fn summarize(
         seconds,
         timing: t,
         coupling_share: t.coupling_s / (t.lbm_s + t.dem_s + t.coupling_s).max(1e-300),
-        momentum_imbalance_excluding_walls: c.worst_balance,
+        momentum_imbalance: c.worst_balance,
         fluid_mass_drift: (c.lbm.mass() - mass0).abs() / mass0,
         max_move_cells: c.max_move_seen_cells,
         mean_particle_velocity_m_s: [vp.x, vp.y, vp.z],

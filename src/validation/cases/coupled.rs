@@ -139,8 +139,8 @@ pub fn case_811(ctx: &CaseContext) -> Result<Vec<Row>> {
                 (0..c.dem.p.len()).find(|&k| c.dem.p.pos[k].z < d || c.dem.p.pos[k].z > l[2] - d)
             {
                 return invalid(format!(
-                    "case 811: particle {k} reached a wall at step {s}: the balance excludes \
-                     wall contacts; shorten the run"
+                    "case 811: particle {k} reached a wall at step {s}: this case keeps to the \
+                     free suspension (case 815 has the walls); shorten the run"
                 ));
             }
         }
@@ -398,6 +398,68 @@ pub fn case_814(ctx: &CaseContext) -> Result<Vec<Row>> {
             v / r,
             1.0,
             1.0,
+        ));
+    }
+    Ok(rows)
+}
+
+/// Case 815: the momentum ledger with the walls in it: particles of the coupled-quick built-in
+/// settle onto the floor (and slide on it under a cross flow), or are held as a frozen bed;
+/// every coupling step balances fluid + particle momentum against the external, wall and
+/// constraint impulses.
+pub fn case_815(ctx: &CaseContext) -> Result<Vec<Row>> {
+    let t = ctx.expected_table()?;
+    non_empty(&t)?;
+    let mut rows = Vec::new();
+    for i in 0..t.len() {
+        let variant = t.str(i, "variant")?;
+        let g = [t.f64(i, "grad_p_x_pa_m")?, t.f64(i, "grad_p_z_pa_m")?];
+        let text = include_str!("../../scene/builtin/coupled-quick.toml").replace(
+            "pressure_gradient_pa_m = [0.0, 0.0, 500.0]",
+            &format!("pressure_gradient_pa_m = [{:?}, 0.0, {:?}]", g[0], g[1]),
+        );
+        let text = text.replace("tau = 0.515", &format!("tau = {:?}", t.f64(i, "tau")?));
+        let text = match &variant[..] {
+            "settle" => text,
+            "frozen" => text.replace(
+                "max_relaxation = 1.0",
+                "max_relaxation = 1.0\nfrozen = true",
+            ),
+            v => return invalid(format!("case 815: variant \"{v}\": settle or frozen")),
+        };
+        let scene = crate::scene::coupled::parse_scene(&text, "case 815")?;
+        let mut c = crate::scene::coupled::build(&scene)?;
+        let steps = t.f64(i, "steps")? as u64;
+        let (mut wall_steps, mut wall_share, mut tangential) = (0u64, 0.0f64, 0.0f64);
+        for _ in 0..steps {
+            let b = c.step()?;
+            if b.walls.norm() > 0.0 {
+                wall_steps += 1;
+                wall_share = wall_share.max(b.walls.norm() / b.scale);
+                tangential = tangential.max(b.walls.x.hypot(b.walls.y) / b.scale);
+            }
+        }
+        let min_share = t.f64(i, "min_wall_share")?;
+        if wall_share < min_share {
+            return invalid(format!(
+                "case 815 {variant}: the walls carried at most {wall_share:.3e} of a step's \
+                 impulse (< {min_share}): the test would not exercise them"
+            ));
+        }
+        eprintln!(
+            "case 815 {variant}: {wall_steps} of {steps} steps with wall impulse, largest share \
+             {wall_share:.3}, largest tangential share {tangential:.2e}, worst imbalance {:.2e}",
+            c.worst_balance
+        );
+        rows.push(Row::new(
+            format!(
+                "{variant} grad_p=({}, 0, {}) worst |dP_f + dP_s - J_ext - J_walls| / scale over \
+                 {steps} steps",
+                g[0], g[1]
+            ),
+            c.worst_balance,
+            0.0,
+            t.f64(i, "rounding_tolerance")?,
         ));
     }
     Ok(rows)

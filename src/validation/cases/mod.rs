@@ -54,6 +54,7 @@ pub fn runner_for(id: &str) -> Option<Runner> {
         "812" => Some(coupled::case_812),
         "813" => Some(coupled::case_813),
         "814" => Some(coupled::case_814),
+        "815" => Some(coupled::case_815),
         "501" => Some(packing::case_501),
         "502" => Some(packing::case_502),
         "503" => Some(packing::case_503),
