@@ -65,6 +65,20 @@ pub struct CoupledSetup {
     pub max_relaxation: f64,
     /// Particles held fixed (no DEM steps): a fixed bed.
     pub frozen: bool,
+    /// A permeable bottom (the basesheet) below the DEM floor.
+    pub basesheet: Option<Basesheet>,
+}
+
+/// The basesheet: a Darcy layer of permeability K and thickness h below the DEM floor (z from
+/// -h to 0), in whole lattice layers added under the particles' lattice. Its cells carry the
+/// Darcy drag a = -(nu / K) u (Guo–Zhao with porosity 1 and no Forchheimer term): its whole
+/// resistance is K, so the steady pressure drop across it is mu U h / K (Darcy) with U the
+/// superficial velocity. A porosity below 1 in the Guo–Zhao equations would make the layer's
+/// solid take (1 - eps) of the mean driving and the drop would no longer be Darcy's.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Basesheet {
+    pub thickness_m: f64,
+    pub permeability_m2: f64,
 }
 
 /// Seconds spent in each part of the loop.
@@ -129,6 +143,12 @@ pub struct Coupled {
     pub last_balance: Balance,
     /// Largest displacement per coupling step seen (cells).
     pub max_move_seen_cells: f64,
+    /// Lattice layers of the basesheet (0 without one); the DEM's z = 0 is the lattice's
+    /// z = sheet_cells dx.
+    pub sheet_cells: usize,
+    /// The fluid's force on the basesheet in the last step (lattice units, summed over its
+    /// cells).
+    sheet_force: [f64; 3],
 }
 
 impl Coupled {
@@ -177,7 +197,25 @@ impl Coupled {
                 setup.nz, dem.top_z_m
             ));
         }
-        let dims = Dims::new(nx, ny, setup.nz)?;
+        let sheet_cells = match setup.basesheet {
+            None => 0,
+            Some(b) => {
+                if !(b.permeability_m2.is_finite() && b.permeability_m2 > 0.0) {
+                    return invalid(format!(
+                        "fluid.basesheet.permeability_m2 = {}: must be positive and finite",
+                        b.permeability_m2
+                    ));
+                }
+                if !(b.thickness_m.is_finite() && b.thickness_m > 0.0) {
+                    return invalid(format!(
+                        "fluid.basesheet.thickness_m = {}: must be positive",
+                        b.thickness_m
+                    ));
+                }
+                cells_along(b.thickness_m, "fluid.basesheet.thickness_m")?
+            }
+        };
+        let dims = Dims::new(nx, ny, setup.nz + sheet_cells)?;
         let nu = setup.viscosity_pa_s / setup.fluid_density_kg_m3;
         let units = Units::from_tau(dx, nu, setup.fluid_density_kg_m3, setup.tau)?;
         let dt_dem = units.dt / setup.dem_steps as f64;
@@ -243,6 +281,8 @@ impl Coupled {
             worst_balance: 0.0,
             last_balance: Balance::default(),
             max_move_seen_cells: 0.0,
+            sheet_cells,
+            sheet_force: [0.0; 3],
             setup,
         })
     }
@@ -270,6 +310,8 @@ impl Coupled {
         let n = [self.dims.nx, self.dims.ny, self.dims.nz];
         let method = self.setup.overlap;
         let p = &self.dem.p;
+        let z0 = self.sheet_cells as f64 * dx;
+        let first_cell = (self.sheet_cells * n[0] * n[1]) as u32;
         self.overlaps
             .par_iter_mut()
             .enumerate()
@@ -277,7 +319,9 @@ impl Coupled {
             .for_each(|(i, out)| {
                 out.clear();
                 let c = p.pos[i];
-                sphere_cells(method, [c.x, c.y, c.z], p.radius[i], n, dx, out);
+                sphere_cells(method, [c.x, c.y, c.z + z0], p.radius[i], n, dx, out);
+                // the basesheet is not the particles' (a sphere pressed into the floor)
+                out.retain(|&(cell, _)| cell >= first_cell);
             });
         self.solid_volume_m3.fill(0.0);
         self.vd.fill(0.0);
@@ -322,6 +366,13 @@ impl Coupled {
             } else {
                 (1.0, 0.0, 0.0, [0.0; 3])
             };
+            let (eps, lin, quad, w) = match self.setup.basesheet {
+                Some(b) if c < first_cell as usize => {
+                    // Darcy layer: a = -(nu / K) u, seed 002 eq. 10 with eps = 1, no Forchheimer
+                    (1.0, nu / (b.permeability_m2 / (dx * dx)), 0.0, [0.0; 3])
+                }
+                _ => (eps, lin, quad, w),
+            };
             self.eps[c] = eps;
             porous
                 .set_coefficients(c, eps, lin, quad)
@@ -343,6 +394,8 @@ impl Coupled {
         // per cell: lost force F_c and D_c (lattice)
         let mut fc = vec![[0.0; 3]; cells];
         let mut dc = vec![0.0; cells];
+        let sheet_end = self.sheet_cells * self.dims.nx * self.dims.ny;
+        self.sheet_force = [0.0; 3];
         for c in 0..cells {
             let rho = self.record.rho[c];
             let a = self.record.a[c];
@@ -359,7 +412,11 @@ impl Coupled {
                 ));
             }
             self.slip[c] = rn;
-            if self.solid_volume_m3[c] > 0.0 {
+            if c < sheet_end {
+                for k in 0..3 {
+                    self.sheet_force[k] += rho * (eps * g[k] - a[k]);
+                }
+            } else if self.solid_volume_m3[c] > 0.0 {
                 for k in 0..3 {
                     fc[c][k] = rho * (eps * g[k] - a[k]);
                 }
@@ -462,15 +519,17 @@ impl Coupled {
         j_ext += drive;
         self.timing.coupling_s += t.elapsed().as_secs_f64();
         let t = Instant::now();
-        let mut j_walls = Vector3::zeros();
-        let mut wall_scale = 0.0;
+        // the basesheet holds what the fluid lost in its cells
+        let sf = self.sheet_force;
+        let mut j_walls = -Vector3::new(sf[0], sf[1], sf[2]) * imp;
+        let mut wall_scale = j_walls.norm();
         if self.setup.frozen {
             // the constraint holding the bed takes every force on its particles
             for (i, e) in ext.iter().enumerate() {
                 let w = self.dem.setup.gravity_m_s2 * (self.dem.p.mass[i] * b);
                 j_walls -= (e + w) * dt;
             }
-            wall_scale = j_walls.norm();
+            wall_scale += j_walls.norm();
         } else {
             self.dem.set_external_forces(&ext)?;
             let before = self.dem.p.pos.clone();
@@ -682,5 +741,39 @@ mod tests {
             steps_with_wall >= 50 && wall > 1e-3,
             "the floor was not reached"
         );
+    }
+
+    /// A basesheet adds lattice layers under the floor, keeps the particles' porosity where it
+    /// was (shifted by its thickness) and its drag enters the ledger; bad values name the key.
+    #[test]
+    fn basesheet_layers_and_ledger() {
+        let sheet = "[fluid.basesheet]\nthickness_m = 1e-3\npermeability_m2 = 1e-10\n[coupling]";
+        let mut plain = quick(|t| t).unwrap();
+        let mut c = quick(|t| t.replacen("[coupling]", sheet, 1)).unwrap();
+        assert_eq!(c.sheet_cells, 2);
+        assert_eq!(c.dims.nz, plain.dims.nz + 2);
+        plain.update_porosity().unwrap();
+        c.update_porosity().unwrap();
+        let nxy = c.dims.nx * c.dims.ny;
+        // the same cells shifted (the shifted centre rounds differently: 1e-15)
+        for (a, b) in c.eps[2 * nxy..].iter().zip(&plain.eps) {
+            assert!((a - b).abs() < 1e-12, "{a} vs {b}");
+        }
+        assert!(c.eps[..2 * nxy].iter().all(|&e| e == 1.0));
+        for _ in 0..30 {
+            let b = c.step().unwrap();
+            assert!(b.relative_error() < 1e-12, "{}", b.relative_error());
+        }
+        assert!(c.last_balance.walls.z.abs() > 0.0);
+        let e = quick(|t| t.replacen("[coupling]", &sheet.replace("1e-10", "-1.0"), 1))
+            .err()
+            .unwrap()
+            .to_string();
+        assert!(e.contains("fluid.basesheet.permeability_m2"), "{e}");
+        let e = quick(|t| t.replacen("[coupling]", &sheet.replace("1e-3", "7e-4"), 1))
+            .err()
+            .unwrap()
+            .to_string();
+        assert!(e.contains("fluid.basesheet.thickness_m"), "{e}");
     }
 }

@@ -14,6 +14,9 @@
 //! viscosity_pa_s = 1e-3               # [1e-3]
 //! pressure_gradient_pa_m = [0, 0, 0]  # imposed mean grad p; flow goes down for +z [0]
 //! balance_weight = false              # add the gradient carrying the particles' weight [false]
+//! [fluid.basesheet]                   # permeable bottom under the DEM floor [none]
+//! thickness_m = 1e-3                  # h, whole cells; the lattice spans z = -h .. top
+//! permeability_m2 = 1e-10             # K: Darcy drag -(mu/K) u, drop mu U h / K
 //! [coupling]
 //! overlap = "exact"                   # "exact" sphere-cube | "seed-lens" [exact]
 //! drag_switch = "blend"               # "blend" (Huilin-Gidaspow) | "sharp" [blend]
@@ -33,7 +36,7 @@
 //! porosity), `summary.json`.
 
 use super::{dem as dem_scene, Builtin, RunOptions};
-use crate::coupled::{Coupled, CoupledSetup, Overlap, Switch};
+use crate::coupled::{Basesheet, Coupled, CoupledSetup, Overlap, Switch};
 use crate::error::{invalid, Error};
 use crate::io::{vtk, write_atomic, xyz};
 use crate::Result;
@@ -82,6 +85,14 @@ struct FluidSpec {
     viscosity_pa_s: Option<f64>,
     pressure_gradient_pa_m: Option<[f64; 3]>,
     balance_weight: Option<bool>,
+    basesheet: Option<BasesheetSpec>,
+}
+
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct BasesheetSpec {
+    thickness_m: f64,
+    permeability_m2: f64,
 }
 
 #[derive(Debug, Clone, Default, Deserialize)]
@@ -204,6 +215,10 @@ pub fn parse_scene(text: &str, origin: &str) -> Result<CoupledScene> {
         max_move_cells: c.max_move_cells.unwrap_or(0.1),
         max_relaxation: c.max_relaxation.unwrap_or(0.5),
         frozen: c.frozen.unwrap_or(false),
+        basesheet: f.fluid.basesheet.as_ref().map(|b| Basesheet {
+            thickness_m: b.thickness_m,
+            permeability_m2: b.permeability_m2,
+        }),
     };
     Ok(CoupledScene {
         title: f.title,
@@ -264,9 +279,11 @@ fn frame(c: &Coupled, out: &Path, k: usize) -> Result<()> {
         .collect();
     let d = c.dims;
     let dx = c.setup.dx_m;
+    // the lattice starts at the basesheet's bottom, z = -h
+    let z0 = c.sheet_cells as f64 * dx;
     let cell = xyz::Cell {
         lengths: [d.nx as f64 * dx, d.ny as f64 * dx, d.nz as f64 * dx],
-        origin: [0.0; 3],
+        origin: [0.0, 0.0, -z0],
         pbc: [true, true, false],
     };
     xyz::write(
@@ -282,7 +299,7 @@ fn frame(c: &Coupled, out: &Path, k: usize) -> Result<()> {
         &format!("porelab coupled t = {} s", c.time_s),
         [d.nx, d.ny, d.nz],
         dx,
-        [0.0; 3],
+        [0.0, 0.0, -z0],
         &[
             vtk::CellField::Scalar("porosity", &c.eps),
             vtk::CellField::Vector("velocity_m_s", &u),
@@ -351,8 +368,10 @@ pub fn run_scene(text: &str, origin: &str, out: &Path, opts: &RunOptions) -> Res
         run(&scene, &mut c, |c| {
             if c.steps % prof_steps == 0 {
                 let dz = c.setup.dx_m;
+                let z0 = c.sheet_cells as f64 * dz;
                 for (k, e) in c.porosity_profile().iter().enumerate() {
-                    let _ = writeln!(profile, "{},{},{}", c.time_s, (k as f64 + 0.5) * dz, e);
+                    let z = (k as f64 + 0.5) * dz - z0;
+                    let _ = writeln!(profile, "{},{},{}", c.time_s, z, e);
                 }
             }
             if c.steps % frame_steps == 0 {

@@ -55,6 +55,8 @@ pub fn runner_for(id: &str) -> Option<Runner> {
         "813" => Some(coupled::case_813),
         "814" => Some(coupled::case_814),
         "815" => Some(coupled::case_815),
+        "816" => Some(coupled::case_816),
+        "817" => Some(coupled::case_817),
         "501" => Some(packing::case_501),
         "502" => Some(packing::case_502),
         "503" => Some(packing::case_503),
