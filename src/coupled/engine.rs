@@ -65,6 +65,20 @@ pub struct CoupledSetup {
     pub max_relaxation: f64,
     /// Particles held fixed (no DEM steps): a fixed bed.
     pub frozen: bool,
+    /// A permeable bottom (the basesheet) below the DEM floor.
+    pub basesheet: Option<Basesheet>,
+}
+
+/// The basesheet: a Darcy layer of permeability K and thickness h below the DEM floor (z from
+/// -h to 0), in whole lattice layers added under the particles' lattice. Its cells carry the
+/// Darcy drag a = -(nu / K) u (Guo–Zhao with porosity 1 and no Forchheimer term): its whole
+/// resistance is K, so the steady pressure drop across it is mu U h / K (Darcy) with U the
+/// superficial velocity. A porosity below 1 in the Guo–Zhao equations would make the layer's
+/// solid take (1 - eps) of the mean driving and the drop would no longer be Darcy's.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Basesheet {
+    pub thickness_m: f64,
+    pub permeability_m2: f64,
 }
 
 /// Seconds spent in each part of the loop.
@@ -75,22 +89,27 @@ pub struct Timing {
     pub coupling_s: f64,
 }
 
-/// The balance of one coupling step (SI, N s): fluid and particle momentum changes and the
-/// external impulse (driving, buoyant weight, pressure gradient on the particles; wall
-/// contacts are not included).
+/// The balance of one coupling step (SI, N s): fluid and particle momentum changes, the
+/// external impulse (driving, buoyant weight, pressure gradient on the particles) and the
+/// impulse of the walls on the particles.
 #[derive(Debug, Clone, Copy, Default)]
 pub struct Balance {
     pub fluid: Vector3<f64>,
     pub particles: Vector3<f64>,
     pub external: Vector3<f64>,
-    /// Magnitude the rounding scales with: the exchanged impulse plus the external one.
+    /// Impulse of the floor and top-wall contacts over the M DEM steps, as velocity Verlet
+    /// applies it (dt_DEM / 2 (W_n + W_n+1) per step); for a frozen bed, the impulse of the
+    /// constraint that holds it (minus every force on its particles).
+    pub walls: Vector3<f64>,
+    /// Magnitude the rounding scales with: the exchanged, external and wall impulses.
     pub scale: f64,
 }
 
 impl Balance {
-    /// |dP_fluid + dP_particles - J_external| / scale.
+    /// |dP_fluid + dP_particles - J_external - J_walls| / scale.
     pub fn relative_error(&self) -> f64 {
-        (self.fluid + self.particles - self.external).norm() / self.scale.max(f64::MIN_POSITIVE)
+        (self.fluid + self.particles - self.external - self.walls).norm()
+            / self.scale.max(f64::MIN_POSITIVE)
     }
 }
 
@@ -124,6 +143,12 @@ pub struct Coupled {
     pub last_balance: Balance,
     /// Largest displacement per coupling step seen (cells).
     pub max_move_seen_cells: f64,
+    /// Lattice layers of the basesheet (0 without one); the DEM's z = 0 is the lattice's
+    /// z = sheet_cells dx.
+    pub sheet_cells: usize,
+    /// The fluid's force on the basesheet in the last step (lattice units, summed over its
+    /// cells).
+    sheet_force: [f64; 3],
 }
 
 impl Coupled {
@@ -172,7 +197,25 @@ impl Coupled {
                 setup.nz, dem.top_z_m
             ));
         }
-        let dims = Dims::new(nx, ny, setup.nz)?;
+        let sheet_cells = match setup.basesheet {
+            None => 0,
+            Some(b) => {
+                if !(b.permeability_m2.is_finite() && b.permeability_m2 > 0.0) {
+                    return invalid(format!(
+                        "fluid.basesheet.permeability_m2 = {}: must be positive and finite",
+                        b.permeability_m2
+                    ));
+                }
+                if !(b.thickness_m.is_finite() && b.thickness_m > 0.0) {
+                    return invalid(format!(
+                        "fluid.basesheet.thickness_m = {}: must be positive",
+                        b.thickness_m
+                    ));
+                }
+                cells_along(b.thickness_m, "fluid.basesheet.thickness_m")?
+            }
+        };
+        let dims = Dims::new(nx, ny, setup.nz + sheet_cells)?;
         let nu = setup.viscosity_pa_s / setup.fluid_density_kg_m3;
         let units = Units::from_tau(dx, nu, setup.fluid_density_kg_m3, setup.tau)?;
         let dt_dem = units.dt / setup.dem_steps as f64;
@@ -238,6 +281,8 @@ impl Coupled {
             worst_balance: 0.0,
             last_balance: Balance::default(),
             max_move_seen_cells: 0.0,
+            sheet_cells,
+            sheet_force: [0.0; 3],
             setup,
         })
     }
@@ -265,6 +310,8 @@ impl Coupled {
         let n = [self.dims.nx, self.dims.ny, self.dims.nz];
         let method = self.setup.overlap;
         let p = &self.dem.p;
+        let z0 = self.sheet_cells as f64 * dx;
+        let first_cell = (self.sheet_cells * n[0] * n[1]) as u32;
         self.overlaps
             .par_iter_mut()
             .enumerate()
@@ -272,7 +319,9 @@ impl Coupled {
             .for_each(|(i, out)| {
                 out.clear();
                 let c = p.pos[i];
-                sphere_cells(method, [c.x, c.y, c.z], p.radius[i], n, dx, out);
+                sphere_cells(method, [c.x, c.y, c.z + z0], p.radius[i], n, dx, out);
+                // the basesheet is not the particles' (a sphere pressed into the floor)
+                out.retain(|&(cell, _)| cell >= first_cell);
             });
         self.solid_volume_m3.fill(0.0);
         self.vd.fill(0.0);
@@ -317,6 +366,13 @@ impl Coupled {
             } else {
                 (1.0, 0.0, 0.0, [0.0; 3])
             };
+            let (eps, lin, quad, w) = match self.setup.basesheet {
+                Some(b) if c < first_cell as usize => {
+                    // Darcy layer: a = -(nu / K) u, seed 002 eq. 10 with eps = 1, no Forchheimer
+                    (1.0, nu / (b.permeability_m2 / (dx * dx)), 0.0, [0.0; 3])
+                }
+                _ => (eps, lin, quad, w),
+            };
             self.eps[c] = eps;
             porous
                 .set_coefficients(c, eps, lin, quad)
@@ -338,6 +394,8 @@ impl Coupled {
         // per cell: lost force F_c and D_c (lattice)
         let mut fc = vec![[0.0; 3]; cells];
         let mut dc = vec![0.0; cells];
+        let sheet_end = self.sheet_cells * self.dims.nx * self.dims.ny;
+        self.sheet_force = [0.0; 3];
         for c in 0..cells {
             let rho = self.record.rho[c];
             let a = self.record.a[c];
@@ -354,7 +412,11 @@ impl Coupled {
                 ));
             }
             self.slip[c] = rn;
-            if self.solid_volume_m3[c] > 0.0 {
+            if c < sheet_end {
+                for k in 0..3 {
+                    self.sheet_force[k] += rho * (eps * g[k] - a[k]);
+                }
+            } else if self.solid_volume_m3[c] > 0.0 {
                 for k in 0..3 {
                     fc[c][k] = rho * (eps * g[k] - a[k]);
                 }
@@ -457,11 +519,29 @@ impl Coupled {
         j_ext += drive;
         self.timing.coupling_s += t.elapsed().as_secs_f64();
         let t = Instant::now();
-        if !self.setup.frozen {
+        // the basesheet holds what the fluid lost in its cells
+        let sf = self.sheet_force;
+        let mut j_walls = -Vector3::new(sf[0], sf[1], sf[2]) * imp;
+        let mut wall_scale = j_walls.norm();
+        if self.setup.frozen {
+            // the constraint holding the bed takes every force on its particles
+            for (i, e) in ext.iter().enumerate() {
+                let w = self.dem.setup.gravity_m_s2 * (self.dem.p.mass[i] * b);
+                j_walls -= (e + w) * dt;
+            }
+            wall_scale += j_walls.norm();
+        } else {
             self.dem.set_external_forces(&ext)?;
             let before = self.dem.p.pos.clone();
+            // velocity Verlet kicks with the mean of the forces at both ends of a step
+            let h = 0.5 * self.dem.dt_s;
+            let mut w_prev = self.dem.wall_force_n;
             for _ in 0..self.setup.dem_steps {
                 self.dem.step()?;
+                let w = self.dem.wall_force_n;
+                j_walls += (w_prev + w) * h;
+                wall_scale += (w_prev.norm() + w.norm()) * h;
+                w_prev = w;
             }
             self.dem.check_finite()?;
             let (lx, ly) = (self.dem.setup.lx_m, self.dem.setup.ly_m);
@@ -493,7 +573,8 @@ impl Coupled {
             fluid: dpf,
             particles: dps,
             external: j_ext,
-            scale: j_exchanged + j_ext.norm() + drive.norm(),
+            walls: j_walls,
+            scale: j_exchanged + j_ext.norm() + drive.norm() + wall_scale,
         };
         let m = self.lbm.mass();
         if !m.is_finite() {
@@ -631,5 +712,68 @@ mod tests {
         let sum: f64 = c.hydro_n.iter().map(|f| f.z).sum();
         assert!(sum.abs() > 0.0);
         assert!(b.relative_error() < 1e-12, "{}", b.relative_error());
+    }
+
+    /// The ledger closes with the floor in it: particles of the quick scene settle onto the
+    /// floor and every coupling step balances to rounding, wall impulse included.
+    #[test]
+    fn ledger_closes_with_wall_contacts() {
+        let mut c = quick(|t| t).unwrap();
+        let (mut wall, mut steps_with_wall) = (0.0f64, 0);
+        for _ in 0..4000 {
+            let b = c.step().unwrap();
+            assert!(
+                b.relative_error() < 1e-12,
+                "step {}: {}",
+                c.steps,
+                b.relative_error()
+            );
+            if b.walls.norm() > 0.0 {
+                steps_with_wall += 1;
+                wall = wall.max(b.walls.norm() / b.scale);
+            }
+            if steps_with_wall >= 50 {
+                break;
+            }
+        }
+        eprintln!("{} steps, {steps_with_wall} with wall contacts, largest wall share {wall:.3}, worst {:.2e}", c.steps, c.worst_balance);
+        assert!(
+            steps_with_wall >= 50 && wall > 1e-3,
+            "the floor was not reached"
+        );
+    }
+
+    /// A basesheet adds lattice layers under the floor, keeps the particles' porosity where it
+    /// was (shifted by its thickness) and its drag enters the ledger; bad values name the key.
+    #[test]
+    fn basesheet_layers_and_ledger() {
+        let sheet = "[fluid.basesheet]\nthickness_m = 1e-3\npermeability_m2 = 1e-10\n[coupling]";
+        let mut plain = quick(|t| t).unwrap();
+        let mut c = quick(|t| t.replacen("[coupling]", sheet, 1)).unwrap();
+        assert_eq!(c.sheet_cells, 2);
+        assert_eq!(c.dims.nz, plain.dims.nz + 2);
+        plain.update_porosity().unwrap();
+        c.update_porosity().unwrap();
+        let nxy = c.dims.nx * c.dims.ny;
+        // the same cells shifted (the shifted centre rounds differently: 1e-15)
+        for (a, b) in c.eps[2 * nxy..].iter().zip(&plain.eps) {
+            assert!((a - b).abs() < 1e-12, "{a} vs {b}");
+        }
+        assert!(c.eps[..2 * nxy].iter().all(|&e| e == 1.0));
+        for _ in 0..30 {
+            let b = c.step().unwrap();
+            assert!(b.relative_error() < 1e-12, "{}", b.relative_error());
+        }
+        assert!(c.last_balance.walls.z.abs() > 0.0);
+        let e = quick(|t| t.replacen("[coupling]", &sheet.replace("1e-10", "-1.0"), 1))
+            .err()
+            .unwrap()
+            .to_string();
+        assert!(e.contains("fluid.basesheet.permeability_m2"), "{e}");
+        let e = quick(|t| t.replacen("[coupling]", &sheet.replace("1e-3", "7e-4"), 1))
+            .err()
+            .unwrap()
+            .to_string();
+        assert!(e.contains("fluid.basesheet.thickness_m"), "{e}");
     }
 }

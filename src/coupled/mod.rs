@@ -15,5 +15,5 @@ pub mod engine;
 pub mod porosity;
 
 pub use drag::Switch;
-pub use engine::{Balance, Coupled, CoupledSetup, Timing};
+pub use engine::{Balance, Basesheet, Coupled, CoupledSetup, Timing};
 pub use porosity::Overlap;

@@ -57,6 +57,9 @@ pub struct DemState {
     pub external: Vec<V3>,
     pub wall_xi: Vec<[V3; 2]>,
     pub wall_fz: Vec<[u64; 3]>,
+    /// Per particle force of both walls, and its sum (the coupled momentum ledger reads it).
+    pub wall_f: Vec<V3>,
+    pub wall_force_n: V3,
     pub pairs: Vec<PairBits>,
     pub first_start: Vec<u32>,
     pub second_start: Vec<u32>,
@@ -96,6 +99,8 @@ impl Dem {
                 .iter()
                 .map(|w| [w[0].to_bits(), w[1].to_bits(), w[2].to_bits()])
                 .collect(),
+            wall_f: vecs_to_bits(&self.wall_f),
+            wall_force_n: to_bits(&self.wall_force_n),
             pairs: self
                 .nl
                 .pairs
@@ -134,6 +139,7 @@ impl Dem {
             ("torque", s.torque.len()),
             ("wall_xi", s.wall_xi.len()),
             ("wall_fz", s.wall_fz.len()),
+            ("wall_f", s.wall_f.len()),
             ("pos_at_build", s.pos_at_build.len()),
         ];
         if let Some((name, len)) = per_particle.iter().find(|(_, len)| *len != n) {
@@ -197,6 +203,8 @@ impl Dem {
             .iter()
             .map(|w| [f(w[0]), f(w[1]), f(w[2])])
             .collect();
+        self.wall_f = vecs_from_bits(&s.wall_f);
+        self.wall_force_n = from_bits(&s.wall_force_n);
         self.nl.pairs = s
             .pairs
             .iter()

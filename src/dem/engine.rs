@@ -211,6 +211,8 @@ pub struct Dem {
     pub top_force_n: f64,
     /// Sum of the contact stiffnesses S_n of the top wall's contacts (N/m), last step.
     pub top_stiffness_n_per_m: f64,
+    /// Total force of both walls on the particles (N, normal and tangential), last step.
+    pub wall_force_n: Vector3<f64>,
     pub nl: NeighbourList,
     pub(super) force: Vec<Vector3<f64>>,
     pub(super) torque: Vec<Vector3<f64>>,
@@ -223,6 +225,8 @@ pub struct Dem {
     pub(super) wall_xi: Vec<[Vector3<f64>; 2]>,
     /// Per particle: z force of the floor, of the top wall, and the top contact's stiffness S_n.
     pub(super) wall_fz: Vec<[f64; 3]>,
+    /// Per particle: force of both walls (normal and tangential).
+    pub(super) wall_f: Vec<Vector3<f64>>,
     pp: PairMaterial,
     pw: PairMaterial,
     pub active: ActiveTerms,
@@ -379,6 +383,7 @@ impl Dem {
             torque: vec![Vector3::zeros(); n],
             wall_xi: vec![[Vector3::zeros(); 2]; n],
             wall_fz: vec![[0.0; 3]; n],
+            wall_f: vec![Vector3::zeros(); n],
             inv_mass,
             inv_inertia,
             nl: NeighbourList::new(skin),
@@ -390,6 +395,7 @@ impl Dem {
             floor_force_n: 0.0,
             top_force_n: 0.0,
             top_stiffness_n_per_m: 0.0,
+            wall_force_n: Vector3::zeros(),
             active,
             neighbour_seconds: 0.0,
             external: Vec::new(),
@@ -677,13 +683,16 @@ impl Dem {
             usize,
             (
                 (
-                    (&'a mut Vector3<f64>, &'a mut Vector3<f64>),
-                    &'a mut [Vector3<f64>; 2],
+                    (
+                        (&'a mut Vector3<f64>, &'a mut Vector3<f64>),
+                        &'a mut [Vector3<f64>; 2],
+                    ),
+                    &'a mut [f64; 3],
                 ),
-                &'a mut [f64; 3],
+                &'a mut Vector3<f64>,
             ),
         );
-        let gather = |(i, (((f_out, t_out), wxi), wfz)): Slot| {
+        let gather = |(i, ((((f_out, t_out), wxi), wfz), wf)): Slot| {
             let mut f = Vector3::zeros();
             let mut nxft = Vector3::zeros();
             for &k in &nl.second_pairs[nl.second_start[i] as usize..nl.second_start[i + 1] as usize]
@@ -701,6 +710,7 @@ impl Dem {
                 }
             }
             let r = rad[i];
+            *wf = Vector3::zeros();
             // walls: spheres of infinite radius and mass (R* = R, m* = m)
             for (k, (dist, nz, wall_v)) in [(pos[i].z, 1.0, 0.0), (top_z - pos[i].z, -1.0, top_v)]
                 .into_iter()
@@ -739,6 +749,7 @@ impl Dem {
                 };
                 let (fw, ft) = model.force(&c, &pw, &mut wxi[k]);
                 f += fw;
+                *wf += fw;
                 nxft += n.cross(&ft);
                 wfz[k] = fw.z;
             }
@@ -759,6 +770,7 @@ impl Dem {
                 .zip(self.torque.par_iter_mut())
                 .zip(self.wall_xi.par_iter_mut())
                 .zip(self.wall_fz.par_iter_mut())
+                .zip(self.wall_f.par_iter_mut())
                 .enumerate()
                 .with_min_len(256)
                 .for_each(gather);
@@ -768,6 +780,7 @@ impl Dem {
                 .zip(self.torque.iter_mut())
                 .zip(self.wall_xi.iter_mut())
                 .zip(self.wall_fz.iter_mut())
+                .zip(self.wall_f.iter_mut())
                 .enumerate()
                 .for_each(gather);
         }
@@ -780,6 +793,7 @@ impl Dem {
         self.floor_force_n = fl;
         self.top_force_n = tp;
         self.top_stiffness_n_per_m = kt;
+        self.wall_force_n = self.wall_f.iter().fold(Vector3::zeros(), |a, w| a + w);
     }
 
     /// Translational + rotational kinetic energy (J) at the full step.

@@ -3,7 +3,7 @@
 //! Gidaspow 1994, Stokes 1851), never values of the code under test.
 
 use super::common::non_empty;
-use crate::coupled::{Coupled, CoupledSetup, Overlap, Switch};
+use crate::coupled::{Basesheet, Coupled, CoupledSetup, Overlap, Switch};
 use crate::dem::{
     ContactModel, DampingModel, Dem, DemSetup, Material, NormalModel, Particles, TangentialModel,
     TopWall,
@@ -67,6 +67,7 @@ fn coupled_setup(
         max_move_cells: 0.1,
         max_relaxation: 1.0,
         frozen,
+        basesheet: None,
     }
 }
 
@@ -139,8 +140,8 @@ pub fn case_811(ctx: &CaseContext) -> Result<Vec<Row>> {
                 (0..c.dem.p.len()).find(|&k| c.dem.p.pos[k].z < d || c.dem.p.pos[k].z > l[2] - d)
             {
                 return invalid(format!(
-                    "case 811: particle {k} reached a wall at step {s}: the balance excludes \
-                     wall contacts; shorten the run"
+                    "case 811: particle {k} reached a wall at step {s}: this case keeps to the \
+                     free suspension (case 815 has the walls); shorten the run"
                 ));
             }
         }
@@ -397,6 +398,346 @@ pub fn case_814(ctx: &CaseContext) -> Result<Vec<Row>> {
             format!("M={m} terminal velocity / M=first"),
             v / r,
             1.0,
+            1.0,
+        ));
+    }
+    Ok(rows)
+}
+
+/// Case 815: the momentum ledger with the walls in it: particles of the coupled-quick built-in
+/// settle onto the floor (and slide on it under a cross flow), or are held as a frozen bed;
+/// every coupling step balances fluid + particle momentum against the external, wall and
+/// constraint impulses.
+pub fn case_815(ctx: &CaseContext) -> Result<Vec<Row>> {
+    let t = ctx.expected_table()?;
+    non_empty(&t)?;
+    let mut rows = Vec::new();
+    for i in 0..t.len() {
+        let variant = t.str(i, "variant")?;
+        let g = [t.f64(i, "grad_p_x_pa_m")?, t.f64(i, "grad_p_z_pa_m")?];
+        let text = include_str!("../../scene/builtin/coupled-quick.toml").replace(
+            "pressure_gradient_pa_m = [0.0, 0.0, 500.0]",
+            &format!("pressure_gradient_pa_m = [{:?}, 0.0, {:?}]", g[0], g[1]),
+        );
+        let text = text.replace("tau = 0.515", &format!("tau = {:?}", t.f64(i, "tau")?));
+        let text = match &variant[..] {
+            "settle" => text,
+            "frozen" => text.replace(
+                "max_relaxation = 1.0",
+                "max_relaxation = 1.0\nfrozen = true",
+            ),
+            v => return invalid(format!("case 815: variant \"{v}\": settle or frozen")),
+        };
+        let scene = crate::scene::coupled::parse_scene(&text, "case 815")?;
+        let mut c = crate::scene::coupled::build(&scene)?;
+        let steps = t.f64(i, "steps")? as u64;
+        let (mut wall_steps, mut wall_share, mut tangential) = (0u64, 0.0f64, 0.0f64);
+        for _ in 0..steps {
+            let b = c.step()?;
+            if b.walls.norm() > 0.0 {
+                wall_steps += 1;
+                wall_share = wall_share.max(b.walls.norm() / b.scale);
+                tangential = tangential.max(b.walls.x.hypot(b.walls.y) / b.scale);
+            }
+        }
+        let min_share = t.f64(i, "min_wall_share")?;
+        if wall_share < min_share {
+            return invalid(format!(
+                "case 815 {variant}: the walls carried at most {wall_share:.3e} of a step's \
+                 impulse (< {min_share}): the test would not exercise them"
+            ));
+        }
+        eprintln!(
+            "case 815 {variant}: {wall_steps} of {steps} steps with wall impulse, largest share \
+             {wall_share:.3}, largest tangential share {tangential:.2e}, worst imbalance {:.2e}",
+            c.worst_balance
+        );
+        rows.push(Row::new(
+            format!(
+                "{variant} grad_p=({}, 0, {}) worst |dP_f + dP_s - J_ext - J_walls| / scale over \
+                 {steps} steps",
+                g[0], g[1]
+            ),
+            c.worst_balance,
+            0.0,
+            t.f64(i, "rounding_tolerance")?,
+        ));
+    }
+    Ok(rows)
+}
+
+/// Centres of a jittered simple lattice of about `n_target` spheres of diameter `d` filling
+/// the box `l` (x, y periodic; z between the walls, a radius clear of each): kx = ky columns
+/// and kz layers chosen for the widest smallest gap with a count within 5 % of the target,
+/// each centre moved by a uniform random offset of up to 0.45 of that gap in each axis.
+fn jittered_lattice(
+    n_target: f64,
+    d: f64,
+    l: [f64; 3],
+    rng: &mut rand_chacha::ChaCha8Rng,
+) -> Result<Vec<Vector3<f64>>> {
+    use rand::Rng;
+    let mut best: Option<([f64; 3], f64)> = None;
+    for kx in 1..=(l[0] / d) as usize {
+        let kx = kx as f64;
+        let kz = (n_target / (kx * kx)).round().max(1.0);
+        if ((kx * kx * kz - n_target) / n_target).abs() > 0.05 {
+            continue;
+        }
+        let gap = (l[0] / kx).min(l[1] / kx).min((l[2] - d) / kz) - d;
+        if gap > best.map_or(0.0, |b| b.1) {
+            best = Some(([kx, kx, kz], gap));
+        }
+    }
+    let Some((k, gap)) = best else {
+        return invalid(format!(
+            "no simple lattice of {n_target:.0} spheres of {d} m fits the box {l:?} m"
+        ));
+    };
+    let a = [l[0] / k[0], l[1] / k[1], (l[2] - d) / k[2]];
+    let mut pos = Vec::new();
+    for iz in 0..k[2] as usize {
+        for iy in 0..k[1] as usize {
+            for ix in 0..k[0] as usize {
+                let mut j = || 0.45 * gap * (2.0 * rng.gen::<f64>() - 1.0);
+                pos.push(Vector3::new(
+                    (ix as f64 + 0.5) * a[0] + j(),
+                    (iy as f64 + 0.5) * a[1] + j(),
+                    0.5 * d + (iz as f64 + 0.5) * a[2] + j(),
+                ));
+            }
+        }
+    }
+    Ok(pos)
+}
+
+/// Case 816: hindered settling of a homogeneous suspension (the whole box filled) against
+/// Richardson & Zaki: the effective exponent n = ln(U / U_t) / ln(eps) of the settling
+/// velocity U relative to the zero-volume-flux frame over the isolated sphere's terminal
+/// velocity U_t, against the cited low-Re band of n.
+pub fn case_816(ctx: &CaseContext) -> Result<Vec<Row>> {
+    let t = ctx.expected_table()?;
+    non_empty(&t)?;
+    let mut rows = Vec::new();
+    for i in 0..t.len() {
+        let phi_target = t.f64(i, "solid_fraction")?;
+        let dx = t.f64(i, "dx_m")?;
+        let d = t.f64(i, "d_over_dx")? * dx;
+        let mu = t.f64(i, "viscosity_pa_s")?;
+        let rho_p = t.f64(i, "particle_density_kg_m3")?;
+        let cells = [t.f64(i, "nx")?, t.f64(i, "ny")?, t.f64(i, "nz")?];
+        let l = [cells[0] * dx, cells[1] * dx, cells[2] * dx];
+        let steps = t.f64(i, "steps")? as u64;
+        let vp = PI / 6.0 * d.powi(3);
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(ctx.seed.unwrap_or(1) + i as u64);
+        let n_target = phi_target * l[0] * l[1] * l[2] / vp;
+        // random sequential addition below its jamming (~0.38), a jittered lattice above
+        let pos = if phi_target <= 0.3 {
+            let radius = vec![0.5 * d; n_target.round() as usize];
+            crate::dem::start::random_dispersion(&radius, l[0], l[1], l[2], &mut rng)?
+        } else {
+            jittered_lattice(n_target, d, l, &mut rng)?
+        };
+        let n = pos.len();
+        let mut setup = dem_setup(l, rho_p, 9.81, 1000.0)?;
+        setup.contact.tangential = crate::dem::TangentialModel::None;
+        let dem = Dem::new(
+            setup,
+            Particles::at_rest(pos, vec![0.5 * d; n], rho_p),
+            0.01,
+        )?;
+        let mut cs = coupled_setup(
+            dx,
+            t.f64(i, "tau")?,
+            mu,
+            cells[2] as usize,
+            Switch::Blend,
+            Vector3::zeros(),
+            true,
+            t.f64(i, "dem_steps")? as u64,
+            false,
+        );
+        cs.max_move_cells = t.f64(i, "max_move_cells")?;
+        let mut c = Coupled::new(dem, cs)?;
+        // the middle half of the height, away from both walls
+        let (z0, z1) = (0.25 * l[2], 0.75 * l[2]);
+        let nxy = (cells[0] * cells[1]) as usize;
+        let (k0, k1) = ((z0 / dx).round() as usize, (z1 / dx).round() as usize);
+        let (mut u_sum, mut eps_sum, mut count) = (0.0, 0.0, 0.0);
+        let mut samples = Vec::new();
+        for s in 0..steps {
+            c.step()?;
+            if s < steps / 2 {
+                continue;
+            }
+            let (mut vs, mut ns) = (0.0, 0.0);
+            for k in 0..n {
+                let z = c.dem.p.pos[k].z;
+                if z >= z0 && z < z1 {
+                    vs += c.dem.p.vel[k].z;
+                    ns += 1.0;
+                }
+            }
+            let u = c.velocity_si();
+            let cells_mid = (k0 * nxy)..(k1 * nxy);
+            let m = cells_mid.len() as f64;
+            let u_sup: f64 = u[cells_mid.clone()].iter().map(|v| v[2]).sum::<f64>() / m;
+            let eps: f64 = c.eps[cells_mid].iter().sum::<f64>() / m;
+            // settling velocity relative to the zero-volume-flux frame: V_s - (phi V_s + u_sup)
+            let settle = -(eps * vs / ns - u_sup);
+            samples.push(settle);
+            u_sum += settle;
+            eps_sum += eps;
+            count += 1.0;
+        }
+        let u_hs = u_sum / count;
+        let eps = eps_sum / count;
+        // isolated sphere: Stokes with Schiller & Naumann's 1 + 0.15 Re^0.687 (fixed point)
+        let stokes = (rho_p - 1000.0) * 9.81 * d * d / (18.0 * mu);
+        let mut u_t = stokes;
+        for _ in 0..100 {
+            u_t = stokes / (1.0 + 0.15 * (1000.0 * u_t * d / mu).powf(0.687));
+        }
+        // standard error of the window mean from 8 blocks
+        let b = samples.len() / 8;
+        let means: Vec<f64> = samples
+            .chunks(b.max(1))
+            .take(8)
+            .map(|c| c.iter().sum::<f64>() / c.len() as f64)
+            .collect();
+        let mb = means.iter().sum::<f64>() / means.len() as f64;
+        let se = (means.iter().map(|m| (m - mb).powi(2)).sum::<f64>()
+            / (means.len() as f64 * (means.len() as f64 - 1.0)))
+            .sqrt();
+        let n_eff = (u_hs / u_t).ln() / eps.ln();
+        // the closure's own low-Re prediction (Gidaspow blend, no Re correction):
+        // beta slip = eps (1 - eps) (rho_p - rho_f) g, U = eps slip
+        let beta_over_slip = beta_gidaspow(eps, d, mu, 1000.0, 0.0, true);
+        let u_closure = eps * eps * (1.0 - eps) * (rho_p - 1000.0) * 9.81 / beta_over_slip;
+        eprintln!(
+            "case 816: phi = {:.4} ({n} spheres): U = {u_hs:.5e} m/s (block s.e. {se:.1e}), U_t \
+             = {u_t:.5e} m/s, U/U_t = {:.4}, n = {n_eff:.3} (+-{:.3}); closure at low Re: U/U_t \
+             = {:.4}, n = {:.3}; eps^4.65 = {:.4}; Re_t = {:.3e}; {:.1} s",
+            1.0 - eps,
+            u_hs / u_t,
+            (se / u_hs) / eps.ln().abs(),
+            u_closure / stokes,
+            (u_closure / stokes).ln() / eps.ln(),
+            eps.powf(4.65),
+            1000.0 * u_t * d / mu,
+            c.timing.lbm_s + c.timing.dem_s + c.timing.coupling_s
+        );
+        rows.push(Row::new(
+            format!("phi={:.3} Richardson-Zaki exponent n", 1.0 - eps),
+            n_eff,
+            t.f64(i, "n_band_mid")?,
+            1.0,
+        ));
+    }
+    Ok(rows)
+}
+
+/// Case 817: the basesheet alone (no particles) under a mean pressure gradient in a periodic
+/// column: the pressure drop across it from the fluid's own pressure field equals Darcy's
+/// mu U h / K, and U equals the closed form of the column, grad p L K / (mu h).
+pub fn case_817(ctx: &CaseContext) -> Result<Vec<Row>> {
+    let t = ctx.expected_table()?;
+    non_empty(&t)?;
+    let mut rows = Vec::new();
+    for i in 0..t.len() {
+        let dx = t.f64(i, "dx_m")?;
+        let mu = t.f64(i, "viscosity_pa_s")?;
+        let k = t.f64(i, "permeability_m2")?;
+        let gp = t.f64(i, "grad_p_pa_m")?;
+        let ns = t.f64(i, "sheet_cells")? as usize;
+        let nc = t.f64(i, "clear_cells")? as usize;
+        let l = [2.0 * dx, 2.0 * dx, nc as f64 * dx];
+        let mut setup = dem_setup(l, 2500.0, 0.0, 1000.0)?;
+        // no particles: the neighbour skin is given (its default scales with a diameter)
+        setup.skin_m = Some(0.1 * dx);
+        let dem = Dem::new(setup, Particles::at_rest(vec![], vec![], 2500.0), 0.1)?;
+        let mut cs = coupled_setup(
+            dx,
+            t.f64(i, "tau")?,
+            mu,
+            nc,
+            Switch::Blend,
+            Vector3::new(0.0, 0.0, gp),
+            false,
+            1,
+            true,
+        );
+        let h = ns as f64 * dx;
+        cs.basesheet = Some(Basesheet {
+            thickness_m: h,
+            permeability_m2: k,
+        });
+        let mut c = Coupled::new(dem, cs)?;
+        let nxy = 4;
+        let nz = ns + nc;
+        let flux = |c: &Coupled| -> f64 {
+            // mass-flux velocity through the sheet (m/s): sum rho u / (rho_0 cells)
+            let s: f64 = (0..ns * nxy)
+                .map(|cell| c.record.rho[cell] * c.record.u[cell][2])
+                .sum();
+            s / (ns * nxy) as f64 * dx / c.units.dt
+        };
+        let (mut u, mut u_prev, mut steps) = (0.0, f64::INFINITY, 0);
+        let mut worst_balance: f64 = 0.0;
+        while steps < 200_000 {
+            let b = c.step()?;
+            worst_balance = worst_balance.max(b.relative_error());
+            steps += 1;
+            u = flux(&c);
+            if (u - u_prev).abs() <= 1e-15 * u.abs() {
+                break;
+            }
+            u_prev = u;
+        }
+        if !u.is_finite() || (u - u_prev).abs() > 1e-15 * u.abs() {
+            return invalid(format!(
+                "case 817 row {i}: no steady state in {steps} steps"
+            ));
+        }
+        // real pressure = LBM deviation + the imposed mean gradient, in the plug flow of the
+        // clear fluid m layers above the sheet (centre (ns + m + 1/2) dx) and m layers below
+        // it through the periodic boundary (centre -(m + 1/2) dx); m = 0: the layers touching
+        // the sheet, m = nc/2 - 1: the middle of the clear fluid (the row)
+        let p = c.pressure_si();
+        let layer = |kz: usize| p[kz * nxy..(kz + 1) * nxy].iter().sum::<f64>() / nxy as f64;
+        let drop_at =
+            |m: usize| layer(ns + m) - layer(nz - 1 - m) + gp * (ns + 2 * m + 1) as f64 * dx;
+        let drop = drop_at(nc / 2 - 1);
+        let darcy = mu * u.abs() * h / k;
+        let column = gp * nz as f64 * dx * k / (mu * h);
+        eprintln!(
+            "case 817 row {i}: drop / Darcy - 1 at m = 0..{}: {:?}",
+            nc / 2 - 1,
+            (0..nc / 2)
+                .map(|m| format!("{:.2e}", drop_at(m) / darcy - 1.0))
+                .collect::<Vec<_>>()
+        );
+        let label = format!(
+            "K={k:e} m^2 h={ns}dx grad_p={gp} Pa/m (K/dx^2={:.2e}, U={:.3e} m/s, {steps} steps)",
+            k / (dx * dx),
+            u.abs()
+        );
+        rows.push(Row::new(
+            format!("{label}: drop across the sheet (Pa) vs mu U h / K"),
+            drop,
+            darcy,
+            darcy,
+        ));
+        rows.push(Row::new(
+            format!("{label}: U vs grad_p L K / (mu h)"),
+            u.abs(),
+            column,
+            column,
+        ));
+        rows.push(Row::new(
+            format!("{label}: worst momentum imbalance"),
+            worst_balance,
+            0.0,
             1.0,
         ));
     }
