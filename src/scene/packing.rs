@@ -852,13 +852,17 @@ fn describe_particles(p: &Particles) -> String {
 /// radius for non-rods), cylinder length and Superquadric Roundness (README "Output formats" lists them).
 fn xyz_columns(s: &ContactShape) -> (&'static str, [f64; 3], f64, f64, [f64; 2]) {
     match *s {
-        ContactShape::Sphere { radius } => ("S", [radius; 3], radius, 0.0, [1.0, 1.0]),
-        ContactShape::Spherocylinder { radius, length } => {
-            ("SC", [radius, radius, length], radius, length, [1.0, 1.0])
-        }
+        ContactShape::Sphere { radius } => ("sphere", [radius; 3], radius, 0.0, [1.0, 1.0]),
+        ContactShape::Spherocylinder { radius, length } => (
+            "spherocylinder",
+            [radius, radius, length],
+            radius,
+            length,
+            [1.0, 1.0],
+        ),
         ContactShape::Ellipsoid { semi_axes } => {
             let r = semi_axes.iter().cloned().fold(0.0, f64::max);
-            ("E", semi_axes, r, 0.0, [1.0, 1.0])
+            ("ellipsoid", semi_axes, r, 0.0, [1.0, 1.0])
         }
         ContactShape::Superquadric {
             semi_axes,
@@ -866,7 +870,7 @@ fn xyz_columns(s: &ContactShape) -> (&'static str, [f64; 3], f64, f64, [f64; 2])
         } => {
             let r = crate::shape::bounding_radius_of(s).unwrap_or(f64::NAN);
             (
-                "SQ",
+                "superquadric",
                 semi_axes,
                 r,
                 0.0,
