@@ -1016,9 +1016,7 @@ mod tests {
         let exp = test_experiment();
         assert_eq!((exp.steps(), exp.steps_per_sample()), (10, 10));
         let ticks = std::sync::Mutex::new(Vec::new());
-        let r = exp
-            .run(7, 0, &|k| ticks.lock().unwrap().push(k))
-            .unwrap();
+        let r = exp.run(7, 0, &|k| ticks.lock().unwrap().push(k)).unwrap();
         assert_eq!(r.steps, 10);
         assert_eq!(ticks.into_inner().unwrap(), vec![1; 10]);
     }
