@@ -20,7 +20,7 @@
 //! sqrt(rho delta), so overlaps deeper than about h^2 / rho are seen. h is reported with the
 //! verdict and is the tolerance of the check.
 
-use super::Rods;
+use super::Configuration;
 use crate::contact::ContactShape;
 use crate::error::invalid;
 use crate::shape::ConvexShape;
@@ -105,7 +105,7 @@ fn max_nearest_distance(pts: &[Vector3<f64>], cell: f64) -> f64 {
 /// them allowed) over all pairs and all periodic images (27 in the periodic box, the 3 along
 /// z in a cylinder or wedge), with `samples` surface points per particle (module docs). Pairs
 /// only: the walls are checked by [`super::wall_penetration`].
-pub fn sampled_overlap(c: &Rods, samples: usize) -> Result<SampledOverlap> {
+pub fn sampled_overlap(c: &Configuration, samples: usize) -> Result<SampledOverlap> {
     c.check()?;
     // Images along the periodic directions only (z alone behind walls).
     let lat = if c.wall_diameter.is_some() || c.wedge.is_some() {
@@ -234,7 +234,7 @@ mod tests {
         for g in [2.0, 3.0, 5.0] {
             let (pos, ori, shapes) = pair(1e-3, g);
             let species = [0, 0];
-            let r = Rods::periodic(8.0, &shapes, &species, &pos, &ori);
+            let r = Configuration::periodic(8.0, &shapes, &species, &pos, &ori);
             let s = sampled_overlap(&r, 20_000).unwrap();
             assert!(s.worst.is_none(), "g = {g}: {:?}", s.worst);
             assert!(
@@ -243,7 +243,7 @@ mod tests {
                 s.spacing
             );
             let (pos, ..) = pair(-2e-3, g);
-            let r = Rods {
+            let r = Configuration {
                 positions: &pos,
                 ..r
             };

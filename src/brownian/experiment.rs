@@ -493,11 +493,10 @@ impl CaptureExperiment {
         let mut done = 0;
         while done < steps {
             let k = per_sample.min(steps - done);
-            sim.run(&mut rng, k).map_err(|e| {
+            run_ticking(&mut sim, &mut rng, k, tick).map_err(|e| {
                 crate::Error::InvalidInput(format!("run {run}, t = {:e} s: {e}", sim.time))
             })?;
             done += k;
-            tick(k);
             samples.push(self.sample(&sim, &regions, &region_of));
         }
         let capture = sim.capture.as_ref().expect("built with capture");
@@ -681,6 +680,22 @@ pub enum CascadeMode {
 /// particles are placed afresh around a new cylinder (TOP and SIDE in the experiment's
 /// proportions, or uniform over both with [`Placement::Uniform`]). Returns (time (s),
 /// cumulative captured fraction) at every sample, starting at (0, 0). Uses the experiment's physics; its `alpha` and `t_max_s` are not used.
+/// `steps` steps of `sim`, with `tick(1)` after each: a progress bar moves with every step,
+/// not once per sample interval (with 1e5 particles one interval of a few hundred steps takes
+/// minutes). The steps and their random numbers are those of `sim.run(rng, steps)`.
+fn run_ticking<R: Rng + ?Sized>(
+    sim: &mut Simulation,
+    rng: &mut R,
+    steps: u64,
+    tick: &(dyn Fn(u64) + Sync),
+) -> Result<()> {
+    for _ in 0..steps {
+        sim.run(rng, 1)?;
+        tick(1);
+    }
+    Ok(())
+}
+
 pub fn run_cascade(
     exp: &CaptureExperiment,
     mode: CascadeMode,
@@ -751,9 +766,8 @@ pub fn run_cascade(
         let mut done = 0;
         while done < stage_steps {
             let k = per_sample.min(stage_steps - done);
-            sim.run(&mut rng, k)?;
+            run_ticking(&mut sim, &mut rng, k, tick)?;
             done += k;
-            tick(k);
             let captured_now = sim.capture.as_ref().map_or(0, |c| c.count());
             let total_captured = n_total - free + captured_now;
             out.push((t0 + sim.time, total_captured as f64 / n_total as f64));
@@ -993,6 +1007,18 @@ mod tests {
             sample_every_s: 1e-3,
             bond_factor: 1.1,
         }
+    }
+
+    /// The progress callback hears of every step, not once per sample interval: ten steps
+    /// in one interval are ten ticks of one step.
+    #[test]
+    fn progress_ticks_every_step() {
+        let exp = test_experiment();
+        assert_eq!((exp.steps(), exp.steps_per_sample()), (10, 10));
+        let ticks = std::sync::Mutex::new(Vec::new());
+        let r = exp.run(7, 0, &|k| ticks.lock().unwrap().push(k)).unwrap();
+        assert_eq!(r.steps, 10);
+        assert_eq!(ticks.into_inner().unwrap(), vec![1; 10]);
     }
 
     #[test]

@@ -4,10 +4,21 @@
 //!
 //! Header line 2 (README, "Output formats", lists every column):
 //! `Lattice="Lx 0 0 0 Ly 0 0 0 Lz" Origin="x0 y0 z0" pbc="T T T"
-//! Properties=species:S:1:pos:R:3:orientation:R:4:aspherical_shape:R:3:radius:R:1:cylinder_length:R:1:roundness:R:2`
+//! Properties=type:S:1:pos:R:3:orientation:R:4:aspherical_shape:R:3:radius:R:1:cylinder_length:R:1:superquadric_roundness:R:2`
 //! plus any `key=value` pairs the caller adds. Orientation is the body-to-world unit quaternion
 //! as X, Y, Z, W (OVITO's order); the particle axis is the body z axis. Numbers are written
 //! in Rust's shortest round-trip form, so reading the file back gives the same f64 values.
+//!
+//! The names are the ones the two common readers understand. OVITO 3.x maps `type` to
+//! Particle Type, `pos`, `orientation`, `aspherical_shape` and `radius` to its standard
+//! properties by name (QUIP's extended-XYZ conventions); it has no extended-XYZ name for
+//! Superquadric Roundness nor for a particle type's display shape, so `superquadric_roundness`
+//! arrives as a property of that name for the user to map (README, "Output formats"). ASE
+//! reads `type` as a string array and, with no `species` column, gives every particle the
+//! dummy symbol X instead of misreading a shape name as a chemical element.
+//!
+//! [`parse`] also reads the first layout, whose columns were the same but named
+//! `species` and `roundness` ([`LEGACY_PROPERTIES`]).
 
 use crate::error::{invalid, Error};
 use crate::Result;
@@ -37,7 +48,8 @@ impl Cell {
 /// The columns of one particle.
 #[derive(Debug, Clone, PartialEq)]
 pub struct XyzParticle {
-    /// Particle type name (no whitespace), e.g. `S` (sphere) or `SC` (spherocylinder).
+    /// Particle type name (no whitespace; the `type` column), e.g. `sphere` or
+    /// `spherocylinder`.
     pub species: String,
     pub position: Vector3<f64>,
     /// Body -> world.
@@ -53,8 +65,29 @@ pub struct XyzParticle {
     pub roundness: [f64; 2],
 }
 
+impl XyzParticle {
+    /// A sphere of `radius` at `position` (type `sphere`, identity orientation).
+    pub fn sphere(position: Vector3<f64>, radius: f64) -> XyzParticle {
+        XyzParticle {
+            species: "sphere".into(),
+            position,
+            orientation: UnitQuaternion::identity(),
+            aspherical_shape: [radius; 3],
+            radius,
+            cylinder_length: 0.0,
+            roundness: [1.0, 1.0],
+        }
+    }
+}
+
 /// The `Properties=` value written by [`to_string`].
 pub const PROPERTIES: &str =
+    "type:S:1:pos:R:3:orientation:R:4:aspherical_shape:R:3:radius:R:1:cylinder_length:R:1:\
+     superquadric_roundness:R:2";
+
+/// The `Properties=` value of files written before the columns were renamed (same columns in
+/// the same order); [`parse`] reads both.
+pub const LEGACY_PROPERTIES: &str =
     "species:S:1:pos:R:3:orientation:R:4:aspherical_shape:R:3:radius:R:1:cylinder_length:R:1:\
      roundness:R:2";
 
@@ -144,8 +177,8 @@ pub fn write(
 }
 
 /// Reads a frame written by [`to_string`]: (cell, particles). Checks that the header's
-/// `Lattice` is orthorhombic and that `Properties` is exactly [`PROPERTIES`]; `origin` names
-/// the source in errors.
+/// `Lattice` is orthorhombic and that `Properties` is exactly [`PROPERTIES`] or
+/// [`LEGACY_PROPERTIES`]; `origin` names the source in errors.
 pub fn parse(text: &str, origin: &str) -> Result<(Cell, Vec<XyzParticle>)> {
     let err = |line: usize, msg: String| Error::File {
         path: origin.to_string(),
@@ -159,8 +192,17 @@ pub fn parse(text: &str, origin: &str) -> Result<(Cell, Vec<XyzParticle>)> {
     let header = lines
         .next()
         .ok_or_else(|| err(2, "missing header line".into()))?;
-    if !header.contains(&format!("Properties={PROPERTIES}")) {
-        return Err(err(2, format!("Properties must be {PROPERTIES}")));
+    let properties = header
+        .split_whitespace()
+        .find_map(|t| t.strip_prefix("Properties="));
+    if !matches!(properties, Some(p) if p == PROPERTIES || p == LEGACY_PROPERTIES) {
+        return Err(err(
+            2,
+            format!(
+                "Properties is {}: must be {PROPERTIES} (or the older {LEGACY_PROPERTIES})",
+                properties.unwrap_or("missing")
+            ),
+        ));
     }
     let lat = header
         .split("Lattice=\"")
@@ -296,6 +338,30 @@ mod tests {
         let text = to_string(&cyl, &p, &[]).unwrap();
         assert!(text.contains("Origin=\"-3 -3 0\" pbc=\"F F T\""));
         assert_eq!(parse(&text, "test").unwrap().0, cyl);
+    }
+
+    /// A file of the first layout (columns `species`, `roundness`) reads to the same
+    /// particles; a header with other columns is refused by name.
+    #[test]
+    fn legacy_column_names_are_read() {
+        let p = sample();
+        let text = to_string(&Cell::cubic(4.25), &p, &[]).unwrap();
+        assert!(text.contains(&format!(" Properties={PROPERTIES}")));
+        let legacy = text.replacen(PROPERTIES, LEGACY_PROPERTIES, 1);
+        assert_ne!(legacy, text);
+        assert_eq!(parse(&legacy, "old").unwrap().1, p);
+        let other = text.replacen("superquadric_roundness:R:2", "charge:R:2", 1);
+        let e = parse(&other, "t").unwrap_err().to_string();
+        assert!(e.contains("charge:R:2") && e.contains("must be"), "{e}");
+        let sphere = XyzParticle::sphere(Vector3::new(1.0, 2.0, 3.0), 0.25);
+        assert_eq!(
+            (
+                sphere.species.as_str(),
+                sphere.aspherical_shape,
+                sphere.roundness
+            ),
+            ("sphere", [0.25; 3], [1.0, 1.0])
+        );
     }
 
     #[test]

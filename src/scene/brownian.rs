@@ -597,6 +597,11 @@ fn progress(total: u64, quiet: bool, what: &str) -> ProgressBar {
         .expect("valid template"),
     );
     pb.set_message(what.to_string());
+    // Redrawn every 200 ms from the start, so a run whose first steps are slow (placing and
+    // stepping 1e5 particles) shows its bar and elapsed time within the first second.
+    if !quiet {
+        pb.enable_steady_tick(std::time::Duration::from_millis(200));
+    }
     pb
 }
 

@@ -40,7 +40,7 @@ use crate::coupled::{Basesheet, Coupled, CoupledSetup, Overlap, Switch};
 use crate::error::{invalid, Error};
 use crate::io::{vtk, write_atomic, xyz};
 use crate::Result;
-use nalgebra::{UnitQuaternion, Vector3};
+use nalgebra::Vector3;
 use serde::Deserialize;
 use std::fmt::Write as _;
 use std::path::Path;
@@ -264,18 +264,7 @@ pub struct CoupledSummary {
 
 fn frame(c: &Coupled, out: &Path, k: usize) -> Result<()> {
     let parts: Vec<xyz::XyzParticle> = (0..c.dem.p.len())
-        .map(|i| {
-            let r = c.dem.p.radius[i];
-            xyz::XyzParticle {
-                species: "S".into(),
-                position: c.dem.p.pos[i],
-                orientation: UnitQuaternion::identity(),
-                aspherical_shape: [r, r, r],
-                radius: r,
-                cylinder_length: 0.0,
-                roundness: [1.0, 1.0],
-            }
-        })
+        .map(|i| xyz::XyzParticle::sphere(c.dem.p.pos[i], c.dem.p.radius[i]))
         .collect();
     let d = c.dims;
     let dx = c.setup.dx_m;

@@ -70,7 +70,7 @@ use crate::error::{invalid, Error};
 use crate::io::plot::CsvPlot;
 use crate::io::{write_atomic, xyz};
 use crate::Result;
-use nalgebra::{UnitQuaternion, Vector3};
+use nalgebra::Vector3;
 use rand::{Rng, SeedableRng};
 use serde::Deserialize;
 use std::f64::consts::PI;
@@ -916,18 +916,7 @@ fn read_checkpoint(
 /// The particles of a DEM system as extended-XYZ rows (radius per particle).
 fn xyz_frame(scene: &DemScene, dem: &Dem) -> (xyz::Cell, Vec<xyz::XyzParticle>) {
     let parts = (0..dem.p.len())
-        .map(|i| {
-            let r = dem.p.radius[i];
-            xyz::XyzParticle {
-                species: "S".into(),
-                position: dem.p.pos[i],
-                orientation: UnitQuaternion::identity(),
-                aspherical_shape: [r, r, r],
-                radius: r,
-                cylinder_length: 0.0,
-                roundness: [1.0, 1.0],
-            }
-        })
+        .map(|i| xyz::XyzParticle::sphere(dem.p.pos[i], dem.p.radius[i]))
         .collect();
     let cell = xyz::Cell {
         lengths: [scene.setup.lx_m, scene.setup.ly_m, dem.top_z_m],

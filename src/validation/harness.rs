@@ -273,6 +273,11 @@ impl Outcome {
 
     /// The compact summary stored as an insta snapshot: rounded so that it only changes when
     /// something a reviewer should see changes. The tolerance is not in here.
+    ///
+    /// Band (`literature`) and `statistical` cases also list the measured value of each row
+    /// ([`measured_lines`]): their worst relative error is the position in a band or a
+    /// z-score, whose decade hardly ever moves, so without the values a changed result would
+    /// not show in review.
     pub fn snapshot_summary(&self) -> String {
         let (rows, worst, label) = match &self.stats {
             Some(s) => (
@@ -282,12 +287,97 @@ impl Outcome {
             ),
             None => ("-".into(), "-".into(), "-".into()),
         };
+        let measured = match (self.oracle, &self.policy) {
+            (Some(Oracle::Literature | Oracle::Statistical), Some(tol))
+                if !self.rows.is_empty() =>
+            {
+                measured_lines(&self.rows, tol)
+            }
+            _ => String::new(),
+        };
         format!(
-            "id: {}\nrows checked: {rows}\nworst relative error <= {worst}\nworst row: {label}\nresult: {}\n",
+            "id: {}\nrows checked: {rows}\nworst relative error <= {worst}\nworst row: {label}\n{measured}result: {}\n",
             self.id,
             self.verdict().as_str()
         )
     }
+}
+
+/// Rows listed one by one in a snapshot; a case with more lists the ones with the largest
+/// normalised errors (in table order) and says how many it left out.
+pub const MEASURED_ROWS: usize = 40;
+
+/// `got` rounded to the digit a tenth of the allowed deviation reaches, or a tenth of `got`
+/// itself where that is finer: a value that moves by a tenth of its tolerance changes its
+/// snapshot, noise far below it does not, and a value in a one-sided band (an upper bound of
+/// 1e9) still shows two significant digits; below a billionth of the tolerance a value counts
+/// as zero. With no allowed deviation (a zero tolerance), four significant digits.
+pub fn rounded_to_tolerance(got: f64, allowed: f64) -> String {
+    if !got.is_finite() {
+        return format!("{got}");
+    }
+    let step = if allowed.is_finite() && allowed > 0.0 {
+        // (a value below a billionth of its tolerance is round-off, not a size)
+        let size = if got.abs() > 1e-9 * allowed {
+            got.abs()
+        } else {
+            allowed
+        };
+        allowed.min(size) / 10.0
+    } else {
+        got.abs() * 1e-3
+    };
+    if step == 0.0 {
+        return format!("{got}");
+    }
+    let decimals = (-step.log10().floor()).max(0.0) as usize;
+    let text = format!("{got:.decimals$}");
+    // "-0.00" reads as a sign that is not there
+    if text
+        .trim_start_matches('-')
+        .chars()
+        .all(|c| c == '0' || c == '.')
+    {
+        text.trim_start_matches('-').to_string()
+    } else {
+        text
+    }
+}
+
+/// The "measured" block of a band or statistical case's snapshot: each row's label and its
+/// measured value rounded by [`rounded_to_tolerance`].
+fn measured_lines(rows: &[Row], tol: &Tolerance) -> String {
+    let norm = |r: &Row| {
+        let allowed = tol.allowed(r.scale);
+        let diff = (r.got - r.expected).abs();
+        if diff.is_nan() {
+            f64::INFINITY
+        } else {
+            ratio(diff, allowed)
+        }
+    };
+    let mut keep: Vec<usize> = (0..rows.len()).collect();
+    if rows.len() > MEASURED_ROWS {
+        keep.sort_by(|&a, &b| norm(&rows[b]).total_cmp(&norm(&rows[a])).then(a.cmp(&b)));
+        keep.truncate(MEASURED_ROWS);
+        keep.sort_unstable();
+    }
+    let mut out = String::from("measured (to a tenth of the tolerance or of the value):\n");
+    for &k in &keep {
+        let r = &rows[k];
+        out += &format!(
+            "  {}: {}\n",
+            r.label,
+            rounded_to_tolerance(r.got, tol.allowed(r.scale))
+        );
+    }
+    if keep.len() < rows.len() {
+        out += &format!(
+            "  ({} more rows, nearer their expected values, not listed)\n",
+            rows.len() - keep.len()
+        );
+    }
+    out
 }
 
 fn panic_message(p: &(dyn std::any::Any + Send)) -> String {
@@ -681,6 +771,57 @@ mod tests {
             m.contains("expected = 4.5e0") && m.contains("mean relative error"),
             "{m}"
         );
+    }
+
+    /// Band and statistical cases list each measured value, rounded to a tenth of its allowed
+    /// deviation; other oracles keep the short summary.
+    #[test]
+    fn band_snapshots_show_rounded_measured_values() {
+        assert_eq!(rounded_to_tolerance(0.643_217, 0.02), "0.643");
+        assert_eq!(rounded_to_tolerance(1.278, 4.89), "1.3");
+        assert_eq!(rounded_to_tolerance(972.01, 150.0), "972");
+        assert_eq!(rounded_to_tolerance(-0.0004, 0.05), "-0.00040");
+        assert_eq!(rounded_to_tolerance(-0.0, 0.05), "0.000");
+        assert_eq!(rounded_to_tolerance(5.27, 5e8), "5.3");
+        assert_eq!(rounded_to_tolerance(6.2e-16, 4.89), "0.0");
+        assert_eq!(rounded_to_tolerance(2.5e-8, 0.0), "0.00000002500");
+        assert_eq!(rounded_to_tolerance(f64::NAN, 1.0), "NaN");
+        let rows = vec![
+            Row::new("phi in [0.62, 0.66]", 0.643_217, 0.64, 0.02),
+            Row::new("z of drift", -1.278, 0.0, 1.0),
+        ];
+        let stats = evaluate(&rows, &tol(Some(1.0), None));
+        let mut o = Outcome {
+            id: "555".into(),
+            folder: "555-band".into(),
+            title: "t".into(),
+            tier: Tier::Fast,
+            tolerance: String::new(),
+            stats: Some(stats),
+            seconds: 0.0,
+            passed: true,
+            message: None,
+            rows,
+            oracle: Some(Oracle::Literature),
+            policy: Some(tol(Some(1.0), None)),
+            deviation: None,
+        };
+        assert_eq!(
+            o.snapshot_summary(),
+            "id: 555\nrows checked: 2\nworst relative error <= 1e1\nworst row: z of drift\n\
+             measured (to a tenth of the tolerance or of the value):\n  phi in [0.62, 0.66]: 0.643\n  \
+             z of drift: -1.3\nresult: PASS\n"
+        );
+        o.oracle = Some(Oracle::Analytic);
+        assert!(!o.snapshot_summary().contains("measured"));
+        // Many rows: the worst MEASURED_ROWS, in table order, and a count of the rest.
+        o.oracle = Some(Oracle::Statistical);
+        o.rows = (0..MEASURED_ROWS + 3)
+            .map(|k| Row::new(format!("r{k}"), k as f64 / 100.0, 0.0, 1.0))
+            .collect();
+        let s = o.snapshot_summary();
+        assert!(!s.contains("  r2: ") && s.contains("  r3: 0.030\n"), "{s}");
+        assert!(s.contains("(3 more rows"), "{s}");
     }
 
     #[test]
