@@ -51,7 +51,7 @@ pub fn runner_for(id: &str) -> Option<Runner> {
         "606" => Some(deposition::case_606),
         "607" => Some(deposition::case_607),
         "608" => Some(deposition::case_608),
-        "901" => Some(deposition_figures::case_901_902),
+        "901" | "902" => Some(deposition_figures::case_901_902),
         "910" => Some(deposition_figures::case_910),
         "911" => Some(deposition_figures::case_911),
         "912" => Some(deposition_figures::case_912),
