@@ -52,7 +52,7 @@ pub fn runner_for(id: &str) -> Option<Runner> {
         "607" => Some(deposition::case_607),
         "608" => Some(deposition::case_608),
         "901" | "902" => Some(deposition_figures::case_901_902),
-        "910" => Some(deposition_figures::case_910),
+        "910" | "914" => Some(deposition_figures::case_910_914),
         "911" => Some(deposition_figures::case_911),
         "912" => Some(deposition_figures::case_912),
         "913" => Some(deposition_figures::case_913),
