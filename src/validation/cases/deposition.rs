@@ -491,6 +491,50 @@ pub fn case_607(ctx: &CaseContext) -> Result<Vec<Row>> {
     Ok(rows)
 }
 
+/// The measures of every run of the monodisperse sphere deposit of row `i` of a 608/609
+/// table (columns radius_m, particles, box_side_m, solids_percent, runs), in parallel.
+fn sphere_deposit_runs(
+    t: &crate::validation::Table,
+    i: usize,
+    seed: u64,
+    id: &str,
+) -> Result<Vec<crate::deposition::measure::DepositMeasures>> {
+    let text = format!(
+        "kind = \"deposition\"\nseed = {seed}\nruns = {}\n[film]\nparticles = {}\n\
+         box_side_m = {}\nsolids_percent = {}\n[[species]]\nname = \"sphere\"\n\
+         semi_axes_m = [{r}, {r}, {r}]\n",
+        t.f64(i, "runs")? as usize,
+        t.f64(i, "particles")? as usize,
+        t.f64(i, "box_side_m")?,
+        t.f64(i, "solids_percent")?,
+        r = t.f64(i, "radius_m")?,
+    );
+    let scene = crate::scene::deposition::parse_scene(&text, id)?;
+    use rayon::prelude::*;
+    (0..scene.runs)
+        .into_par_iter()
+        .map(|k| scene.run_one(k, |_, _, _| {}).map(|r| r.measures))
+        .collect()
+}
+
+/// A row: the mean over runs of `values`, against the band [band_low, band_high] of row `i`.
+fn band_row(
+    t: &crate::validation::Table,
+    i: usize,
+    what: &str,
+    values: &[f64],
+) -> Result<Row> {
+    let mean = values.iter().sum::<f64>() / values.len() as f64;
+    let (lo, hi) = (t.f64(i, "band_low")?, t.f64(i, "band_high")?);
+    let list: Vec<String> = values.iter().map(|p| format!("{p:.4}")).collect();
+    Ok(Row::new(
+        format!("{} runs: mean {what} (runs {})", values.len(), list.join(" ")),
+        mean,
+        0.5 * (lo + hi),
+        0.5 * (hi - lo),
+    ))
+}
+
 /// Case 608: core packing fraction of monodisperse spheres deposited from the Table B1
 /// colour (mean over runs), against the band between random loose packing and sequential
 /// gravitational deposition; rows also give each run's value for review.
@@ -498,42 +542,35 @@ pub fn case_608(ctx: &CaseContext) -> Result<Vec<Row>> {
     let t = ctx.expected_table()?;
     non_empty(&t)?;
     let seed = required_seed(ctx, "case 608 needs a seed")?;
-    let mut rows = Vec::new();
-    for i in 0..t.len() {
-        let text = format!(
-            "kind = \"deposition\"\nseed = {seed}\nruns = {}\n[film]\nparticles = {}\n\
-             box_side_m = {}\nsolids_percent = {}\n[[species]]\nname = \"sphere\"\n\
-             semi_axes_m = [{r}, {r}, {r}]\n",
-            t.f64(i, "runs")? as usize,
-            t.f64(i, "particles")? as usize,
-            t.f64(i, "box_side_m")?,
-            t.f64(i, "solids_percent")?,
-            r = t.f64(i, "radius_m")?,
-        );
-        let scene = crate::scene::deposition::parse_scene(&text, "case 608")?;
-        use rayon::prelude::*;
-        let phis: Vec<f64> = (0..scene.runs)
-            .into_par_iter()
-            .map(|k| {
-                let r = scene.run_one(k, |_, _, _| {})?;
-                r.measures.core_porosity.map(|p| 1.0 - p).ok_or_else(|| {
-                    Error::Validation("case 608: layer too thin for a core porosity".into())
+    (0..t.len())
+        .map(|i| {
+            let phis: Vec<f64> = sphere_deposit_runs(&t, i, seed, "case 608")?
+                .iter()
+                .map(|m| {
+                    m.core_porosity.map(|p| 1.0 - p).ok_or_else(|| {
+                        Error::Validation("case 608: layer too thin for a core porosity".into())
+                    })
                 })
-            })
-            .collect::<Result<_>>()?;
-        let mean = phis.iter().sum::<f64>() / phis.len() as f64;
-        let (lo, hi) = (t.f64(i, "band_low")?, t.f64(i, "band_high")?);
-        let list: Vec<String> = phis.iter().map(|p| format!("{p:.4}")).collect();
-        rows.push(Row::new(
-            format!(
-                "{} runs: mean core packing fraction (runs {})",
-                phis.len(),
-                list.join(" ")
-            ),
-            mean,
-            0.5 * (lo + hi),
-            0.5 * (hi - lo),
-        ));
-    }
-    Ok(rows)
+                .collect::<Result<_>>()?;
+            band_row(&t, i, "core packing fraction", &phis)
+        })
+        .collect()
+}
+
+/// Case 609: first-layer coverage of the substrate by monodisperse spheres deposited from the
+/// Table B1 colour (mean over runs), between the random sequential adsorption jamming limit of
+/// discs and hexagonal close packing.
+pub fn case_609(ctx: &CaseContext) -> Result<Vec<Row>> {
+    let t = ctx.expected_table()?;
+    non_empty(&t)?;
+    let seed = required_seed(ctx, "case 609 needs a seed")?;
+    (0..t.len())
+        .map(|i| {
+            let cover: Vec<f64> = sphere_deposit_runs(&t, i, seed, "case 609")?
+                .iter()
+                .map(|m| m.first_layer_coverage)
+                .collect();
+            band_row(&t, i, "first-layer coverage", &cover)
+        })
+        .collect()
 }

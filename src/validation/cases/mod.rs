@@ -51,6 +51,7 @@ pub fn runner_for(id: &str) -> Option<Runner> {
         "606" => Some(deposition::case_606),
         "607" => Some(deposition::case_607),
         "608" => Some(deposition::case_608),
+        "609" => Some(deposition::case_609),
         "901" | "902" => Some(deposition_figures::case_901_902),
         "910" | "914" => Some(deposition_figures::case_910_914),
         "911" => Some(deposition_figures::case_911),
