@@ -47,7 +47,9 @@ impl VoxelGrid {
         pore: Vec<bool>,
     ) -> Result<VoxelGrid> {
         if n.iter().any(|&m| m == 0) {
-            return invalid(format!("voxel grid {n:?}: every axis needs at least one voxel"));
+            return invalid(format!(
+                "voxel grid {n:?}: every axis needs at least one voxel"
+            ));
         }
         if let Some(h) = spacing_m.iter().find(|h| !(h.is_finite() && **h > 0.0)) {
             return invalid(format!("voxel spacing {h} m: must be positive and finite"));
@@ -90,7 +92,9 @@ impl VoxelGrid {
 /// centre lies strictly inside a sphere.
 pub fn voxelize_bed(bed: &Bed, z_lo_m: f64, z_hi_m: f64, voxel_m: f64) -> Result<VoxelGrid> {
     if !(voxel_m.is_finite() && voxel_m > 0.0) {
-        return invalid(format!("voxel edge {voxel_m} m: must be positive and finite"));
+        return invalid(format!(
+            "voxel edge {voxel_m} m: must be positive and finite"
+        ));
     }
     if !(z_lo_m.is_finite() && z_hi_m.is_finite() && z_hi_m > z_lo_m) {
         return invalid(format!(
@@ -227,7 +231,13 @@ pub fn squared_distance_to(grid: &VoxelGrid, site: &[bool]) -> Vec<f64> {
                     line[rep * m + q] = d[s + q * stride];
                 }
             }
-            edt_line(&line[..len], w, &mut out[..len], &mut v[..len], &mut z[..len + 1]);
+            edt_line(
+                &line[..len],
+                w,
+                &mut out[..len],
+                &mut v[..len],
+                &mut z[..len + 1],
+            );
             let off = if reps == 3 { m } else { 0 };
             for q in 0..m {
                 d[s + q * stride] = out[off + q];
@@ -306,7 +316,11 @@ mod tests {
     use super::*;
     use nalgebra::Vector3;
 
-    fn grid(n: [usize; 3], periodic: [bool; 3], pore: impl Fn(usize, usize, usize) -> bool) -> VoxelGrid {
+    fn grid(
+        n: [usize; 3],
+        periodic: [bool; 3],
+        pore: impl Fn(usize, usize, usize) -> bool,
+    ) -> VoxelGrid {
         let mut v = Vec::new();
         for k in 0..n[2] {
             for j in 0..n[1] {
@@ -324,7 +338,11 @@ mod tests {
         use rand::{Rng, SeedableRng};
         let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(4);
         let n = [7usize, 5, 6];
-        for periodic in [[true, true, false], [false, false, false], [true, false, true]] {
+        for periodic in [
+            [true, true, false],
+            [false, false, false],
+            [true, false, true],
+        ] {
             let mut g = grid(n, periodic, |_, _, _| true);
             g.spacing_m = [0.7, 1.3, 1.0];
             let site: Vec<bool> = (0..g.len()).map(|_| rng.gen::<f64>() < 0.08).collect();
@@ -346,7 +364,11 @@ mod tests {
                     }
                     best = best.min(s);
                 }
-                assert!((d[a] - best).abs() <= 1e-12 * best.max(1.0), "{a}: {} {best}", d[a]);
+                assert!(
+                    (d[a] - best).abs() <= 1e-12 * best.max(1.0),
+                    "{a}: {} {best}",
+                    d[a]
+                );
             }
         }
     }
@@ -357,11 +379,16 @@ mod tests {
     #[test]
     fn slab_pore_has_one_thickness() {
         for p in [1usize, 4, 7] {
-            let g = grid([6, 6, p + 2], [true, true, false], |_, _, k| k >= 1 && k <= p);
+            let g = grid([6, 6, p + 2], [true, true, false], |_, _, k| {
+                k >= 1 && k <= p
+            });
             let psd = pore_size_distribution(&g).unwrap();
             assert_eq!(psd.len(), 1, "{psd:?}");
             let want = ((p as f64 + 1.0) / 2.0).floor();
-            assert!((psd[0].0 - want).abs() < 1e-12 && psd[0].1 == 1.0, "P = {p}: {psd:?}");
+            assert!(
+                (psd[0].0 - want).abs() < 1e-12 && psd[0].1 == 1.0,
+                "P = {p}: {psd:?}"
+            );
         }
     }
 
@@ -391,7 +418,10 @@ mod tests {
             }
             let psd = pore_size_distribution(&g).unwrap();
             assert_eq!(psd.len(), 1, "R = {r}: {psd:?}");
-            assert!((psd[0].0 - want).abs() < 1e-12, "R = {r}: {psd:?} want {want}");
+            assert!(
+                (psd[0].0 - want).abs() < 1e-12,
+                "R = {r}: {psd:?} want {want}"
+            );
         }
     }
 
@@ -411,10 +441,23 @@ mod tests {
         let g = voxelize_bed(&bed, 0.0, 1.0, h).unwrap();
         assert_eq!(g.n, [64, 64, 64]);
         let want = 4.0 / 3.0 * std::f64::consts::PI * 0.027;
-        assert!(((1.0 - g.porosity()) - want).abs() < 3e-3, "{}", g.porosity());
+        assert!(
+            ((1.0 - g.porosity()) - want).abs() < 3e-3,
+            "{}",
+            g.porosity()
+        );
         // wrapped across the periodic faces: the same count after a shift by whole voxels
         let shifted = [Vector3::new(0.5 - 20.0 * h, 0.5 + 30.0 * h, 0.5)];
-        let g2 = voxelize_bed(&Bed { pos: &shifted, ..bed }, 0.0, 1.0, h).unwrap();
+        let g2 = voxelize_bed(
+            &Bed {
+                pos: &shifted,
+                ..bed
+            },
+            0.0,
+            1.0,
+            h,
+        )
+        .unwrap();
         assert_eq!(
             g.pore.iter().filter(|p| !**p).count(),
             g2.pore.iter().filter(|p| !**p).count()
@@ -423,10 +466,12 @@ mod tests {
 
     #[test]
     fn bad_input_is_named() {
-        assert!(VoxelGrid::new([0, 1, 1], [1.0; 3], [0.0; 3], [false; 3], vec![])
-            .unwrap_err()
-            .to_string()
-            .contains("at least one voxel"));
+        assert!(
+            VoxelGrid::new([0, 1, 1], [1.0; 3], [0.0; 3], [false; 3], vec![])
+                .unwrap_err()
+                .to_string()
+                .contains("at least one voxel")
+        );
         let g = grid([3, 3, 3], [false; 3], |_, _, _| true);
         assert!(local_thickness(&g)
             .unwrap_err()

@@ -41,7 +41,11 @@ impl Bed<'_> {
                 return invalid(format!("bed: {name} = {l}: must be positive and finite"));
             }
         }
-        if let Some(i) = self.radius.iter().position(|r| !(r.is_finite() && *r > 0.0)) {
+        if let Some(i) = self
+            .radius
+            .iter()
+            .position(|r| !(r.is_finite() && *r > 0.0))
+        {
             return invalid(format!(
                 "bed: radius of particle {i} = {}: must be positive and finite",
                 self.radius[i]
@@ -162,7 +166,11 @@ mod tests {
         for k in 0..layers {
             for j in 0..m {
                 for i in 0..m {
-                    pos.push(Vector3::new(i as f64 * a, j as f64 * a, (k as f64 + 0.5) * a));
+                    pos.push(Vector3::new(
+                        i as f64 * a,
+                        j as f64 * a,
+                        (k as f64 + 0.5) * a,
+                    ));
                 }
             }
         }
@@ -200,7 +208,13 @@ mod tests {
         let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(9);
         let (l, h) = (10.0, 30.0);
         let pos: Vec<Vector3<f64>> = (0..6000)
-            .map(|_| Vector3::new(rng.gen::<f64>() * l, rng.gen::<f64>() * l, rng.gen::<f64>() * h))
+            .map(|_| {
+                Vector3::new(
+                    rng.gen::<f64>() * l,
+                    rng.gen::<f64>() * l,
+                    rng.gen::<f64>() * h,
+                )
+            })
             .collect();
         let radius = vec![0.5; pos.len()];
         let bed = Bed {

@@ -21,7 +21,11 @@ fn to_bits(v: &Vector3<f64>) -> V3 {
 }
 
 fn from_bits(b: &V3) -> Vector3<f64> {
-    Vector3::new(f64::from_bits(b[0]), f64::from_bits(b[1]), f64::from_bits(b[2]))
+    Vector3::new(
+        f64::from_bits(b[0]),
+        f64::from_bits(b[1]),
+        f64::from_bits(b[2]),
+    )
 }
 
 fn vecs_to_bits(v: &[Vector3<f64>]) -> Vec<V3> {
@@ -171,8 +175,14 @@ impl Dem {
         if s.first_start.len() != n + 1
             || s.second_start.len() != n + 1
             || s.second_pairs.len() != np
-            || s.pairs.iter().any(|p| p.0 as usize >= n || p.1 as usize >= n)
-            || s.first_start.iter().chain(&s.second_start).chain(&s.second_pairs).any(|&k| k as usize > np)
+            || s.pairs
+                .iter()
+                .any(|p| p.0 as usize >= n || p.1 as usize >= n)
+            || s.first_start
+                .iter()
+                .chain(&s.second_start)
+                .chain(&s.second_pairs)
+                .any(|&k| k as usize > np)
         {
             return invalid("checkpoint: the neighbour list is inconsistent with the particles");
         }
@@ -258,7 +268,11 @@ mod tests {
             .load_state(&serde_json::from_str(&text).unwrap())
             .unwrap();
         second.run(10000).unwrap();
-        assert!(whole.nl.pairs.iter().any(|p| p.delta > 0.0 && p.xi != Vector3::zeros()));
+        assert!(whole
+            .nl
+            .pairs
+            .iter()
+            .any(|p| p.delta > 0.0 && p.xi != Vector3::zeros()));
         assert_eq!(whole.save_state(), second.save_state());
     }
 

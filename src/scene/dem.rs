@@ -933,7 +933,10 @@ fn write_frame(out: &Path, scene: &DemScene, dem: &Dem, k: u64) -> Result<()> {
         &out.join("trajectory").join(format!("frame_{k:06}.xyz")),
         &cell,
         &parts,
-        &[("Time", format!("{}", dem.time_s)), ("Step", format!("{}", dem.steps))],
+        &[
+            ("Time", format!("{}", dem.time_s)),
+            ("Step", format!("{}", dem.steps)),
+        ],
     )
 }
 
@@ -951,13 +954,7 @@ fn run_scene_limited(
     opts: &RunOptions,
     max_checks: Option<u64>,
 ) -> Result<()> {
-    if let Some(t) = opts.checkpoint_every_seconds {
-        if !(t.is_finite() && t >= 0.0) {
-            return invalid(format!(
-                "checkpoint interval {t} s: must be finite and not negative"
-            ));
-        }
-    }
+    opts.check_checkpoint_interval()?;
     let scene = parse_scene(text, origin)?;
     let mut dem = build(&scene)?;
     let ckpt_path = out.join("checkpoint.json");
@@ -1103,17 +1100,15 @@ fn run_scene_limited(
                 ..Default::default()
             }
             .write_or_warn(&out.join("rdf.svg"), &t);
-            summary.rdf_peak_r_over_d = g
-                .iter()
-                .max_by(|a, b| a.1.total_cmp(&b.1))
-                .map(|x| x.0);
+            summary.rdf_peak_r_over_d = g.iter().max_by(|a, b| a.1.total_cmp(&b.1)).map(|x| x.0);
         }
         Err(why) => eprintln!("dem: g(r) not computed: {why}"),
     }
     match bed_pore_sizes(&scene, &dem) {
         Ok((rows, ps)) => {
             let d = 2.0 * scene.radius.iter().sum::<f64>() / scene.radius.len() as f64;
-            let mut t = String::from("pore_diameter_m,pore_diameter_over_mean_d,pore_volume_fraction\n");
+            let mut t =
+                String::from("pore_diameter_m,pore_diameter_over_mean_d,pore_volume_fraction\n");
             for (dp, f) in &rows {
                 let _ = writeln!(t, "{dp},{},{f}", dp / d);
             }
@@ -1237,10 +1232,18 @@ mod tests {
         assert_eq!(strip(&whole), strip(&killed));
         // a checkpoint of another scene is refused, naming the file
         run_scene_limited(&text, "test", &killed, &quiet(), Some(1)).unwrap();
-        let e = run_scene(&text.replace("seed = 1", "seed = 2"), "test", &killed, &quiet())
-            .unwrap_err()
-            .to_string();
-        assert!(e.contains("checkpoint.json") && e.contains("different scene"), "{e}");
+        let e = run_scene(
+            &text.replace("seed = 1", "seed = 2"),
+            "test",
+            &killed,
+            &quiet(),
+        )
+        .unwrap_err()
+        .to_string();
+        assert!(
+            e.contains("checkpoint.json") && e.contains("different scene"),
+            "{e}"
+        );
         let _ = std::fs::remove_dir_all(&base);
     }
 

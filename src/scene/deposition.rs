@@ -141,7 +141,10 @@ struct SpeciesSpec {
 /// one species omits it and takes the rest. Err: the message.
 fn volume_ratios(species: &[SpeciesSpec]) -> std::result::Result<Vec<f64>, String> {
     if species.iter().all(|s| s.volume_percent.is_none()) {
-        return Ok(species.iter().map(|s| s.volume_ratio.unwrap_or(1.0)).collect());
+        return Ok(species
+            .iter()
+            .map(|s| s.volume_ratio.unwrap_or(1.0))
+            .collect());
     }
     if let Some(s) = species.iter().find(|s| s.volume_ratio.is_some()) {
         return Err(format!(
@@ -149,10 +152,16 @@ fn volume_ratios(species: &[SpeciesSpec]) -> std::result::Result<Vec<f64>, Strin
             s.name
         ));
     }
-    let open: Vec<&SpeciesSpec> = species.iter().filter(|s| s.volume_percent.is_none()).collect();
+    let open: Vec<&SpeciesSpec> = species
+        .iter()
+        .filter(|s| s.volume_percent.is_none())
+        .collect();
     let given: f64 = species.iter().filter_map(|s| s.volume_percent).sum();
     for s in species {
-        if let Some(p) = s.volume_percent.filter(|p| !(p.is_finite() && *p >= 0.0 && *p <= 100.0)) {
+        if let Some(p) = s
+            .volume_percent
+            .filter(|p| !(p.is_finite() && *p >= 0.0 && *p <= 100.0))
+        {
             return Err(format!(
                 "species `{}`.volume_percent = {p}: must be in [0, 100]",
                 s.name
@@ -162,7 +171,11 @@ fn volume_ratios(species: &[SpeciesSpec]) -> std::result::Result<Vec<f64>, Strin
     let rest = 100.0 - given;
     match open.len() {
         0 if (rest).abs() <= 1e-9 => {}
-        0 => return Err(format!("species volume_percent values sum to {given}, not 100")),
+        0 => {
+            return Err(format!(
+                "species volume_percent values sum to {given}, not 100"
+            ))
+        }
         1 if rest >= -1e-9 => {}
         1 => {
             return Err(format!(
@@ -1081,22 +1094,33 @@ mod tests {
         ))
         .unwrap();
         let a = s.species[0].semi_axes_m;
-        assert!((a[0] - 0.5e-6).abs() < 1e-21 && (a[1] - 0.125e-6).abs() < 1e-21, "{a:?}");
+        assert!(
+            (a[0] - 0.5e-6).abs() < 1e-21 && (a[1] - 0.125e-6).abs() < 1e-21,
+            "{a:?}"
+        );
     }
 
     #[test]
     fn species_shape_errors_name_the_key() {
         let e = |sp: &str| scene(sp).unwrap_err().to_string();
-        assert!(e("[[species]]\nname = \"p\"\nshape = \"cube\"\nlongest_semi_axis_m = 1e-6\n")
-            .contains("shape = \"cube\""));
-        assert!(e("[[species]]\nname = \"p\"\nshape = \"platelet\"\naspect_ratio = 0.5\n\
-                   longest_semi_axis_m = 1e-6\n")
+        assert!(
+            e("[[species]]\nname = \"p\"\nshape = \"cube\"\nlongest_semi_axis_m = 1e-6\n")
+                .contains("shape = \"cube\"")
+        );
+        assert!(e(
+            "[[species]]\nname = \"p\"\nshape = \"platelet\"\naspect_ratio = 0.5\n\
+                   longest_semi_axis_m = 1e-6\n"
+        )
         .contains("aspect_ratio = 0.5"));
-        assert!(e("[[species]]\nname = \"p\"\nsemi_axes_m = [1e-6, 1e-6, 1e-6]\n\
-                   shape = \"sphere\"\nlongest_semi_axis_m = 1e-6\n")
+        assert!(e(
+            "[[species]]\nname = \"p\"\nsemi_axes_m = [1e-6, 1e-6, 1e-6]\n\
+                   shape = \"sphere\"\nlongest_semi_axis_m = 1e-6\n"
+        )
         .contains("not both"));
-        assert!(e("[[species]]\nname = \"p\"\nshape = \"sphere\"\nlongest_semi_axis_m = 1e-6\n\
-                   particle_volume_m3 = 1e-18\n")
+        assert!(e(
+            "[[species]]\nname = \"p\"\nshape = \"sphere\"\nlongest_semi_axis_m = 1e-6\n\
+                   particle_volume_m3 = 1e-18\n"
+        )
         .contains("not both"));
         assert!(e("[[species]]\nname = \"p\"\n").contains("semi_axes_m = [a, b, c]"));
     }
@@ -1115,7 +1139,9 @@ mod tests {
         assert!((s.species[1].volume_share - 0.7).abs() < 1e-15);
         let e = scene(&sp("volume_percent = 130")).unwrap_err().to_string();
         assert!(e.contains("volume_percent = 130"), "{e}");
-        let e = scene(&sp("volume_percent = 30\nvolume_ratio = 2")).unwrap_err().to_string();
+        let e = scene(&sp("volume_percent = 30\nvolume_ratio = 2"))
+            .unwrap_err()
+            .to_string();
         assert!(e.contains("volume_ratio with volume_percent"), "{e}");
     }
 }

@@ -62,6 +62,18 @@ pub struct RunOptions {
     pub checkpoint_every_seconds: Option<f64>,
 }
 
+impl RunOptions {
+    /// Refuses a negative or non-finite checkpoint interval.
+    pub fn check_checkpoint_interval(&self) -> Result<()> {
+        match self.checkpoint_every_seconds {
+            Some(t) if !(t.is_finite() && t >= 0.0) => invalid(format!(
+                "checkpoint interval {t} s: must be finite and not negative"
+            )),
+            _ => Ok(()),
+        }
+    }
+}
+
 /// The values of a scene's `kind`, as error messages list them.
 const KNOWN_KINDS: &str =
     "\"brownian\", \"packing\", \"deposition\", \"dem\", \"lbm\", \"coupled\"";

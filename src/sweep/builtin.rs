@@ -74,8 +74,7 @@ pub fn sweep_text(name: &str, runs_per_point: Option<usize>) -> Result<String> {
     if n == 0 {
         return invalid("--runs-per-point 0: must be at least 1".to_string());
     }
-    Ok(b
-        .toml
+    Ok(b.toml
         .lines()
         .map(|l| {
             if l.starts_with("runs_per_point = ") {
@@ -133,6 +132,9 @@ mod tests {
         let plan = plan_text(&t, Path::new("."), "t").unwrap();
         assert_eq!(plan.jobs.len(), 8 * 3 * 2);
         assert!(sweep_text("deposition-fig3", Some(0)).is_err());
-        assert!(sweep_text("nope", None).unwrap_err().to_string().contains("known:"));
+        assert!(sweep_text("nope", None)
+            .unwrap_err()
+            .to_string()
+            .contains("known:"));
     }
 }

@@ -37,13 +37,7 @@ pub(super) fn run_scene_limited(
     opts: &RunOptions,
     max_new_steps: Option<usize>,
 ) -> Result<()> {
-    if let Some(t) = opts.checkpoint_every_seconds {
-        if !(t.is_finite() && t >= 0.0) {
-            return invalid(format!(
-                "checkpoint interval {t} s: must be finite and not negative"
-            ));
-        }
-    }
+    opts.check_checkpoint_interval()?;
     let scene = parse_scene(text, origin)?;
     let prm = &scene.params;
     // Upper estimate: a 40000-sphere run holds about 30 MB (750 bytes a particle: state,

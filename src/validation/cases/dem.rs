@@ -743,9 +743,11 @@ pub fn case_710(ctx: &CaseContext) -> Result<Vec<Row>> {
         lx_m: cell.lengths[0],
         ly_m: cell.lengths[1],
     };
-    let (lo, hi) = pos.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), p| {
-        (a.min(p.z), b.max(p.z))
-    });
+    let (lo, hi) = pos
+        .iter()
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), p| {
+            (a.min(p.z), b.max(p.z))
+        });
     let grid = voxelize_bed(&bed, lo, hi, bed.mean_diameter() / 8.0)?;
     let h = grid.spacing_m[0];
     let psd = pore_size_distribution(&grid)?;
@@ -768,7 +770,12 @@ pub fn case_710(ctx: &CaseContext) -> Result<Vec<Row>> {
             1e-9,
         ));
     }
-    rows.push(Row::new("pore voxels of the grid", pore_voxels, ref_voxels, 0.5));
+    rows.push(Row::new(
+        "pore voxels of the grid",
+        pore_voxels,
+        ref_voxels,
+        0.5,
+    ));
     // slab: 7 pore layers between solid layers, periodic in x and y
     let n = [6usize, 6, 9];
     let slab: Vec<bool> = (0..n[0] * n[1] * n[2])
@@ -805,9 +812,7 @@ pub fn case_710(ctx: &CaseContext) -> Result<Vec<Row>> {
     let want = 0.5 * (3.0f64.sqrt() - 1.0);
     for k in [12.0, 24.0] {
         let g = voxelize_bed(&sc_bed, 0.5, 2.5, 1.0 / k)?;
-        let largest = pore_size_distribution(&g)?
-            .last()
-            .map_or(f64::NAN, |x| x.0);
+        let largest = pore_size_distribution(&g)?.last().map_or(f64::NAN, |x| x.0);
         rows.push(Row::new(
             format!("simple cubic: largest inscribed radius / D at h = D/{k}"),
             largest,
@@ -850,7 +855,9 @@ fn oblique_impact(model: ContactModel, r: f64, v: f64, theta: f64) -> Result<(f6
             ));
         }
     }
-    Err(Error::Validation("oblique impact: the contact did not end".into()))
+    Err(Error::Validation(
+        "oblique impact: the contact did not end".into(),
+    ))
 }
 
 /// Cases 711 (elastic) and 712 (with normal damping; a documented deviation): oblique impacts on the floor against the rigid-body limits (Hertz–Mindlin,

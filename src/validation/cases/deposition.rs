@@ -518,17 +518,16 @@ fn sphere_deposit_runs(
 }
 
 /// A row: the mean over runs of `values`, against the band [band_low, band_high] of row `i`.
-fn band_row(
-    t: &crate::validation::Table,
-    i: usize,
-    what: &str,
-    values: &[f64],
-) -> Result<Row> {
+fn band_row(t: &crate::validation::Table, i: usize, what: &str, values: &[f64]) -> Result<Row> {
     let mean = values.iter().sum::<f64>() / values.len() as f64;
     let (lo, hi) = (t.f64(i, "band_low")?, t.f64(i, "band_high")?);
     let list: Vec<String> = values.iter().map(|p| format!("{p:.4}")).collect();
     Ok(Row::new(
-        format!("{} runs: mean {what} (runs {})", values.len(), list.join(" ")),
+        format!(
+            "{} runs: mean {what} (runs {})",
+            values.len(),
+            list.join(" ")
+        ),
         mean,
         0.5 * (lo + hi),
         0.5 * (hi - lo),

@@ -227,7 +227,11 @@ fn spearman(x: &[f64], y: &[f64]) -> f64 {
     let (rx, ry) = (ranks(x), ranks(y));
     let n = x.len() as f64;
     let mean = (n + 1.0) / 2.0;
-    let cov: f64 = rx.iter().zip(&ry).map(|(a, b)| (a - mean) * (b - mean)).sum();
+    let cov: f64 = rx
+        .iter()
+        .zip(&ry)
+        .map(|(a, b)| (a - mean) * (b - mean))
+        .sum();
     let var = |r: &[f64]| r.iter().map(|a| (a - mean).powi(2)).sum::<f64>();
     cov / (var(&rx) * var(&ry)).sqrt()
 }
@@ -275,7 +279,10 @@ pub fn case_910_914(ctx: &CaseContext) -> Result<Vec<Row>> {
             0.5,
         ),
         rise_row(
-            format!("fall of roughness from aspect {} to aspect {} (z)", first.x, last.x),
+            format!(
+                "fall of roughness from aspect {} to aspect {} (z)",
+                first.x, last.x
+            ),
             first.stats.z_above(&last.stats),
         ),
     ])
@@ -317,7 +324,10 @@ pub fn case_912(ctx: &CaseContext) -> Result<Vec<Row>> {
         .max_by(|a, b| a.stats.mean.total_cmp(&b.stats.mean))
         .expect("non-empty table");
     let mut rows = vec![Row::new(
-        format!("clay volume % of the maximum porosity ({})", listing(&points, 1.0)),
+        format!(
+            "clay volume % of the maximum porosity ({})",
+            listing(&points, 1.0)
+        ),
         best.x,
         40.0,
         10.0,
