@@ -103,11 +103,20 @@ fn bed(n: usize) -> Result<(DemSetup, Particles, f64)> {
 }
 
 /// (seconds, neighbour seconds, final positions) of `steps` steps on `threads` threads.
-fn time_porelab(
-    n: usize,
-    steps: u64,
-    threads: usize,
-) -> Result<(f64, f64, f64, Vec<Vector3<f64>>)> {
+/// CPU seconds of the calling thread (Linux `/proc/thread-self/schedstat`; NaN elsewhere).
+/// On a shared machine the CPU time of a one-thread run measures its cost per core where the
+/// wall time also counts the time other processes held the core.
+fn thread_cpu_seconds() -> f64 {
+    std::fs::read_to_string("/proc/thread-self/schedstat")
+        .ok()
+        .and_then(|s| s.split_whitespace().next()?.parse::<f64>().ok())
+        .map_or(f64::NAN, |ns| ns * 1e-9)
+}
+
+/// Wall seconds, CPU seconds (one thread only, else NaN), neighbour seconds, dt, positions.
+type Timing = (f64, f64, f64, f64, Vec<Vector3<f64>>);
+
+fn time_porelab(n: usize, steps: u64, threads: usize) -> Result<Timing> {
     let (setup, p, v) = bed(n)?;
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(threads)
@@ -117,23 +126,27 @@ fn time_porelab(
         let mut dem = Dem::new(setup, p, v)?;
         let dt = dem.dt_s;
         dem.neighbour_seconds = 0.0;
+        let cpu0 = thread_cpu_seconds();
         let t = Instant::now();
         dem.run(steps)?;
-        Ok((
-            t.elapsed().as_secs_f64(),
-            dem.neighbour_seconds,
-            dt,
-            dem.p.pos.clone(),
-        ))
+        let wall = t.elapsed().as_secs_f64();
+        // one thread: the pool's only worker does all the work, so its CPU time is the run's
+        let cpu = if threads == 1 {
+            thread_cpu_seconds() - cpu0
+        } else {
+            f64::NAN
+        };
+        Ok((wall, cpu, dem.neighbour_seconds, dt, dem.p.pos.clone()))
     })
 }
 
-/// LAMMPS loop seconds and neighbour share for the same bed; None when it cannot run.
+/// LAMMPS loop seconds (wall), its CPU seconds (wall times its reported "% CPU use") and
+/// neighbour share for the same bed; an error message when it cannot run.
 fn time_lammps(
     args: &BenchArgs,
     n: usize,
     dt: f64,
-) -> Result<std::result::Result<(f64, f64), String>> {
+) -> Result<std::result::Result<(f64, f64, f64), String>> {
     let (setup, p, _) = bed(n)?;
     let dir = &args.out;
     std::fs::create_dir_all(dir)?;
@@ -190,8 +203,14 @@ fn time_lammps(
         .find(|l| l.starts_with("Neigh "))
         .and_then(|l| l.split('|').nth(5))
         .and_then(|x| x.trim().parse::<f64>().ok());
+    let cpu_share = text
+        .lines()
+        .find(|l| l.contains("% CPU use"))
+        .and_then(|l| l.split('%').next())
+        .and_then(|x| x.trim().parse::<f64>().ok())
+        .map_or(f64::NAN, |p| p / 100.0);
     match loop_s {
-        Some(t) => Ok(Ok((t, neigh.unwrap_or(f64::NAN) / 100.0))),
+        Some(t) => Ok(Ok((t, t * cpu_share, neigh.unwrap_or(f64::NAN) / 100.0))),
         None => Ok(Err(format!(
             "LAMMPS gave no loop time (status {}): {}",
             out.status,
@@ -217,10 +236,11 @@ pub fn run(args: &BenchArgs) -> Result<()> {
     let mut csv = String::from(
         "n,steps,dt_s,porelab_1t_us_per_particle_step,porelab_2t_us_per_particle_step,speedup_2t,\
          porelab_neighbour_share,lammps_1core_us_per_particle_step,lammps_neighbour_share,\
-         lammps_over_porelab_1t,identical_1t_2t\n",
+         lammps_over_porelab_1t,porelab_1t_cpu_us_per_particle_step,\
+         lammps_cpu_us_per_particle_step,lammps_over_porelab_cpu,identical_1t_2t\n",
     );
     println!(
-        "{:>7} {:>10} {:>12} {:>12} {:>7} {:>7} {:>12} {:>7} {:>8} {:>6}",
+        "{:>7} {:>10} {:>12} {:>12} {:>7} {:>7} {:>12} {:>7} {:>8} {:>10} {:>10} {:>8} {:>6}",
         "N",
         "dt (s)",
         "1t us/p-s",
@@ -230,12 +250,15 @@ pub fn run(args: &BenchArgs) -> Result<()> {
         "LAMMPS us",
         "neigh",
         "ratio",
+        "1t cpu us",
+        "LAMMPS cpu",
+        "cpu ratio",
         "same"
     );
     for &n_req in &sizes {
         let n = bed(n_req)?.1.len();
-        let (t1, nb1, dt, p1) = time_porelab(n, args.steps, 1)?;
-        let (t2, _, _, p2) = time_porelab(n, args.steps, 2)?;
+        let (t1, c1, nb1, dt, p1) = time_porelab(n, args.steps, 1)?;
+        let (t2, _, _, _, p2) = time_porelab(n, args.steps, 2)?;
         let ps = (n as u64 * args.steps) as f64;
         let same = p1 == p2;
         let peer = if args.no_peer {
@@ -243,12 +266,15 @@ pub fn run(args: &BenchArgs) -> Result<()> {
         } else {
             time_lammps(args, n, dt)?
         };
-        let (lus, lnb, ratio) = match &peer {
-            Ok((t, nb)) => (t / ps * 1e6, *nb, t / t1),
-            Err(_) => (f64::NAN, f64::NAN, f64::NAN),
+        let (lus, lcpu, lnb, ratio) = match &peer {
+            Ok((t, c, nb)) => (t / ps * 1e6, c / ps * 1e6, *nb, t / t1),
+            Err(_) => (f64::NAN, f64::NAN, f64::NAN, f64::NAN),
         };
+        let cpu_us = c1 / ps * 1e6;
+        let cpu_ratio = lcpu / cpu_us;
         println!(
-            "{n:>7} {dt:>10.3e} {:>12.4} {:>12.4} {:>7.2} {:>7.3} {:>12.4} {:>7.3} {:>8.2} {:>6}",
+            "{n:>7} {dt:>10.3e} {:>12.4} {:>12.4} {:>7.2} {:>7.3} {:>12.4} {:>7.3} {:>8.2} {:>10.4} \
+             {:>10.4} {:>8.2} {:>6}",
             t1 / ps * 1e6,
             t2 / ps * 1e6,
             t1 / t2,
@@ -256,6 +282,9 @@ pub fn run(args: &BenchArgs) -> Result<()> {
             lus,
             lnb,
             ratio,
+            cpu_us,
+            lcpu,
+            cpu_ratio,
             same
         );
         if let Err(msg) = &peer {
@@ -263,7 +292,7 @@ pub fn run(args: &BenchArgs) -> Result<()> {
         }
         let _ = writeln!(
             csv,
-            "{n},{},{dt},{},{},{},{},{},{},{},{same}",
+            "{n},{},{dt},{},{},{},{},{},{},{},{cpu_us},{lcpu},{cpu_ratio},{same}",
             args.steps,
             t1 / ps * 1e6,
             t2 / ps * 1e6,
