@@ -98,6 +98,8 @@ pub fn contact_times(setup: &DemSetup, r_min: f64, v_scale: f64) -> (f64, f64) {
             let zeta = match setup.contact.damping {
                 DampingModel::None => 0.0,
                 DampingModel::Restitution { neg_beta, .. } => neg_beta,
+                // the Zhou damping is built for the Hertz law only (see the scene)
+                DampingModel::Zhou { .. } => 0.0,
             };
             (PI / (w0 * (1.0 - zeta * zeta).sqrt()), f64::INFINITY)
         }
@@ -298,6 +300,23 @@ impl Dem {
                         "tangential damping ratio {damp_ratio}: must be >= 0 and finite"
                     ));
                 }
+            }
+            super::model::TangentialModel::Zhou { mu, c_t } => {
+                if !(mu.is_finite() && mu > 0.0) {
+                    return invalid(format!(
+                        "friction coefficient {mu}: must be > 0 and finite for the Zhou law"
+                    ));
+                }
+                if !(c_t.is_finite() && c_t >= 0.0) {
+                    return invalid(format!(
+                        "tangential damping c_t {c_t}: must be >= 0 and finite"
+                    ));
+                }
+            }
+        }
+        if let DampingModel::Zhou { c_n } = setup.contact.damping {
+            if !(c_n.is_finite() && c_n >= 0.0) {
+                return invalid(format!("normal damping c_n {c_n}: must be >= 0 and finite"));
             }
         }
         if let super::model::TangentialModel::Linear { kt_over_kn, .. } = setup.contact.tangential {

@@ -111,6 +111,10 @@ pub enum DampingModel {
     /// for Hertz the LIGGGHTS form (c = 5/6), whose restitution does not depend on the impact
     /// velocity but is not exactly e.
     Restitution { coeff: f64, neg_beta: f64 },
+    /// Zhou et al. (2002) normal damping, read as eta_n = c_n sqrt(6 m* S_n) with
+    /// S_n = 2 E* sqrt(R* delta) (for equal materials 2 E* = E/(1 - nu^2), the reading
+    /// F_dn = -c_n (6 m* E/(1 - nu^2) sqrt(R* delta))^(1/2) v_n); c_n is dimensionless.
+    Zhou { c_n: f64 },
 }
 
 impl DampingModel {
@@ -138,6 +142,7 @@ impl DampingModel {
             DampingModel::Restitution { neg_beta, .. } => {
                 2.0 * neg_beta * (normal.damping_factor() * s_n * m_eff).sqrt()
             }
+            DampingModel::Zhou { c_n } => c_n * (6.0 * m_eff * s_n).sqrt(),
         }
     }
 }
@@ -156,6 +161,11 @@ pub enum TangentialModel {
         mu: f64,
         damp_ratio: f64,
     },
+    /// Zhou et al. (2002), the Mindlin–Deresiewicz law as simplified there (see
+    /// [`zhou_tangential`]): F_t = -mu |F_cn| (1 - (1 - x)^(3/2)) xi_hat with
+    /// x = min(|xi|, xi_max) / xi_max, and the dashpot
+    /// -c_t (6 mu m* |F_cn| sqrt(1 - x) / xi_max)^(1/2) v_t.
+    Zhou { mu: f64, c_t: f64 },
 }
 
 impl TangentialModel {
@@ -191,6 +201,8 @@ impl TangentialModel {
                 mu,
                 damp_ratio,
             } => (kt_over_kn * s_n, damp_ratio * eta_n, mu),
+            // a nonlinear spring: its force is computed in `zhou_tangential`
+            TangentialModel::Zhou { mu, .. } => (0.0, 0.0, mu),
         }
     }
 }
@@ -260,6 +272,11 @@ impl ContactModel {
         let vt_half = c.v_half - c.n * c.v_half.dot(&c.n);
         let vt_full = c.v_full - c.n * vn_full;
         *xi += vt_half * c.dt;
+        if let TangentialModel::Zhou { mu, c_t } = self.tangential {
+            let xi_max = zhou_slip_displacement(mu, c.delta, mat);
+            let f_t = zhou_tangential(mu, c_t, f_el, xi_max, c.m_eff, xi, &vt_full);
+            return (f + f_t, f_t);
+        }
         let mut f_t = -(*xi * k_t) - vt_full * eta_t;
         let limit = mu * f_n.abs();
         let ft2 = f_t.norm_squared();
@@ -277,6 +294,54 @@ impl ContactModel {
     pub fn has_friction(&self) -> bool {
         !self.tangential.is_none()
     }
+}
+
+/// Tangential displacement at full mobilisation of the Zhou et al. (2002) law: for equal
+/// materials xi_max = mu delta (2 - nu) / (2 (1 - nu)) (Mindlin & Deresiewicz 1953 for a Hertz
+/// contact). Written as mu delta E* / (4 G*), which is that expression for equal materials and,
+/// for unequal ones (a sphere on a wall), keeps the law's initial stiffness
+/// dF_t/dxi(0) = 3 mu F_cn / (2 xi_max) equal to Mindlin's 8 G* sqrt(R* delta).
+pub fn zhou_slip_displacement(mu: f64, delta: f64, mat: &PairMaterial) -> f64 {
+    mu * delta * mat.e_star_pa / (4.0 * mat.g_star_pa)
+}
+
+/// Tangential force of the Zhou et al. (2002) law (spring + dashpot) on i, given the elastic
+/// normal force `f_cn` >= 0, the slip displacement `xi_max` and the accumulated tangential
+/// displacement `xi` (on the tangent plane). While |xi| < xi_max the spring is
+/// F = -mu f_cn (1 - (1 - |xi|/xi_max)^(3/2)) xi_hat, which reaches mu f_cn at |xi| = xi_max;
+/// beyond, the contact slides: |xi| is held at xi_max (so that unloading starts from full
+/// mobilisation) and the dashpot, proportional to (1 - |xi|/xi_max)^(1/4), vanishes.
+/// The dashpot is -c_t (6 mu m* f_cn sqrt(1 - x) / xi_max)^(1/2) v_t, i.e. c_t times
+/// (4 m* k_t)^(1/2) with k_t = dF/d|xi| the spring's tangent stiffness.
+#[inline(always)]
+pub fn zhou_tangential(
+    mu: f64,
+    c_t: f64,
+    f_cn: f64,
+    xi_max: f64,
+    m_eff: f64,
+    xi: &mut Vector3<f64>,
+    vt: &Vector3<f64>,
+) -> Vector3<f64> {
+    if !(xi_max > 0.0) {
+        *xi = Vector3::zeros();
+        return Vector3::zeros();
+    }
+    let mut len = xi.norm();
+    if len > xi_max {
+        *xi *= xi_max / len;
+        len = xi_max;
+    }
+    let x = len / xi_max;
+    let rest = 1.0 - x;
+    let mut f = Vector3::zeros();
+    if len > 0.0 {
+        f -= *xi * (mu * f_cn * (1.0 - rest * rest.sqrt()) / len);
+    }
+    if c_t > 0.0 && rest > 0.0 {
+        f -= vt * (c_t * (6.0 * mu * m_eff * f_cn * rest.sqrt() / xi_max).sqrt());
+    }
+    f
 }
 
 /// Hertz elastic contact time of a head-on impact at relative speed v (Johnson 1985, eq. 11.24):
@@ -361,5 +426,64 @@ mod tests {
         assert!((f.z - 1.0).abs() < 1e-12);
         assert!((ft.x + 0.5).abs() < 1e-12, "{ft:?}");
         assert!((xi.x - 0.5e-3).abs() < 1e-15);
+    }
+
+    #[test]
+    fn zhou_slip_displacement_equal_materials() {
+        // Mindlin & Deresiewicz: xi_max = mu delta (2 - nu) / (2 (1 - nu))
+        for nu in [0.0, 0.25, 0.3, 0.45] {
+            let m = Material::new(1e8, nu).unwrap();
+            let p = PairMaterial::new(&m, &m);
+            let got = zhou_slip_displacement(0.4, 1e-6, &p);
+            let want = 0.4 * 1e-6 * (2.0 - nu) / (2.0 * (1.0 - nu));
+            assert!((got - want).abs() < 1e-14 * want, "{nu}: {got} {want}");
+        }
+    }
+
+    #[test]
+    fn zhou_tangential_spring_curve_and_limit() {
+        let (mu, f_cn, xi_max) = (0.3, 2.0, 1e-6);
+        for x in [0.0, 0.25, 0.5, 0.999, 1.0, 1.5, 3.0] {
+            let mut xi = Vector3::new(x * xi_max, 0.0, 0.0);
+            let f = zhou_tangential(mu, 0.0, f_cn, xi_max, 1.0, &mut xi, &Vector3::zeros());
+            let xc: f64 = x.min(1.0);
+            let want = -mu * f_cn * (1.0 - (1.0 - xc).powf(1.5));
+            assert!(
+                (f.x - want).abs() <= 1e-15 * mu * f_cn,
+                "{x}: {} {want}",
+                f.x
+            );
+            assert!((xi.x - xc * xi_max).abs() <= 1e-15 * xi_max);
+        }
+    }
+
+    #[test]
+    fn zhou_initial_stiffness_is_mindlin() {
+        // dF_t/dxi at 0 = 3 mu F_cn / (2 xi_max) = 8 G* sqrt(R* delta) for any nu, mu
+        let m = Material::new(1e8, 0.3).unwrap();
+        let w = Material::new(2e9, 0.2).unwrap();
+        for p in [PairMaterial::new(&m, &m), PairMaterial::new(&m, &w)] {
+            let (r, d, mu) = (1e-3, 1e-6, 0.5);
+            let (f_cn, _) = NormalModel::Hertz.elastic(d, r, p.e_star_pa);
+            let xi_max = zhou_slip_displacement(mu, d, &p);
+            let eps = 1e-9 * xi_max;
+            let mut xi = Vector3::new(eps, 0.0, 0.0);
+            let f = zhou_tangential(mu, 0.0, f_cn, xi_max, 1.0, &mut xi, &Vector3::zeros());
+            let k = -f.x / eps;
+            let mindlin = 8.0 * p.g_star_pa * (r * d).sqrt();
+            assert!((k - mindlin).abs() < 1e-8 * mindlin, "{k} {mindlin}");
+        }
+    }
+
+    #[test]
+    fn zhou_dashpot_is_critical_fraction_of_tangent_stiffness() {
+        // c_t (6 mu m f sqrt(1-x)/xi_max)^(1/2) = c_t (4 m k_t)^(1/2), k_t = 1.5 mu f sqrt(1-x)/xi_max
+        let (mu, f_cn, xi_max, m, c_t, x) = (0.5, 3.0, 2e-6, 1e-3, 0.2, 0.3);
+        let mut xi = Vector3::new(x * xi_max, 0.0, 0.0);
+        let v = Vector3::new(0.0, 1e-3, 0.0);
+        let f = zhou_tangential(mu, c_t, f_cn, xi_max, m, &mut xi, &v);
+        let k_t = 1.5 * mu * f_cn * (1.0 - x).sqrt() / xi_max;
+        let want = -c_t * (4.0 * m * k_t).sqrt() * v.y;
+        assert!((f.y - want).abs() < 1e-14 * want.abs(), "{} {want}", f.y);
     }
 }

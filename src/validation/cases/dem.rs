@@ -18,7 +18,13 @@ use std::f64::consts::PI;
 
 const RHO: f64 = 2500.0;
 
-fn setup(contact: ContactModel, mat: Material, wall: Material, l: f64, h: f64) -> DemSetup {
+pub(super) fn setup(
+    contact: ContactModel,
+    mat: Material,
+    wall: Material,
+    l: f64,
+    h: f64,
+) -> DemSetup {
     DemSetup {
         lx_m: l,
         ly_m: l,
@@ -52,13 +58,13 @@ fn model_from_row(t: &crate::validation::Table, i: usize) -> Result<ContactModel
 }
 
 /// Sphere mass (kg).
-fn mass(r: f64) -> f64 {
+pub(super) fn mass(r: f64) -> f64 {
     RHO * 4.0 / 3.0 * PI * r.powi(3)
 }
 
 /// Exact Hertz contact-time constant: t_c = c (m*^2 / (R* E*^2 v))^(1/5) with
 /// c = 2 (15/16)^(2/5) * (2/5) B(2/5, 1/2) (2.868 to four digits; Johnson 1985 sec. 11.4).
-fn hertz_constant() -> f64 {
+pub(super) fn hertz_constant() -> f64 {
     use statrs::function::gamma::gamma;
     let integral = 0.4 * gamma(0.4) * gamma(0.5) / gamma(0.9);
     2.0 * (15.0f64 / 16.0).powf(0.4) * integral
@@ -68,7 +74,7 @@ fn hertz_constant() -> f64 {
 /// sphere on the floor (along z). Returns (restitution, contact time): the contact time is
 /// measured from the exact touching time of the free flight to the overlap's zero crossing,
 /// interpolated linearly between the two steps around it.
-fn impact(
+pub(super) fn impact(
     model: ContactModel,
     mat: Material,
     wall: Material,
@@ -131,7 +137,7 @@ fn impact(
 /// Restitution of the contact ODE m* x'' = -F_el(x) - eta(x) x' from x = 0, x' = v, by RK4
 /// with `n` steps per estimated contact time (an oracle independent of the engine's
 /// integrator; used for the damped Hertz law, which has no closed form).
-fn restitution_rk4(
+pub(super) fn restitution_rk4(
     model: &ContactModel,
     pm: &PairMaterial,
     r_eff: f64,
@@ -140,9 +146,11 @@ fn restitution_rk4(
     tc: f64,
     n: usize,
 ) -> f64 {
-    let neg_beta = match model.damping {
-        DampingModel::Restitution { neg_beta, .. } => neg_beta,
-        DampingModel::None => 0.0,
+    // eta_n = 2 (-beta) sqrt(c S_n m*) (restitution form) or c_n sqrt(6 m* S_n) (Zhou 2002)
+    let (neg_beta, zhou_c_n) = match model.damping {
+        DampingModel::Restitution { neg_beta, .. } => (neg_beta, 0.0),
+        DampingModel::None => (0.0, 0.0),
+        DampingModel::Zhou { c_n } => (0.0, c_n),
     };
     let accel = |x: f64, u: f64| -> f64 {
         if x <= 0.0 {
@@ -160,7 +168,7 @@ fn restitution_rk4(
         } else {
             1.0
         };
-        let eta = 2.0 * neg_beta * (c * s * m_eff).sqrt();
+        let eta = 2.0 * neg_beta * (c * s * m_eff).sqrt() + zhou_c_n * (6.0 * m_eff * s).sqrt();
         (-f - eta * u) / m_eff
     };
     let h = tc / n as f64;

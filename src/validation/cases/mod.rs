@@ -11,6 +11,7 @@ mod common;
 mod contact;
 mod coupled;
 mod dem;
+mod dem_zhou;
 mod deposition;
 mod deposition_figures;
 mod drag;
@@ -127,6 +128,7 @@ pub fn runner_for(id: &str) -> Option<Runner> {
         "710" => Some(dem::case_710),
         "711" => Some(dem::case_711),
         "712" => Some(dem::case_711),
+        "713" | "714" => Some(dem_zhou::case_713_714),
         _ => None,
     }
 }
