@@ -82,7 +82,7 @@ pub struct Basesheet {
 }
 
 /// Seconds spent in each part of the loop.
-#[derive(Debug, Clone, Copy, Default, serde::Serialize)]
+#[derive(Debug, Clone, Copy, Default, serde::Serialize, serde::Deserialize)]
 pub struct Timing {
     pub lbm_s: f64,
     pub dem_s: f64,
@@ -133,7 +133,7 @@ pub struct Coupled {
     vd: Vec<f64>,
     vv: Vec<[f64; 3]>,
     /// Per cell: lagged superficial slip |u - w| (lattice) and D_c = lin + quad |u - w|.
-    slip: Vec<f64>,
+    pub(crate) slip: Vec<f64>,
     /// Hydrodynamic force on each particle of the last step (N) and its drag rate (kg/s).
     pub hydro_n: Vec<Vector3<f64>>,
     pub gamma_kg_s: Vec<f64>,
