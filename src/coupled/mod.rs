@@ -7,9 +7,11 @@
 //!
 //! * [`porosity`]: solid volume of spheres per cell, exact sphere ∩ cube or the seed's lens;
 //! * [`drag`]: Carman–Kozeny K (eq. 11), Ergun / Wen–Yu drag and their switch;
-//! * [`engine`]: the coupling loop, momentum balance and the run-time refusals.
+//! * [`engine`]: the coupling loop, momentum balance and the run-time refusals;
+//! * [`checkpoint`]: the run's state, bitwise, for resuming.
 
 pub mod bench;
+pub mod checkpoint;
 pub mod drag;
 pub mod engine;
 pub mod porosity;

@@ -480,6 +480,22 @@ impl<L: Lattice, C: Collision, F: Forcing> Solver<L, C, F> {
     pub fn populations(&self) -> &[f64] {
         &self.f
     }
+
+    /// Replaces the post-collision populations and the step count by those of a saved run
+    /// of the same lattice (checkpoints of runs that own a solver: bitwise continuation).
+    pub fn restore_populations(&mut self, f: &[f64], steps: u64) -> Result<()> {
+        if f.len() != self.f.len() {
+            return invalid(format!(
+                "{} populations for a lattice of {} cells x {} velocities",
+                f.len(),
+                self.dims().cells(),
+                L::Q
+            ));
+        }
+        self.f.copy_from_slice(f);
+        self.steps = steps;
+        Ok(())
+    }
 }
 
 /// rho = sum f, j = sum f c (seed 002 eq. 6-7).

@@ -36,6 +36,7 @@
 //! porosity), `summary.json`.
 
 use super::{dem as dem_scene, Builtin, RunOptions};
+use crate::coupled::checkpoint::CoupledState;
 use crate::coupled::{Basesheet, Coupled, CoupledSetup, Overlap, Switch};
 use crate::error::{invalid, Error};
 use crate::io::{vtk, write_atomic, xyz};
@@ -297,23 +298,118 @@ fn frame(c: &Coupled, out: &Path, k: usize) -> Result<()> {
     )
 }
 
-/// Runs a parsed scene for its time, calling `on_step` after each coupling step.
+/// Runs a parsed scene from the system's current step to the end of its time, calling
+/// `on_step` after each coupling step; `on_step` returns false to stop the run there.
 pub fn run(
     scene: &CoupledScene,
     c: &mut Coupled,
-    mut on_step: impl FnMut(&Coupled) -> Result<()>,
+    mut on_step: impl FnMut(&Coupled) -> Result<bool>,
 ) -> Result<()> {
-    let steps = (scene.time_s / c.units.dt).ceil() as u64;
-    for _ in 0..steps {
+    let steps = total_steps(scene, c);
+    while c.steps < steps {
         c.step()?;
-        on_step(c)?;
+        if !on_step(c)? {
+            break;
+        }
     }
     Ok(())
 }
 
+/// Coupling steps of the whole run.
+fn total_steps(scene: &CoupledScene, c: &Coupled) -> u64 {
+    (scene.time_s / c.units.dt).ceil() as u64
+}
+
+/// The checkpoint file: the scene's fingerprint, the outputs written so far (porosity rows,
+/// frame count), the initial fluid mass (the summary's drift) and the engine state.
+#[derive(serde::Serialize, serde::Deserialize)]
+struct Checkpoint {
+    format: u32,
+    scene: String,
+    seconds: u64,
+    mass0: u64,
+    frames: usize,
+    profile: String,
+    /// Wall-clock seconds per part so far (the summary's shares; not part of the result).
+    timing: crate::coupled::Timing,
+    state: CoupledState,
+}
+
+const CHECKPOINT_FORMAT: u32 = 1;
+
+/// Restores `c` from the checkpoint at `path`: (seconds so far, initial mass, frames written,
+/// porosity rows so far).
+fn read_checkpoint(
+    path: &Path,
+    fingerprint: &str,
+    c: &mut Coupled,
+) -> Result<(f64, f64, usize, String)> {
+    let file_err = |msg: String| Error::File {
+        path: path.display().to_string(),
+        msg,
+    };
+    let bytes =
+        std::fs::read(path).map_err(|e| file_err(format!("cannot read the checkpoint: {e}")))?;
+    let k: Checkpoint = serde_json::from_slice(&bytes)
+        .map_err(|e| file_err(format!("not a coupled checkpoint: {e}")))?;
+    if k.format != CHECKPOINT_FORMAT {
+        return Err(file_err(format!(
+            "checkpoint format {}: this porelab reads format {CHECKPOINT_FORMAT}",
+            k.format
+        )));
+    }
+    if k.scene != fingerprint {
+        return Err(file_err(
+            "written by a different scene (its text differs): delete it to start afresh, or \
+             choose another output folder with --out"
+                .into(),
+        ));
+    }
+    c.load_state(&k.state)
+        .map_err(|e| file_err(e.to_string()))?;
+    c.timing = k.timing;
+    Ok((
+        f64::from_bits(k.seconds),
+        f64::from_bits(k.mass0),
+        k.frames,
+        k.profile,
+    ))
+}
+
 pub fn run_scene(text: &str, origin: &str, out: &Path, opts: &RunOptions) -> Result<()> {
+    run_scene_limited(text, origin, out, opts, None)
+}
+
+/// Runs (or resumes from `out/checkpoint.json`) a scene; with `max_steps` it stops after that
+/// many coupling steps of this call, leaving the checkpoint behind as an interrupted run would
+/// (for tests). A checkpoint is written with the porosity rows, at most every
+/// `--checkpoint-every` seconds, and removed when the outputs are complete.
+pub(crate) fn run_scene_limited(
+    text: &str,
+    origin: &str,
+    out: &Path,
+    opts: &RunOptions,
+    max_steps: Option<u64>,
+) -> Result<()> {
+    opts.check_checkpoint_interval()?;
     let scene = parse_scene(text, origin)?;
     let mut c = build(&scene)?;
+    let fingerprint = format!("{:016x}", crate::io::fnv1a64(text.as_bytes()));
+    let ckpt_path = out.join("checkpoint.json");
+    let (base_seconds, mass0, mut frames, mut profile) = if ckpt_path.exists() {
+        let r = read_checkpoint(&ckpt_path, &fingerprint, &mut c)?;
+        if !opts.quiet {
+            eprintln!(
+                "resuming {origin} from {} (coupling step {}, t = {:e} s)",
+                ckpt_path.display(),
+                c.steps,
+                c.time_s
+            );
+        }
+        r
+    } else {
+        (0.0, c.lbm.mass(), 0, String::from("time_s,z_m,porosity\n"))
+    };
     let d = c.dims;
     eprintln!(
         "coupled: {} spheres, lattice {} x {} x {} (dx = {:e} m), dt_LBM = {:e} s, M = {} DEM \
@@ -330,8 +426,8 @@ pub fn run_scene(text: &str, origin: &str, out: &Path, opts: &RunOptions) -> Res
         c.setup.switch.name(),
         c.dem.active.names().join(", ")
     );
-    std::fs::create_dir_all(out)?;
-    let total = (scene.time_s / c.units.dt).ceil() as u64;
+    crate::io::create_dir(out)?;
+    let total = total_steps(&scene, &c);
     let bar = if opts.quiet {
         indicatif::ProgressBar::hidden()
     } else {
@@ -342,18 +438,35 @@ pub fn run_scene(text: &str, origin: &str, out: &Path, opts: &RunOptions) -> Res
             )
             .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
         );
+        b.set_position(c.steps);
         b
     };
-    let mass0 = c.lbm.mass();
-    let mut profile = String::from("time_s,z_m,porosity\n");
     let frame_steps = ((scene.frames_every_s / c.units.dt).round() as u64).max(1);
     let prof_steps = ((scene.profile_every_s / c.units.dt).round() as u64).max(1);
     let start = Instant::now();
-    let mut frames = 0;
-    let mut body = || -> Result<()> {
-        c.update_porosity()?;
-        frame(&c, out, frames)?;
-        frames += 1;
+    let mut last_checkpoint = Instant::now();
+    let first_step = c.steps;
+    let save = |c: &Coupled, frames: usize, profile: &str| -> Result<()> {
+        let k = Checkpoint {
+            format: CHECKPOINT_FORMAT,
+            scene: fingerprint.clone(),
+            seconds: (base_seconds + start.elapsed().as_secs_f64()).to_bits(),
+            mass0: mass0.to_bits(),
+            frames,
+            profile: profile.to_string(),
+            timing: c.timing,
+            state: c.save_state(),
+        };
+        let bytes = serde_json::to_vec(&k).map_err(|e| Error::InvalidInput(e.to_string()))?;
+        write_atomic(&ckpt_path, &bytes)
+    };
+    let mut body = || -> Result<bool> {
+        if c.steps == 0 {
+            c.update_porosity()?;
+            frame(&c, out, frames)?;
+            frames += 1;
+        }
+        let mut interrupted = false;
         run(&scene, &mut c, |c| {
             if c.steps % prof_steps == 0 {
                 let dz = c.setup.dx_m;
@@ -367,29 +480,54 @@ pub fn run_scene(text: &str, origin: &str, out: &Path, opts: &RunOptions) -> Res
                 frame(c, out, frames)?;
                 frames += 1;
             }
+            if c.steps % prof_steps == 0
+                && c.steps < total
+                && opts
+                    .checkpoint_every_seconds
+                    .is_none_or(|t| last_checkpoint.elapsed().as_secs_f64() >= t)
+            {
+                save(c, frames, &profile)?;
+                last_checkpoint = Instant::now();
+            }
             bar.set_position(c.steps);
             bar.set_message(format!(
                 "t = {:.4e} s, imbalance {:.1e}",
                 c.time_s, c.worst_balance
             ));
-            Ok(())
-        })
+            if max_steps.is_some_and(|m| c.steps - first_step >= m) && c.steps < total {
+                interrupted = true;
+                return Ok(false);
+            }
+            Ok(true)
+        })?;
+        Ok(interrupted)
     };
-    match opts.threads {
+    let interrupted = match opts.threads {
         Some(t) => rayon::ThreadPoolBuilder::new()
             .num_threads(t)
             .build()
             .map_err(|e| Error::InvalidInput(format!("--threads {t}: {e}")))?
             .install(body)?,
         None => body()?,
-    }
+    };
     bar.finish_and_clear();
-    let seconds = start.elapsed().as_secs_f64();
+    if interrupted {
+        // the checkpoint holds the state reached
+        return save(&c, frames, &profile);
+    }
+    let seconds = base_seconds + start.elapsed().as_secs_f64();
     write_atomic(&out.join("porosity_profile.csv"), profile.as_bytes())?;
     let summary = summarize(&scene, &c, seconds, mass0, opts.threads);
     let json =
         serde_json::to_string_pretty(&summary).map_err(|e| Error::InvalidInput(e.to_string()))?;
     write_atomic(&out.join("summary.json"), json.as_bytes())?;
+    // the outputs are complete: the checkpoint is no longer needed
+    if ckpt_path.exists() {
+        std::fs::remove_file(&ckpt_path).map_err(|e| Error::File {
+            path: ckpt_path.display().to_string(),
+            msg: format!("cannot remove the finished run's checkpoint: {e}"),
+        })?;
+    }
     println!(
         "{origin}: {} coupling steps ({:.3e} s simulated) in {:.1} s; shares LBM {:.1} %, DEM \
          {:.1} %, coupling {:.1} %; momentum imbalance (walls included) {:.1e}, mass drift {:.1e}",
@@ -451,6 +589,70 @@ pub fn summarize(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    fn quiet() -> RunOptions {
+        RunOptions {
+            quiet: true,
+            ..Default::default()
+        }
+    }
+
+    /// A run stopped after 30 coupling steps and resumed from its checkpoint writes bitwise
+    /// the outputs of the uninterrupted run (all but the wall-clock figures of the summary);
+    /// a checkpoint of another scene is refused, naming the file.
+    #[test]
+    fn interrupted_run_resumes_to_the_same_result() {
+        let base =
+            std::env::temp_dir().join(format!("porelab-coupled-resume-{}", std::process::id()));
+        let (whole, killed) = (base.join("whole"), base.join("killed"));
+        let text = include_str!("builtin/coupled-quick.toml")
+            .replace("time_s = 0.25", "time_s = 0.1")
+            .replace("frames_every_s = 0.125", "frames_every_s = 0.05");
+        run_scene(&text, "test", &whole, &quiet()).unwrap();
+        run_scene_limited(&text, "test", &killed, &quiet(), Some(30)).unwrap();
+        assert!(killed.join("checkpoint.json").exists());
+        assert!(!killed.join("summary.json").exists());
+        // a second interruption, from the checkpoint, then the rest
+        run_scene_limited(&text, "test", &killed, &quiet(), Some(17)).unwrap();
+        run_scene(&text, "test", &killed, &quiet()).unwrap();
+        assert!(!killed.join("checkpoint.json").exists());
+        let read = |d: &Path, f: &str| std::fs::read(d.join(f)).unwrap();
+        for f in [
+            "porosity_profile.csv",
+            "frame_0000.xyz",
+            "frame_0001.xyz",
+            "frame_0002.xyz",
+            "fluid_0001.vtk",
+            "fluid_0002.vtk",
+        ] {
+            assert!(read(&whole, f) == read(&killed, f), "{f} differs");
+        }
+        let strip = |d: &Path| -> serde_json::Value {
+            let mut v: serde_json::Value =
+                serde_json::from_slice(&read(d, "summary.json")).unwrap();
+            for k in ["seconds", "timing", "coupling_share", "threads"] {
+                v.as_object_mut().unwrap().remove(k);
+            }
+            v
+        };
+        let s = strip(&whole);
+        assert_eq!(s["coupling_steps"], 80);
+        assert_eq!(s, strip(&killed));
+        run_scene_limited(&text, "test", &killed, &quiet(), Some(5)).unwrap();
+        let e = run_scene(
+            &text.replace("seed = 1", "seed = 2"),
+            "test",
+            &killed,
+            &quiet(),
+        )
+        .unwrap_err()
+        .to_string();
+        assert!(
+            e.contains("checkpoint.json") && e.contains("different scene"),
+            "{e}"
+        );
+        let _ = std::fs::remove_dir_all(&base);
+    }
 
     #[test]
     fn builtins_parse_and_bad_keys_are_named() {
