@@ -115,6 +115,7 @@ pub fn runner_for(id: &str) -> Option<Runner> {
         "809" => Some(lbm_boundaries::case_809),
         "806" => Some(lbm::case_806_807),
         "807" => Some(lbm::case_806_807),
+        "818" | "819" => Some(lbm::case_818_819),
         "701" => Some(dem::case_701),
         "702" => Some(dem::case_702),
         "703" => Some(dem::case_703),
