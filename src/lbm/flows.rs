@@ -1,5 +1,6 @@
 //! Geometries and closed forms of the standard flows: the plane channel (Poiseuille, Couette),
-//! the porous channel (Brinkman), the Taylor-Green vortex and the simple cubic sphere array.
+//! the porous channel (Brinkman), the Taylor-Green vortex, the simple cubic sphere array and the
+//! square array of cylinders.
 
 use super::geometry::Dims;
 
@@ -53,6 +54,30 @@ pub fn sphere_array_mask(n: usize, radius: f64) -> Vec<bool> {
             r2 < radius * radius
         })
         .collect()
+}
+
+/// Solid mask of one cylinder of radius `radius` (cells), axis along z, centred in the periodic
+/// n x n x nz box (a square array of period n, flow transverse to the axis): cell (i, j, k) is
+/// solid when its centre (i + 1/2, j + 1/2) lies inside the disc.
+pub fn cylinder_array_mask(n: usize, nz: usize, radius: f64) -> Vec<bool> {
+    let d = Dims { nx: n, ny: n, nz };
+    let c = 0.5 * n as f64;
+    (0..d.cells())
+        .map(|cell| {
+            let p = d.coords(cell);
+            let r2 = (p[0] as f64 + 0.5 - c).powi(2) + (p[1] as f64 + 0.5 - c).powi(2);
+            r2 < radius * radius
+        })
+        .collect()
+}
+
+/// Drummond & Tahir (1984) transverse permeability of the square array of cylinders of radius
+/// a at solid fraction c, as k / a^2 = [-ln c - 1.476 + (2c - 0.796 c^2) / (1 + 0.489 c -
+/// 1.605 c^2)] / (8 c) (Int. J. Multiphase Flow 10, 515; a low-concentration expansion). The
+/// dimensionless drag per unit length F/(mu U) = L^2/k = 8 pi / [...] (L^2 = pi a^2 / c).
+pub fn drummond_tahir_square_drag(c: f64) -> f64 {
+    let bracket = -c.ln() - 1.476 + (2.0 * c - 0.796 * c * c) / (1.0 + 0.489 * c - 1.605 * c * c);
+    8.0 * std::f64::consts::PI / bracket
 }
 
 /// Drag coefficient of a periodic array: K = f L^3 / (6 pi mu a U) with f the driving force

@@ -57,6 +57,36 @@ fn place(i: usize, p: &XyzParticle) -> Result<Placed> {
     })
 }
 
+/// The particles of an MCM packing of equal spheres or spherocylinders (diameter 1, the
+/// packing's length unit) in its periodic box, ready for [`voxelise`].
+pub fn packing_particles(p: &crate::packing::Packing) -> Result<(Cell, Vec<XyzParticle>)> {
+    let Some(length) = p.monodisperse_length() else {
+        return invalid(
+            "packing: only equal spheres or spherocylinders of diameter 1 are voxelised here",
+        );
+    };
+    if p.container != crate::packing::Container::Periodic {
+        return invalid("packing: permeability needs the periodic box container");
+    }
+    let (species, shape) = if length > 0.0 {
+        ("spherocylinder", [0.5, 0.5, length])
+    } else {
+        ("sphere", [0.5; 3])
+    };
+    let parts = (0..p.n())
+        .map(|i| XyzParticle {
+            species: species.to_string(),
+            position: p.positions[i],
+            orientation: p.orientations[i],
+            aspherical_shape: shape,
+            radius: 0.5,
+            cylinder_length: length,
+            roundness: [1.0, 1.0],
+        })
+        .collect();
+    Ok((Cell::cubic(p.box_length), parts))
+}
+
 /// The voxelised configuration.
 pub struct Voxels {
     pub dims: Dims,

@@ -5,8 +5,8 @@
 use super::common::non_empty;
 use crate::lbm::choice::{dispatch, CollisionKind, Job, LatticeKind};
 use crate::lbm::flows::{
-    brinkman_poiseuille, channel_coordinate, drag_coefficient, poiseuille, sangani_acrivos_sc,
-    sphere_array_mask,
+    brinkman_poiseuille, channel_coordinate, cylinder_array_mask, drag_coefficient,
+    drummond_tahir_square_drag, poiseuille, sangani_acrivos_sc, sphere_array_mask,
 };
 use crate::lbm::geometry::{Dims, Geometry};
 use crate::lbm::problems::{permeability, taylor_green_viscosity, Channel};
@@ -275,28 +275,30 @@ pub fn case_804(ctx: &CaseContext) -> Result<Vec<Row>> {
     })
 }
 
-struct SphereArray {
-    n: usize,
-    radius: f64,
+/// One periodic array cell: its solid mask on `dims` under body force g along x.
+struct ArrayCell {
+    dims: Dims,
+    mask: Vec<bool>,
+    /// Length for the Reynolds number (cells): the particle diameter.
+    diameter: f64,
     g: f64,
     ctl: SteadyControl,
 }
 
-impl Job for SphereArray {
+impl Job for ArrayCell {
     type Out = Result<(f64, f64, f64)>;
-    /// (k in cells^2, solid fraction of the voxels, Re = <u> 2a / nu)
+    /// (k in cells^2, solid fraction of the voxels, Re = <u> diameter / nu)
     fn run<L: Lattice, C: Collision>(self, coll: C) -> Self::Out {
-        let d = Dims::new(self.n, self.n, self.n)?;
-        let geom = Geometry::new::<L>(d, sphere_array_mask(self.n, self.radius), |_| [0.0; 3])?;
+        let geom = Geometry::new::<L>(self.dims, self.mask, |_| [0.0; 3])?;
         let p = permeability::<L, C>(geom, coll, self.g, self.ctl, |_, _| {})?;
         if !p.converged {
             return Err(Error::Validation(format!(
-                "sphere array n = {} not steady after {} steps (residual {:e})",
-                self.n, p.steps, p.residual
+                "array cell {} x {} x {} not steady after {} steps (residual {:e})",
+                self.dims.nx, self.dims.ny, self.dims.nz, p.steps, p.residual
             )));
         }
         let nu = (1.0 / coll.omega_plus() - 0.5) / 3.0;
-        Ok((p.k, 1.0 - p.porosity, p.mean_u * 2.0 * self.radius / nu))
+        Ok((p.k, 1.0 - p.porosity, p.mean_u * self.diameter / nu))
     }
 }
 
@@ -324,9 +326,10 @@ fn sphere_array_k(
         lat,
         coll,
         tau,
-        SphereArray {
-            n,
-            radius,
+        ArrayCell {
+            dims: Dims::new(n, n, n)?,
+            mask: sphere_array_mask(n, radius),
+            diameter: 2.0 * radius,
             g,
             ctl: ARRAY_CTL,
         },
@@ -365,9 +368,28 @@ pub fn case_808(ctx: &CaseContext) -> Result<Vec<Row>> {
     Ok(rows)
 }
 
-/// Cases 806 (slow, the whole table) and 807 (fast, one row): simple cubic sphere arrays, drag coefficient K = 2a^2/(9 phi k) against Zick &
-/// Homsy (1982) Table 2; the error must fall from the coarse to the fine resolution.
-pub fn case_806_807(ctx: &CaseContext) -> Result<Vec<Row>> {
+/// One row's inputs in a resolution study.
+struct StudyRow {
+    lat: LatticeKind,
+    coll: CollisionKind,
+    tau: f64,
+    phi: f64,
+    /// The literature value.
+    want: f64,
+}
+
+/// A resolution study over the rows of expected.csv: `measure(row, n, table, i)` gives the
+/// observable on the n_coarse and the n_fine lattice; the fine value is checked against the
+/// literature column `want_col` (plus the rows `extra(row, label, fine)` adds), and the RMS
+/// error over the table must fall from coarse to fine. `check(row)` names a problem with the
+/// literature input itself (an input check, not the code under test).
+fn resolution_study(
+    ctx: &CaseContext,
+    want_col: &str,
+    check: impl Fn(&StudyRow) -> Option<String>,
+    mut measure: impl FnMut(&StudyRow, usize, &Table, usize) -> Result<f64>,
+    extra: impl Fn(&StudyRow, &str, f64) -> Vec<Row>,
+) -> Result<Vec<Row>> {
     let t = ctx.expected_table()?;
     non_empty(&t)?;
     let mut rows = Vec::new();
@@ -375,55 +397,161 @@ pub fn case_806_807(ctx: &CaseContext) -> Result<Vec<Row>> {
     let mut sq = [0.0; 2];
     for i in 0..t.len() {
         let (lat, coll) = kinds(&t, i)?;
-        let tau = t.f64(i, "tau")?;
-        let phi = t.f64(i, "phi")?;
-        let want = t.f64(i, "K_zick_homsy")?;
-        if phi <= 0.125 {
-            // the table against the dilute series (an input check, not the code under test)
-            let sa = sangani_acrivos_sc(phi);
-            if (sa / want - 1.0).abs() > 2e-3 {
-                problems.push(format!(
-                    "table K({phi}) = {want} differs from Sangani-Acrivos {sa:.4}"
-                ));
-            }
-        }
-        let mut errs = Vec::new();
-        for col in ["n_coarse", "n_fine"] {
-            if t.f64(i, col)?.is_nan() {
+        let r = StudyRow {
+            lat,
+            coll,
+            tau: t.f64(i, "tau")?,
+            phi: t.f64(i, "phi")?,
+            want: t.f64(i, want_col)?,
+        };
+        problems.extend(check(&r));
+        for (j, col) in ["n_coarse", "n_fine"].into_iter().enumerate() {
+            let n = t.f64(i, col)?;
+            if !(n.is_finite() && n >= 8.0) {
                 return Err(Error::Validation(format!(
-                    "{}: {col} missing",
-                    t.path().display()
+                    "{} line {}: {col} = {n}: must be a whole number >= 8",
+                    t.path().display(),
+                    t.line(i)
                 )));
             }
-            let n = t.f64(i, col)? as usize;
-            let radius = n as f64 * (3.0 * phi / (4.0 * std::f64::consts::PI)).cbrt();
-            let (k, _, re) = sphere_array_k(lat, coll, tau, n, phi, t.f64(i, "g16_lattice")?)?;
-            // K from the nominal radius and solid fraction (the staircase is the error measured)
-            let kd = drag_coefficient(k, radius, phi);
-            eprintln!(
-                "806 {} {} phi={phi} n={n}: K {kd:.4} vs {want} ({:+.2}%), Re {re:.2e}",
-                lat.name(),
-                coll.name(),
-                100.0 * (kd / want - 1.0)
-            );
-            errs.push((kd / want - 1.0).abs());
-            if col == "n_fine" {
-                rows.push(Row::new(
-                    format!("{} {} phi={phi} n={n}", lat.name(), coll.name()),
-                    kd,
-                    want,
-                    want,
-                ));
+            let n = n as usize;
+            let got = measure(&r, n, &t, i)?;
+            sq[j] += (got / r.want - 1.0).powi(2);
+            if j == 1 {
+                let label = format!("{} {} phi={} n={n}", lat.name(), coll.name(), r.phi);
+                rows.extend(extra(&r, &label, got));
+                rows.push(Row::new(label, got, r.want, r.want));
             }
         }
-        sq[0] += errs[0] * errs[0];
-        sq[1] += errs[1] * errs[1];
     }
-    // the staircase error of one sphere is not monotone in n; its RMS over the table must fall
-    let rms = |s: f64| (s / t.len() as f64).sqrt();
+    // the staircase error of one particle is not monotone in n; its RMS over the table must fall
+    rms_must_fall(&ctx.id, sq, t.len(), problems)?;
+    Ok(rows)
+}
+
+/// Cases 806 (slow, the whole table) and 807 (fast, one row): simple cubic sphere arrays, drag
+/// coefficient K = 2a^2/(9 phi k) against Zick & Homsy (1982) Table 2; the error must fall from
+/// the coarse to the fine resolution.
+pub fn case_806_807(ctx: &CaseContext) -> Result<Vec<Row>> {
+    resolution_study(
+        ctx,
+        "K_zick_homsy",
+        |r| {
+            // the table against the dilute series
+            let sa = sangani_acrivos_sc(r.phi);
+            (r.phi <= 0.125 && (sa / r.want - 1.0).abs() > 2e-3).then(|| {
+                format!(
+                    "table K({}) = {} differs from Sangani-Acrivos {sa:.4}",
+                    r.phi, r.want
+                )
+            })
+        },
+        |r, n, t, i| {
+            let radius = n as f64 * (3.0 * r.phi / (4.0 * std::f64::consts::PI)).cbrt();
+            let g16 = t.f64(i, "g16_lattice")?;
+            let (k, _, re) = sphere_array_k(r.lat, r.coll, r.tau, n, r.phi, g16)?;
+            // K from the nominal radius and solid fraction (the staircase is the error measured)
+            let kd = drag_coefficient(k, radius, r.phi);
+            eprintln!(
+                "806 {} {} phi={} n={n}: K {kd:.4} vs {} ({:+.2}%), Re {re:.2e}",
+                r.lat.name(),
+                r.coll.name(),
+                r.phi,
+                r.want,
+                100.0 * (kd / r.want - 1.0)
+            );
+            Ok(kd)
+        },
+        |_, _, _| Vec::new(),
+    )
+}
+
+/// Dimensionless drag per unit length F/(mu U) = L^2 / k of the square array of cylinders of
+/// solid fraction phi, period n cells, one cell along the axis (z); `g32` is the force at
+/// n = 32, scaled as (32/n)^3 so that Re is the same at every resolution. Returns (F/(mu U),
+/// solid fraction of the voxels, Re on the diameter).
+fn cylinder_array_drag(
+    lat: LatticeKind,
+    coll: CollisionKind,
+    tau: f64,
+    n: usize,
+    phi: f64,
+    g32: f64,
+) -> Result<(f64, f64, f64)> {
+    // phi = pi a^2 / L^2
+    let radius = n as f64 * (phi / std::f64::consts::PI).sqrt();
+    let (k, phi_voxels, re) = dispatch(
+        lat,
+        coll,
+        tau,
+        ArrayCell {
+            dims: Dims::new(n, n, 1)?,
+            mask: cylinder_array_mask(n, 1, radius),
+            diameter: 2.0 * radius,
+            g: g32 * (32.0 / n as f64).powi(3),
+            ctl: ARRAY_CTL,
+        },
+    )?;
+    // a force g per unit mass on the fluid is the mean pressure gradient of Darcy's law, so
+    // F = g L^2 per unit length and F/(mu U) = L^2 / k with k = nu <u> / g
+    Ok(((n * n) as f64 / k, phi_voxels, re))
+}
+
+/// Solid fractions up to which the Drummond & Tahir expansion is compared (it leaves the
+/// Sangani & Acrivos table by 4 % at 0.3 and diverges beyond).
+const DRUMMOND_TAHIR_MAX_PHI: f64 = 0.2;
+
+/// Cases 818 (fast) and 819 (slow): transverse flow through the square array of cylinders;
+/// F/(mu U) = L^2/k against Sangani & Acrivos (1982) Table 1 and, for phi <= 0.2, Drummond &
+/// Tahir (1984). The RMS error over the rows must fall from the coarse to the fine lattice.
+pub fn case_818_819(ctx: &CaseContext) -> Result<Vec<Row>> {
+    resolution_study(
+        ctx,
+        "F_sangani_acrivos",
+        |r| {
+            // the two references against each other (an input check of the reading)
+            let dt = drummond_tahir_square_drag(r.phi);
+            (r.phi <= DRUMMOND_TAHIR_MAX_PHI && (dt / r.want - 1.0).abs() > 1e-2).then(|| {
+                format!(
+                    "table F/(mu U)({}) = {} differs from Drummond-Tahir {dt:.3} by more than 1 %",
+                    r.phi, r.want
+                )
+            })
+        },
+        |r, n, t, i| {
+            let g32 = t.f64(i, "g32_lattice")?;
+            let (f, phi_vox, re) = cylinder_array_drag(r.lat, r.coll, r.tau, n, r.phi, g32)?;
+            let dt = drummond_tahir_square_drag(r.phi);
+            eprintln!(
+                "{} {} {} phi={} n={n}: F/(mu U) {f:.4} vs {} ({:+.2}%), Drummond-Tahir \
+                 {dt:.3} ({:+.2}%), voxel phi {phi_vox:.4}, Re {re:.2e}",
+                ctx.id,
+                r.lat.name(),
+                r.coll.name(),
+                r.phi,
+                r.want,
+                100.0 * (f / r.want - 1.0),
+                100.0 * (f / dt - 1.0)
+            );
+            Ok(f)
+        },
+        |r, label, f| {
+            let dt = drummond_tahir_square_drag(r.phi);
+            if r.phi <= DRUMMOND_TAHIR_MAX_PHI {
+                vec![Row::new(format!("{label} Drummond-Tahir"), f, dt, dt)]
+            } else {
+                Vec::new()
+            }
+        },
+    )
+}
+
+/// Ends a resolution study: `sq` holds the sums of squared relative errors over `count` rows at
+/// the coarse and the fine lattice; their RMS must fall, and any earlier `problems` fail it.
+fn rms_must_fall(id: &str, sq: [f64; 2], count: usize, mut problems: Vec<String>) -> Result<()> {
+    let rms = |s: f64| (s / count as f64).sqrt();
     eprintln!(
-        "{}: RMS relative error {:.3e} (coarse) -> {:.3e} (fine)",
-        ctx.id,
+        "{id}: RMS relative error {:.3e} (coarse) -> {:.3e} (fine)",
         rms(sq[0]),
         rms(sq[1])
     );
@@ -434,8 +562,9 @@ pub fn case_806_807(ctx: &CaseContext) -> Result<Vec<Row>> {
             rms(sq[1])
         ));
     }
-    if !problems.is_empty() {
-        return Err(Error::Validation(problems.join("; ")));
+    if problems.is_empty() {
+        Ok(())
+    } else {
+        Err(Error::Validation(problems.join("; ")))
     }
-    Ok(rows)
 }

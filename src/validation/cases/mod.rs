@@ -20,6 +20,7 @@ mod field_analytic;
 mod field_oracle;
 mod lbm;
 mod lbm_boundaries;
+mod lbm_packings;
 mod packing;
 mod packing_confined;
 mod shapes;
@@ -116,6 +117,9 @@ pub fn runner_for(id: &str) -> Option<Runner> {
         "809" => Some(lbm_boundaries::case_809),
         "806" => Some(lbm::case_806_807),
         "807" => Some(lbm::case_806_807),
+        "818" | "819" => Some(lbm::case_818_819),
+        "920" => Some(lbm_packings::case_920),
+        "921" => Some(lbm_packings::case_921),
         "701" => Some(dem::case_701),
         "702" => Some(dem::case_702),
         "703" => Some(dem::case_703),

@@ -1,0 +1,200 @@
+//! Cases 920-921 (thesis 003 ch. 7): the permeability of porelab's own random packings (MCM,
+//! periodic box) by the pore-resolving lattice Boltzmann solver ([`crate::lbm::pore`]), read
+//! as the Kozeny constant of eq. 7.4, k = (1 - phi)^3 nu^2 / (C_KC phi^2).
+//!
+//! * 920 (slow): spheres at packing fractions along one MCM run (the jamming schedule stopped
+//!   at the first accepted step past each target, and its jammed end): C_KC with nu = V/S = D/6
+//!   against Carman's 5 (the "180" of the sphere form).
+//! * 921 (slow): spherocylinders at their random-packing densities: C_KC with the exact
+//!   nu = V/S and with the long-rod nu = D/4 (thesis sec. 7.2.2), against L/D.
+
+use super::common::non_empty;
+use crate::lbm::choice::{CollisionKind, LatticeKind};
+use crate::lbm::pore::{
+    kozeny_constant, packing_particles, pore_permeability, voxelise, PoreOptions,
+};
+use crate::lbm::steady::SteadyControl;
+use crate::packing::{self, McmParams, McmState, Packing, StepOutcome};
+use crate::validation::{CaseContext, Row};
+use crate::{Error, Result};
+
+fn seed(ctx: &CaseContext) -> Result<u64> {
+    ctx.seed
+        .ok_or_else(|| Error::Validation(format!("case {}: needs `seed` in case.toml", ctx.id)))
+}
+
+/// The pore-resolving run of these cases: D3Q19 TRT (Lambda = 3/16: k independent of the
+/// viscosity), tau = 1, body force 1e-5 (Re on V/S below 1e-3 at these k), steady to 1e-7 per
+/// 100 steps.
+const PORE: PoreOptions = PoreOptions {
+    lattice: LatticeKind::D3Q19,
+    collision: CollisionKind::Trt,
+    tau: 1.0,
+    g: 1e-5,
+    ctl: SteadyControl {
+        check_every: 100,
+        tol: 1e-7,
+        max_steps: 200_000,
+    },
+    quiet: true,
+};
+
+/// Configurations of one MCM run: the first accepted state at or past each of `targets`
+/// (ascending packing fractions), then the final (jammed) state.
+fn packings_along(prm: &McmParams, targets: &[f64]) -> Result<Vec<Packing>> {
+    let start = packing::random_start_of(prm.container, prm.particles(), prm.phi0, prm.seed)?;
+    let mut state = McmState::new(start, prm)?;
+    let mut out = Vec::new();
+    let mut next = targets.iter().peekable();
+    while state.step(prm)? != StepOutcome::Finished {
+        let phi = state.packing.packing_fraction();
+        while next.peek().is_some_and(|&&t| phi >= t) {
+            next.next();
+            out.push(state.packing.clone());
+        }
+    }
+    out.push(state.packing.clone());
+    Ok(out)
+}
+
+/// One packing's permeability at two resolutions (cells per diameter).
+struct KcPoint {
+    phi: f64,
+    v_over_s: f64,
+    /// k / D^2 at the coarse and the fine lattice.
+    k: [f64; 2],
+    /// Voxel solid fraction at the fine lattice.
+    phi_voxels: f64,
+    re: f64,
+}
+
+fn kc_point(p: &Packing, cells_per_d: [f64; 2]) -> Result<KcPoint> {
+    let (cell, parts) = packing_particles(p)?;
+    let mut k = [0.0; 2];
+    let (mut phi_voxels, mut re, mut v_over_s) = (0.0, 0.0, 0.0);
+    for (j, &c) in cells_per_d.iter().enumerate() {
+        let n = (c * p.box_length).round() as usize;
+        let v = voxelise(&cell, &parts, n)?;
+        let r = pore_permeability(&v, &PORE)?;
+        if !r.run.converged {
+            return Err(Error::Validation(format!(
+                "phi = {:.4}, n = {n}: not steady after {} steps (residual {:e})",
+                p.packing_fraction(),
+                r.run.steps,
+                r.run.residual
+            )));
+        }
+        k[j] = r.k;
+        phi_voxels = 1.0 - r.porosity;
+        re = r.re;
+        v_over_s = v.v_over_s.unwrap_or(f64::NAN);
+    }
+    Ok(KcPoint {
+        phi: p.packing_fraction(),
+        v_over_s,
+        k,
+        phi_voxels,
+        re,
+    })
+}
+
+/// Rows of one point: C_KC at the fine lattice against `want` (scale `want`) for each named
+/// length nu, and the relative change of C_KC from the coarse to the fine lattice against 0
+/// (scale 1; the same for every nu, C_KC being proportional to 1/k).
+fn kc_rows(label: &str, pt: &KcPoint, nus: &[(&str, f64)], want: f64, ctx_id: &str) -> Vec<Row> {
+    let change = pt.k[0] / pt.k[1] - 1.0;
+    eprintln!(
+        "{ctx_id} {label}: phi {:.4} (voxels {:.4}), V/S {:.4}: k/D^2 {:.4e} -> {:.4e} \
+         ({:+.2} % in C_KC), Re {:.1e}",
+        pt.phi,
+        pt.phi_voxels,
+        pt.v_over_s,
+        pt.k[0],
+        pt.k[1],
+        100.0 * change,
+        pt.re
+    );
+    let mut rows = Vec::new();
+    for &(name, nu) in nus {
+        let c = pt.k.map(|k| kozeny_constant(k, pt.phi, nu));
+        eprintln!(
+            "{ctx_id} {label}: C_KC (nu = {name} = {nu:.4}) {:.3} -> {:.3}",
+            c[0], c[1]
+        );
+        rows.push(Row::new(
+            format!("{label} C_KC nu={name}"),
+            c[1],
+            want,
+            want,
+        ));
+    }
+    rows.push(Row::new(
+        format!("{label} C_KC change coarse->fine"),
+        change,
+        0.0,
+        1.0,
+    ));
+    rows
+}
+
+/// Case 920: spheres; expected.csv `target_phi,cells_coarse,cells_fine,c_kc` (one row per
+/// target; a target of 1 stands for the jammed end of the run).
+pub fn case_920(ctx: &CaseContext) -> Result<Vec<Row>> {
+    let t = ctx.expected_table()?;
+    non_empty(&t)?;
+    let targets: Vec<f64> = t.f64_col("target_phi")?;
+    let n = t.f64(0, "particles")? as usize;
+    let prm = McmParams::jammed_spheres(n, seed(ctx)?);
+    let below_one: Vec<f64> = targets.iter().cloned().filter(|&x| x < 1.0).collect();
+    let packs = packings_along(&prm, &below_one)?;
+    let mut rows = Vec::new();
+    for (i, &target) in targets.iter().enumerate() {
+        let p = if target < 1.0 {
+            packs.get(i).ok_or_else(|| {
+                Error::Validation(format!(
+                    "the MCM run jammed before phi = {target} (final phi {:.4})",
+                    packs.last().map_or(f64::NAN, |p| p.packing_fraction())
+                ))
+            })?
+        } else {
+            packs.last().expect("the final state is always there")
+        };
+        let cells = [t.f64(i, "cells_coarse")?, t.f64(i, "cells_fine")?];
+        let pt = kc_point(p, cells)?;
+        let label = format!("spheres N={n} phi={:.3} D={}", pt.phi, cells[1]);
+        // nu = V/S = D/6 for spheres
+        let nus = [("V/S", pt.v_over_s)];
+        rows.extend(kc_rows(&label, &pt, &nus, t.f64(i, "c_kc")?, &ctx.id));
+    }
+    Ok(rows)
+}
+
+/// Case 921: spherocylinders; expected.csv `length_over_diameter,particles,cells_coarse,
+/// cells_fine,c_kc`, one MCM run per row (the jamming schedule with the rod length set, as
+/// case 514), its jammed end: C_KC with nu = V/S and with the long-rod nu = D/4.
+pub fn case_921(ctx: &CaseContext) -> Result<Vec<Row>> {
+    let t = ctx.expected_table()?;
+    non_empty(&t)?;
+    let s = seed(ctx)?;
+    let mut rows = Vec::new();
+    for i in 0..t.len() {
+        let aspect = t.f64(i, "length_over_diameter")?;
+        let n = t.f64(i, "particles")? as usize;
+        let mut prm = McmParams::jammed_spheres(n, s);
+        prm.length = aspect;
+        let r = packing::run(&prm)?;
+        let cells = [t.f64(i, "cells_coarse")?, t.f64(i, "cells_fine")?];
+        let pt = kc_point(&r.packing, cells)?;
+        // thesis eq. 7.2 with <C> = 9.8: the random-contact phi of long rods, for comparison
+        eprintln!(
+            "{} L/D={aspect}: MCM phi {:.4}, random contact equation (eq. 7.2) 4.9 D/L = {:.3}",
+            ctx.id,
+            pt.phi,
+            4.9 / aspect
+        );
+        let label = format!("rods L/D={aspect} N={n} phi={:.3} D={}", pt.phi, cells[1]);
+        let nus = [("V/S", pt.v_over_s), ("D/4", 0.25)];
+        rows.extend(kc_rows(&label, &pt, &nus, t.f64(i, "c_kc")?, &ctx.id));
+    }
+    Ok(rows)
+}
