@@ -230,7 +230,7 @@ fn check_driving(
     let what =
         format!("through the particles spread uniformly (porosity {eps:.3}) and the basesheet");
     let mach = 3f64.sqrt() * u / eps.clamp(setup.eps_min, 1.0);
-    if !(mach <= MACH_MAX) {
+    if !(mach.is_finite() && mach <= MACH_MAX) {
         return invalid(format!(
             "{key} = {shown} Pa/m (with the weight's share if balanced): the steady flow {what} \
              would be {:.3e} m/s, lattice Mach sqrt(3) U / eps = {mach:.3} > {MACH_MAX} (rule: \
@@ -254,7 +254,7 @@ fn check_driving(
     };
     let g_z = units.accel_to_lattice(grad.z / rho);
     let drho = 3.0 * g_z.abs() * free / dx;
-    if !(drho <= MAX_DENSITY_VARIATION) {
+    if !(drho.is_finite() && drho <= MAX_DENSITY_VARIATION) {
         return invalid(format!(
             "{key} = {shown} Pa/m: across the {free:.3e} m of free fluid in z the lattice density \
              would vary by c_s^-2 G L = {drho:.3} (rule: at most {MAX_DENSITY_VARIATION} for the \

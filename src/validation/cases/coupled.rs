@@ -743,3 +743,475 @@ pub fn case_817(ctx: &CaseContext) -> Result<Vec<Row>> {
     }
     Ok(rows)
 }
+
+/// Ergun's gradient (Pa/m) at porosity `eps`, diameter `d` and superficial velocity `u` (SI).
+fn ergun_gradient(eps: f64, d: f64, mu: f64, rho: f64, u: f64) -> f64 {
+    150.0 * mu * (1.0 - eps).powi(2) * u / (eps.powi(3) * d * d)
+        + 1.75 * rho * (1.0 - eps) * u * u / (eps.powi(3) * d)
+}
+
+/// The root x in [0, inf) of an increasing `f` with f(0) <= target, by bisection.
+fn increasing_root(f: impl Fn(f64) -> f64, target: f64) -> f64 {
+    let mut hi = 1e-12;
+    while f(hi) < target {
+        hi *= 2.0;
+        if hi > 1e12 {
+            return f64::INFINITY;
+        }
+    }
+    let mut lo = 0.0;
+    for _ in 0..200 {
+        let mid = 0.5 * (lo + hi);
+        if f(mid) < target {
+            lo = mid;
+        } else {
+            hi = mid;
+        }
+    }
+    0.5 * (lo + hi)
+}
+
+/// Porosity of each cell of a periodic lattice by the solid length along x of `k`^2 lines
+/// per cell (midpoints in y and z; the union of the spheres' chords, clipped to the cell, in
+/// closed form), independent of the engine's sphere-cube volumes.
+fn chord_porosity(pos: &[Vector3<f64>], r: f64, n: [usize; 3], dx: f64, k: usize) -> Vec<f64> {
+    let l = [n[0] as f64 * dx, n[1] as f64 * dx, n[2] as f64 * dx];
+    let h = dx / k as f64;
+    let cells = n[0] * n[1] * n[2];
+    let mut eps = vec![0.0; cells];
+    for (c, e) in eps.iter_mut().enumerate() {
+        let (cx, cy, cz) = (c % n[0], (c / n[0]) % n[1], c / (n[0] * n[1]));
+        let (x0, x1) = (cx as f64 * dx, (cx + 1) as f64 * dx);
+        let mut solid = 0.0;
+        for a in 0..k {
+            for b in 0..k {
+                let y = cy as f64 * dx + (a as f64 + 0.5) * h;
+                let z = cz as f64 * dx + (b as f64 + 0.5) * h;
+                // chords of every sphere image crossing this line, as x intervals
+                let mut iv: Vec<(f64, f64)> = Vec::new();
+                for p in pos {
+                    let mut dy = y - p.y;
+                    dy -= l[1] * (dy / l[1]).round();
+                    let mut dz = z - p.z;
+                    dz -= l[2] * (dz / l[2]).round();
+                    let s2 = r * r - dy * dy - dz * dz;
+                    if s2 <= 0.0 {
+                        continue;
+                    }
+                    let half = s2.sqrt();
+                    for img in [-l[0], 0.0, l[0]] {
+                        let (lo, hi) = ((p.x + img - half).max(x0), (p.x + img + half).min(x1));
+                        if hi > lo {
+                            iv.push((lo, hi));
+                        }
+                    }
+                }
+                iv.sort_by(|u, v| u.0.total_cmp(&v.0));
+                let (mut end, mut len) = (f64::NEG_INFINITY, 0.0);
+                for (lo, hi) in iv {
+                    let lo = lo.max(end);
+                    if hi > lo {
+                        len += hi - lo;
+                        end = hi;
+                    }
+                }
+                solid += len;
+            }
+        }
+        *e = 1.0 - solid / (k * k) as f64 / dx;
+    }
+    eps
+}
+
+/// Case 840: random fixed beds (MCM in a periodic cube, DEM settled on a floor) frozen in the
+/// coupled engine under a pressure gradient: grad p / Ergun(eps_b, U) between the bounds of
+/// the bed's counted porosity field (columns in parallel: upper; layers in series: lower).
+pub fn case_840(ctx: &CaseContext) -> Result<Vec<Row>> {
+    let t = ctx.expected_table()?;
+    non_empty(&t)?;
+    let (rho, mu) = (1000.0, 1e-3);
+    let mut rows = Vec::new();
+    for i in 0..t.len() {
+        let file = t.str(i, "bed")?;
+        let d = t.f64(i, "diameter_m")?;
+        let nx = t.f64(i, "cells_x")? as usize;
+        let re_target = t.f64(i, "re_p")?;
+        let tau = t.f64(i, "tau")?;
+        let path = ctx.case_dir.join("beds").join(file);
+        let text = std::fs::read_to_string(&path).map_err(|e| crate::Error::File {
+            path: path.display().to_string(),
+            msg: e.to_string(),
+        })?;
+        let (cell, parts) = crate::io::xyz::parse(&text, &path.display().to_string())?;
+        let r_file = parts[0].radius;
+        if parts.iter().any(|p| p.radius != r_file) {
+            return invalid(format!("case 840: {file}: the bed must be monodisperse"));
+        }
+        let s = d / (2.0 * r_file);
+        let r = 0.5 * d;
+        let lx = cell.lengths[0] * s;
+        let dx = lx / nx as f64;
+        let ny = (cell.lengths[1] * s / dx).round() as usize;
+        let top = parts
+            .iter()
+            .map(|p| p.position.z * s + r)
+            .fold(f64::MIN, f64::max);
+        let nz = if cell.pbc[2] {
+            (cell.lengths[2] * s / dx).round() as usize
+        } else {
+            (top / dx).ceil() as usize
+        };
+        let l = [lx, ny as f64 * dx, nz as f64 * dx];
+        let pos: Vec<Vector3<f64>> = parts
+            .iter()
+            .map(|p| {
+                let q = p.position * s;
+                Vector3::new(
+                    q.x.rem_euclid(l[0]),
+                    q.y.rem_euclid(l[1]),
+                    q.z.rem_euclid(l[2]),
+                )
+            })
+            .collect();
+        let n = pos.len();
+        let eps_b = 1.0 - n as f64 * PI / 6.0 * d.powi(3) / (l[0] * l[1] * l[2]);
+        let u_target = re_target * mu / (rho * d);
+        let gp = ergun_gradient(eps_b, d, mu, rho, u_target);
+        let setup = dem_setup(l, 2500.0, 0.0, rho)?;
+        let dem = Dem::new(
+            setup,
+            Particles::at_rest(pos.clone(), vec![r; n], 2500.0),
+            0.1,
+        )?;
+        let cs = coupled_setup(
+            dx,
+            tau,
+            mu,
+            nz,
+            Switch::Sharp,
+            Vector3::new(0.0, 0.0, gp),
+            false,
+            1,
+            true,
+        );
+        let mut c = Coupled::new(dem, cs)?;
+        let (mut u, mut u_prev, mut steady) = (0.0, f64::INFINITY, false);
+        for _ in 0..400_000 {
+            c.step()?;
+            let v = c.velocity_si();
+            u = -v.iter().map(|w| w[2]).sum::<f64>() / v.len() as f64;
+            if (u - u_prev).abs() <= 1e-10 * u.abs() {
+                steady = true;
+                break;
+            }
+            u_prev = u;
+        }
+        if !(steady && u > 0.0) {
+            return invalid(format!(
+                "case 840: {file}: no steady downward flow (U = {u})"
+            ));
+        }
+        let e_ref = ergun_gradient(eps_b, d, mu, rho, u);
+        let ratio = gp / e_ref;
+        // the bed's porosity field, counted independently
+        let dims = [nx, ny, nz];
+        let eps_c = chord_porosity(&pos, r, dims, dx, 64);
+        // the quadrature's error, estimated by the halved resolution
+        let amb: Vec<f64> = chord_porosity(&pos, r, dims, dx, 32)
+            .iter()
+            .zip(&eps_c)
+            .map(|(a, b)| (a - b).abs().max(1e-6))
+            .collect();
+        let psi = |e: f64, w: f64| -> f64 {
+            let e = e.clamp(0.1, 1.0);
+            if e >= 1.0 {
+                0.0
+            } else {
+                beta_gidaspow(e, d, mu, rho, w / e, false) * w / (e * e)
+            }
+        };
+        let nxy = nx * ny;
+        // lower: layers in series, the cells of a layer in parallel at one gradient
+        let mut dp_lo = 0.0;
+        for k in 0..nz {
+            let layer: Vec<f64> = (0..nxy)
+                .map(|j| eps_c[k * nxy + j] + amb[k * nxy + j])
+                .collect();
+            let flux = |g: f64| -> f64 {
+                layer
+                    .iter()
+                    .map(|&e| increasing_root(|w| psi(e, w), g))
+                    .sum::<f64>()
+                    / nxy as f64
+            };
+            dp_lo += increasing_root(flux, u) * dx;
+        }
+        // upper: columns of cells in series, the columns in parallel at one gradient
+        let cols: Vec<Vec<f64>> = (0..nxy)
+            .map(|j| {
+                (0..nz)
+                    .map(|k| eps_c[k * nxy + j] - amb[k * nxy + j])
+                    .collect()
+            })
+            .collect();
+        let flux = |g: f64| -> f64 {
+            cols.iter()
+                .map(|col| {
+                    increasing_root(
+                        |w| col.iter().map(|&e| psi(e, w)).sum::<f64>() / nz as f64,
+                        g,
+                    )
+                })
+                .sum::<f64>()
+                / nxy as f64
+        };
+        let g_hi = increasing_root(flux, u);
+        let (r_lo, r_hi) = (dp_lo / l[2] / e_ref, g_hi / e_ref);
+        let re = rho * u * d / mu;
+        let worst_map = (0..eps_c.len())
+            .filter(|&q| c.eps[q] > c.setup.eps_min)
+            .map(|q| (c.eps[q] - eps_c[q]).abs() / amb[q].max(f64::MIN_POSITIVE))
+            .fold(0.0, f64::max);
+        eprintln!(
+            "840 {file} Re_p {re:.3}: eps_b {eps_b:.4}, lattice {nx}x{ny}x{nz}, U {u:.4e} m/s, \
+             R {ratio:.4} in [{r_lo:.4}, {r_hi:.4}]"
+        );
+        let label = format!("{file} eps_b={eps_b:.3} Re_p={re:.2}");
+        rows.push(Row::new(
+            format!("{label}: grad p / Ergun(eps_b, U) in [{r_lo:.3}, {r_hi:.3}]"),
+            ratio,
+            0.5 * (r_lo + r_hi),
+            0.5 * (r_hi - r_lo),
+        ));
+        rows.push(Row::new(
+            format!("{label}: max |eps_engine - eps_chords| / its quadrature error"),
+            worst_map,
+            0.0,
+            1.0,
+        ));
+        rows.push(Row::new(
+            format!("{label}: Re_p against its target {re_target}"),
+            re,
+            re_target,
+            0.5 * re_target,
+        ));
+    }
+    Ok(rows)
+}
+
+/// The built-in seed bed (seed 002 Fig. 12) run to its end: the porosity profile and mean
+/// superficial |u_z| at every profile time, the lattice spacing and height, and the final
+/// sphere heights and radii. Kept for the process, so that cases 940 and 941 share one run.
+struct SeedBedRun {
+    series: Vec<(f64, Vec<f64>, f64)>,
+    dz: f64,
+    height: f64,
+    z: Vec<f64>,
+    r: Vec<f64>,
+    area: f64,
+}
+
+fn seed_bed_run(overlap: &str) -> Result<std::sync::Arc<SeedBedRun>> {
+    use std::sync::{Arc, Mutex};
+    static CACHE: Mutex<Vec<(String, Arc<SeedBedRun>)>> = Mutex::new(Vec::new());
+    // held for the whole run: a case asking while the other computes waits for its result
+    let mut cache = CACHE
+        .lock()
+        .map_err(|_| crate::Error::Validation("seed-bed cache poisoned".into()))?;
+    if let Some((_, r)) = cache.iter().find(|(k, _)| k == overlap) {
+        return Ok(r.clone());
+    }
+    let text = include_str!("../../scene/builtin/coupled-seed-bed.toml")
+        .replace("overlap = \"exact\"", &format!("overlap = \"{overlap}\""));
+    let scene = crate::scene::coupled::parse_scene(&text, "coupled-seed-bed")?;
+    let mut c = crate::scene::coupled::build(&scene)?;
+    let every = ((scene.profile_every_s / c.units.dt).round() as u64).max(1);
+    let mut series = Vec::new();
+    crate::scene::coupled::run(&scene, &mut c, |c| {
+        if c.steps % every == 0 {
+            let u = c.velocity_si();
+            let uz = u.iter().map(|w| w[2]).sum::<f64>() / u.len() as f64;
+            series.push((c.time_s, c.porosity_profile(), uz.abs()));
+        }
+        Ok(true)
+    })?;
+    let run = Arc::new(SeedBedRun {
+        series,
+        dz: c.setup.dx_m,
+        height: c.dims.nz as f64 * c.setup.dx_m,
+        z: c.dem.p.pos.iter().map(|p| p.z).collect(),
+        r: c.dem.p.radius.clone(),
+        area: c.dem.setup.lx_m * c.dem.setup.ly_m,
+    });
+    cache.push((overlap.to_string(), run.clone()));
+    Ok(run)
+}
+
+/// Case 940 (seed 002 Fig. 12): the built-in 2014-sphere bed under a pressure drop; zones
+/// on the porosity profile by thresholds fixed in the case notes, interface positions and
+/// speeds, and the decay of the flow through the consolidating bed.
+pub fn case_940(ctx: &CaseContext) -> Result<Vec<Row>> {
+    let t = ctx.expected_table()?;
+    non_empty(&t)?;
+    let eps_free = t.f64(0, "eps_free_min")?;
+    let eps_bed = t.f64(0, "eps_bed_max")?;
+    let run = seed_bed_run(t.str(0, "overlap")?)?;
+    let dz = run.dz;
+    // (time, top of the suspension, top of the fixed bed, mean superficial |u_z|)
+    let series: Vec<(f64, f64, f64, f64)> = run
+        .series
+        .iter()
+        .map(|(time, prof, u)| {
+            let h = prof.len() as f64 * dz;
+            let z_s = prof
+                .iter()
+                .rposition(|&e| e < eps_free)
+                .map_or(0.0, |k| (k + 1) as f64 * dz);
+            let z_b = prof
+                .iter()
+                .position(|&e| e > eps_bed)
+                .map_or(h, |k| k as f64 * dz);
+            (*time, z_s, z_b, *u)
+        })
+        .collect();
+    let h = run.height;
+    // the times with three zones: a fixed bed, a suspension above it, free fluid above that
+    let three: Vec<&(f64, f64, f64, f64)> = series
+        .iter()
+        .filter(|s| s.2 > 0.0 && s.1 > s.2 && s.1 < h)
+        .collect();
+    for s in &series {
+        eprintln!(
+            "940 t = {:.3} s: suspension top {:.2} mm, bed top {:.2} mm, U {:.3e} m/s",
+            s.0,
+            s.1 * 1e3,
+            s.2 * 1e3,
+            s.3
+        );
+    }
+    let n3 = three.len();
+    let mut rows = vec![Row::new(
+        format!(
+            "profile times with free fluid, suspension and fixed bed (of {})",
+            series.len()
+        ),
+        n3 as f64,
+        0.5 * (3.0 + series.len() as f64),
+        0.5 * (series.len() as f64 - 3.0),
+    )];
+    if n3 < 3 {
+        return Ok(rows);
+    }
+    // least-squares speeds with their standard errors
+    let fit = |k: usize| -> (f64, f64) {
+        let n = n3 as f64;
+        let tm = three.iter().map(|s| s.0).sum::<f64>() / n;
+        let ym = three
+            .iter()
+            .map(|s| if k == 1 { s.1 } else { s.2 })
+            .sum::<f64>()
+            / n;
+        let (mut sxx, mut sxy) = (0.0, 0.0);
+        for s in &three {
+            let y = if k == 1 { s.1 } else { s.2 };
+            sxx += (s.0 - tm).powi(2);
+            sxy += (s.0 - tm) * (y - ym);
+        }
+        let b = sxy / sxx;
+        let res: f64 = three
+            .iter()
+            .map(|s| {
+                let y = if k == 1 { s.1 } else { s.2 };
+                (y - ym - b * (s.0 - tm)).powi(2)
+            })
+            .sum();
+        let se = (res / (n - 2.0).max(1.0) / sxx).sqrt();
+        (b, se)
+    };
+    let (v_s, se_s) = fit(1);
+    let (v_b, se_b) = fit(2);
+    eprintln!(
+        "940: {n3} times with three zones, from {:.3} s to {:.3} s; suspension top {:.3e} +- {:.1e} \
+         m/s, bed top {:.3e} +- {:.1e} m/s",
+        three[0].0,
+        three[n3 - 1].0,
+        v_s,
+        se_s,
+        v_b,
+        se_b
+    );
+    let z = (v_b - v_s) / (se_s * se_s + se_b * se_b).sqrt().max(f64::MIN_POSITIVE);
+    let z_min = t.f64(0, "speed_z_min")?;
+    // one-sided checks as bands: [z_min, z_min + 1000], speeds of either sign up to 1 m/s
+    rows.push(Row::new(
+        format!(
+            "interfaces at different speeds: (v_bed - v_susp) / SE (v_susp {:.3} mm/s, v_bed {:.3} mm/s)",
+            v_s * 1e3,
+            v_b * 1e3
+        ),
+        z,
+        z_min + 500.0,
+        500.0,
+    ));
+    rows.push(Row::new(
+        "top of the suspension moves down (mm/s)",
+        v_s * 1e3,
+        -500.0,
+        500.0,
+    ));
+    rows.push(Row::new(
+        "top of the fixed bed moves up (mm/s)",
+        v_b * 1e3,
+        500.0,
+        500.0,
+    ));
+    let peak = series.iter().map(|s| s.3).fold(0.0, f64::max);
+    let last = series.last().map_or(0.0, |s| s.3);
+    let most = t.f64(0, "flow_end_over_peak_max")?;
+    rows.push(Row::new(
+        "superficial flow at the end over its peak",
+        last / peak,
+        0.5 * most,
+        0.5 * most,
+    ));
+    Ok(rows)
+}
+
+/// Case 941: the bottom of the coupled seed bed (case 940's run) against the uniform-drag DEM
+/// packing of the same spheres (built-in dem-seed-drag): porosity of a bottom window.
+pub fn case_941(ctx: &CaseContext) -> Result<Vec<Row>> {
+    let t = ctx.expected_table()?;
+    non_empty(&t)?;
+    let run = seed_bed_run(t.str(0, "overlap")?)?;
+    let d = 2.0 * run.r[0];
+    let (a, b) = (
+        t.f64(0, "window_lo_over_d")? * d,
+        t.f64(0, "window_hi_over_d")? * d,
+    );
+    let margin = t.f64(0, "margin")?;
+    let coupled = crate::dem::observe::slab_porosity(&run.z, &run.r, run.area, a, b);
+    let scene = crate::scene::dem::parse_scene(
+        include_str!("../../scene/builtin/dem-seed-drag.toml"),
+        "dem-seed-drag",
+    )?;
+    let mut dem = crate::scene::dem::build(&scene)?;
+    let mut progress = crate::scene::dem::RunProgress::start(&dem);
+    let stop =
+        crate::scene::dem::run_checks(&scene, &mut dem, &mut progress, None, |_, _, _| Ok(()))?;
+    let z: Vec<f64> = dem.p.pos.iter().map(|p| p.z).collect();
+    let area = scene.setup.lx_m * scene.setup.ly_m;
+    let drag = crate::dem::observe::slab_porosity(&z, &dem.p.radius, area, a, b);
+    eprintln!(
+        "941: porosity of z in [{a:.2e}, {b:.2e}] m: coupled {coupled:.4}, uniform drag {drag:.4} \
+         (DEM stop: {})",
+        stop.unwrap_or_default()
+    );
+    Ok(vec![Row::new(
+        format!(
+            "bottom porosity, coupled {coupled:.4} minus uniform drag {drag:.4}, at least {margin}"
+        ),
+        coupled - drag,
+        margin + 0.5,
+        0.5,
+    )])
+}
