@@ -205,7 +205,7 @@ fn listing(points: &[FigurePoint], scale: f64) -> String {
 }
 
 /// Spearman's rank correlation of two equal-length samples (average ranks for ties).
-fn spearman(x: &[f64], y: &[f64]) -> f64 {
+pub(super) fn spearman(x: &[f64], y: &[f64]) -> f64 {
     fn ranks(v: &[f64]) -> Vec<f64> {
         let mut idx: Vec<usize> = (0..v.len()).collect();
         idx.sort_by(|&a, &b| v[a].total_cmp(&v[b]));
@@ -238,7 +238,7 @@ fn spearman(x: &[f64], y: &[f64]) -> f64 {
 
 /// One-sided 5 % critical values of Spearman's rank correlation for n = 5..10 points (Zar,
 /// J. Am. Stat. Assoc. 67, 578 (1972), Table 1).
-fn spearman_critical_5_percent(n: usize) -> Result<f64> {
+pub(super) fn spearman_critical_5_percent(n: usize) -> Result<f64> {
     const TABLE: [(usize, f64); 6] = [
         (5, 0.900),
         (6, 0.829),

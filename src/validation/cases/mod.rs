@@ -11,6 +11,7 @@ mod common;
 mod contact;
 mod coupled;
 mod dem;
+mod dem_packing;
 mod dem_zhou;
 mod deposition;
 mod deposition_figures;
@@ -136,6 +137,7 @@ pub fn runner_for(id: &str) -> Option<Runner> {
         "711" => Some(dem::case_711),
         "712" => Some(dem::case_711),
         "713" | "714" => Some(dem_zhou::case_713_714),
+        "715" => Some(dem_packing::case_715),
         _ => None,
     }
 }
