@@ -17,7 +17,7 @@
 //! branch per cell), and [`Boundaries::apply`] then overwrites the boundary nodes' post-collision
 //! populations from the previous step's array, which the kernel only read.
 
-use super::collision::{equilibrium, relax_run, Collision, RowState};
+use super::collision::{equilibrium, relax_cell, Collision};
 use super::forcing::Forcing;
 use super::geometry::{Dims, Geometry};
 use super::lattice::{opposite, Lattice};
@@ -309,7 +309,6 @@ impl Boundaries {
         force: &F,
     ) {
         let d = geom.dims;
-        let mut st = RowState::with_len(1);
         let mut pre = vec![0.0; L::Q];
         let mut out = vec![0.0; L::Q];
         for plane in &mut self.planes {
@@ -330,12 +329,7 @@ impl Boundaries {
                 for q in 0..L::Q {
                     pre[q] = feq_b.as_ref()[q] + one.pop.as_ref()[q] - feq_1.as_ref()[q];
                 }
-                st.set(0, rho_b, &s);
-                if F::ACTIVE {
-                    relax_run::<L, C, true>(coll, &st, &pre, 1, (0, 1), &mut out, 1, 0);
-                } else {
-                    relax_run::<L, C, false>(coll, &st, &pre, 1, (0, 1), &mut out, 1, 0);
-                }
+                relax_cell::<L, C, F>(coll, rho_b, &s, &pre, &mut out);
                 let p = d.coords(node.cell);
                 for (q, v) in out.iter().enumerate() {
                     dst[((p[2] * L::Q + q) * d.ny + p[1]) * d.nx + p[0]] = *v;

@@ -8,8 +8,8 @@
 //! omega+ = 1/tau (the viscosity, eq. 8: nu = (tau - 1/2)/3), the odd part at omega-; each
 //! source part carries its factor (1 - omega/2). BGK is omega- = omega+.
 
-use super::forcing::CellState;
-use super::lattice::Lattice;
+use super::forcing::{CellState, Forcing};
+use super::lattice::{each_pair, each_q, Lattice, QMAX};
 
 /// A collision operator: its two rates (even, odd).
 pub trait Collision: Copy + Send + Sync {
@@ -80,115 +80,155 @@ impl Collision for Trt {
     }
 }
 
-/// Macroscopic state of a run of cells (structure of arrays, one entry per cell).
-#[derive(Debug, Clone, Default)]
-pub struct RowState {
-    pub rho: Vec<f64>,
-    pub u: [Vec<f64>; 3],
-    pub a: [Vec<f64>; 3],
-    pub inv_eps: Vec<f64>,
+/// Lanes of the kernel's blocks: one AVX-512 register of f64 (two AVX2 ones).
+pub const LANES: usize = 8;
+
+/// Populations of a block of `N` cells, population-major: row q holds f_q of every cell (a
+/// lattice uses its first Q rows).
+pub type Block<const N: usize> = [[f64; N]; QMAX];
+
+/// The macroscopic state of a block of `N` cells that the collision needs (one entry per cell).
+#[derive(Debug, Clone, Copy)]
+pub struct BlockState<const N: usize> {
+    pub rho: [f64; N],
+    pub u: [[f64; N]; 3],
+    pub a: [[f64; N]; 3],
+    pub inv_eps: [f64; N],
     /// u.u / eps and u.a / eps, shared by every direction.
-    pub uu: Vec<f64>,
-    pub ua: Vec<f64>,
+    pub uu: [f64; N],
+    pub ua: [f64; N],
 }
 
-impl RowState {
-    pub fn with_len(n: usize) -> RowState {
-        let v = || vec![0.0; n];
-        RowState {
-            rho: v(),
-            u: [v(), v(), v()],
-            a: [v(), v(), v()],
-            inv_eps: v(),
-            uu: v(),
-            ua: v(),
+impl<const N: usize> Default for BlockState<N> {
+    fn default() -> Self {
+        BlockState {
+            rho: [0.0; N],
+            u: [[0.0; N]; 3],
+            a: [[0.0; N]; 3],
+            inv_eps: [0.0; N],
+            uu: [0.0; N],
+            ua: [0.0; N],
         }
     }
+}
 
-    /// Entry `i`: density `rho` and the forcing's state `s` (velocity, acceleration, 1/eps),
+impl<const N: usize> BlockState<N> {
+    /// Entry `l`: density `rho` and the forcing's state `s` (velocity, acceleration, 1/eps),
     /// with the shared products u.u / eps and u.a / eps (the latter makes the source term of
     /// Guo & Zhao eq. 14 massless).
     #[inline(always)]
-    pub fn set(&mut self, i: usize, rho: f64, s: &CellState) {
-        self.rho[i] = rho;
+    pub fn set(&mut self, l: usize, rho: f64, s: &CellState) {
+        self.rho[l] = rho;
         for k in 0..3 {
-            self.u[k][i] = s.u[k];
-            self.a[k][i] = s.a[k];
+            self.u[k][l] = s.u[k];
+            self.a[k][l] = s.a[k];
         }
-        self.inv_eps[i] = s.inv_eps;
-        self.uu[i] = (s.u[0] * s.u[0] + s.u[1] * s.u[1] + s.u[2] * s.u[2]) * s.inv_eps;
-        self.ua[i] = (s.u[0] * s.a[0] + s.u[1] * s.a[1] + s.u[2] * s.a[2]) * s.inv_eps;
+        self.inv_eps[l] = s.inv_eps;
+        self.uu[l] = (s.u[0] * s.u[0] + s.u[1] * s.u[1] + s.u[2] * s.u[2]) * s.inv_eps;
+        self.ua[l] = (s.u[0] * s.a[0] + s.u[1] * s.a[1] + s.u[2] * s.a[2]) * s.inv_eps;
     }
 }
 
-/// Relaxes the run [x0, x1) of one row: incoming populations in `inp` (q-major rows of `nx`),
-/// post-collision populations written to row `y` of the z-plane `out` (q-major planes of
-/// ny x nx), with the source term when `FORCED`. The loops run over the cells innermost, so
-/// they vectorise.
-#[allow(clippy::too_many_arguments)]
+/// c . v for every cell of a block, with the lattice's integer c (components 0, +-1): only the
+/// nonzero terms are added, in the order x, y, z, so the sum is the one of the full dot
+/// product to the last bit (up to the sign of a zero) at a third of the operations.
 #[inline(always)]
-pub fn relax_run<L: Lattice, C: Collision, const FORCED: bool>(
+pub fn dot_c<const N: usize>(c: [i32; 3], v: &[[f64; N]; 3]) -> [f64; N] {
+    let mut s = [0.0; N];
+    let mut first = true;
+    for k in 0..3 {
+        if c[k] == 0 {
+            continue;
+        }
+        let ck = c[k] as f64;
+        if first {
+            for l in 0..N {
+                s[l] = ck * v[k][l];
+            }
+        } else {
+            for l in 0..N {
+                s[l] += ck * v[k][l];
+            }
+        }
+        first = false;
+    }
+    s
+}
+
+/// Relaxes a block of `N` cells: pulled populations `f`, state `s`, post-collision
+/// populations into `out`, with the source term when `FORCED`. Every loop runs over the cells
+/// innermost with no branch inside, so each becomes vector instructions.
+#[inline(always)]
+pub fn relax_block<L: Lattice, C: Collision, const FORCED: bool, const N: usize>(
     coll: &C,
-    s: &RowState,
-    inp: &[f64],
-    nx: usize,
-    (x0, x1): (usize, usize),
-    out: &mut [f64],
-    ny: usize,
-    y: usize,
+    s: &BlockState<N>,
+    f: &Block<N>,
+    out: &mut Block<N>,
 ) {
-    let n = x1 - x0;
     let wp = coll.omega_plus();
     let wm = coll.omega_minus();
     let sp = 1.0 - 0.5 * wp;
     let sm = 1.0 - 0.5 * wm;
-    let rho = &s.rho[..n];
-    let (ux, uy, uz) = (&s.u[0][..n], &s.u[1][..n], &s.u[2][..n]);
-    let (ax, ay, az) = (&s.a[0][..n], &s.a[1][..n], &s.a[2][..n]);
-    let (ie, uu, ua) = (&s.inv_eps[..n], &s.uu[..n], &s.ua[..n]);
-    let row = |q: usize| (q * ny + y) * nx + x0;
     // rest population: even part only
-    {
-        let w0 = L::W[0];
-        let f0 = &inp[x0..x1];
-        let o = &mut out[row(0)..row(0) + n];
-        for i in 0..n {
-            let wr = w0 * rho[i];
-            let mut d = -wp * (f0[i] - wr * (1.0 - 1.5 * uu[i]));
-            if FORCED {
-                d += sp * wr * (-3.0 * ua[i]);
-            }
-            o[i] = f0[i] + d;
+    let w0 = L::W[0];
+    for l in 0..N {
+        let wr = w0 * s.rho[l];
+        let mut d = -wp * (f[0][l] - wr * (1.0 - 1.5 * s.uu[l]));
+        if FORCED {
+            d += sp * wr * (-3.0 * s.ua[l]);
         }
+        out[0][l] = f[0][l] + d;
     }
-    let mut q = 1;
-    while q < L::Q {
-        let c = L::C[q];
-        let (cx, cy, cz) = (c[0] as f64, c[1] as f64, c[2] as f64);
+    each_pair!(L, q, {
         let w = L::W[q];
-        let fq = &inp[q * nx + x0..q * nx + x1];
-        let fo = &inp[(q + 1) * nx + x0..(q + 1) * nx + x1];
-        let (lo, hi) = out.split_at_mut(row(q + 1));
-        let oq = &mut lo[row(q)..row(q) + n];
-        let oo = &mut hi[..n];
-        for i in 0..n {
-            let wr = w * rho[i];
-            let cu = cx * ux[i] + cy * uy[i] + cz * uz[i];
-            let ep = wr * (1.0 + 4.5 * cu * cu * ie[i] - 1.5 * uu[i]);
-            let em = wr * 3.0 * cu;
-            let fp = 0.5 * (fq[i] + fo[i]);
-            let fm = 0.5 * (fq[i] - fo[i]);
+        let cu = dot_c(L::C[q], &s.u);
+        let ca = if FORCED {
+            dot_c(L::C[q], &s.a)
+        } else {
+            [0.0; N]
+        };
+        let (fq, fo) = (&f[q], &f[q + 1]);
+        for l in 0..N {
+            let wr = w * s.rho[l];
+            let ep = wr * (1.0 + 4.5 * cu[l] * cu[l] * s.inv_eps[l] - 1.5 * s.uu[l]);
+            let em = wr * 3.0 * cu[l];
+            let fp = 0.5 * (fq[l] + fo[l]);
+            let fm = 0.5 * (fq[l] - fo[l]);
             let mut dp = -wp * (fp - ep);
             let mut dm = -wm * (fm - em);
             if FORCED {
-                let ca = cx * ax[i] + cy * ay[i] + cz * az[i];
-                dp += sp * wr * (9.0 * cu * ca * ie[i] - 3.0 * ua[i]);
-                dm += sm * wr * 3.0 * ca;
+                dp += sp * wr * (9.0 * cu[l] * ca[l] * s.inv_eps[l] - 3.0 * s.ua[l]);
+                dm += sm * wr * 3.0 * ca[l];
             }
-            oq[i] = fq[i] + dp + dm;
-            oo[i] = fo[i] + dp - dm;
+            out[q][l] = fq[l] + dp + dm;
+            out[q + 1][l] = fo[l] + dp - dm;
         }
-        q += 2;
+    });
+}
+
+/// Relaxes one cell of density `rho` and forcing state `s`: pulled populations `pre` (Q of
+/// them) into `out` (a boundary node's update).
+pub fn relax_cell<L: Lattice, C: Collision, F: Forcing>(
+    coll: &C,
+    rho: f64,
+    s: &CellState,
+    pre: &[f64],
+    out: &mut [f64],
+) {
+    let mut st = BlockState::<1>::default();
+    st.set(0, rho, s);
+    let mut f: Block<1> = [[0.0]; QMAX];
+    for (fq, p) in f.iter_mut().zip(&pre[..L::Q]) {
+        fq[0] = *p;
+    }
+    let mut o: Block<1> = [[0.0]; QMAX];
+    if F::ACTIVE {
+        relax_block::<L, C, true, 1>(coll, &st, &f, &mut o);
+    } else {
+        relax_block::<L, C, false, 1>(coll, &st, &f, &mut o);
+    }
+    for (v, oq) in out[..L::Q].iter_mut().zip(&o) {
+        *v = oq[0];
     }
 }
 

@@ -25,6 +25,34 @@ pub const fn opposite(q: usize) -> usize {
     }
 }
 
+/// The largest Q of the velocity sets here (D3Q19): the row count of the kernel's blocks.
+pub const QMAX: usize = 19;
+
+/// `each_q!(L, q, { body })` runs the body for q = 0..L::Q, written out once per q so that
+/// every q is a constant in the kernel (its c_q and w_q fold in, and per-q arrays live in
+/// registers).
+macro_rules! each_q {
+    ($L:ident, $q:ident, $body:block) => {
+        each_q!(@ $L, $q, $body, 0 1 2 3 4 5 6 7 8 9 10 11 12 13 14 15 16 17 18)
+    };
+    (@ $L:ident, $q:ident, $body:block, $($n:literal)*) => {$(
+        if $n < $L::Q {
+            let $q: usize = $n;
+            $body
+        }
+    )*};
+}
+
+/// `each_pair!(L, q, { body })`: the body for the first direction q = 1, 3, 5, .. of every
+/// opposite pair (q, q + 1), unrolled like [`each_q`].
+macro_rules! each_pair {
+    ($L:ident, $q:ident, $body:block) => {
+        each_q!(@ $L, $q, $body, 1 3 5 7 9 11 13 15 17)
+    };
+}
+
+pub(crate) use {each_pair, each_q};
+
 /// Squared speed of sound in lattice units (seed 002 eq. 9: c_s^2 = 3 (1 - w_0) / 7 = 1/3 for
 /// D3Q15's w_0 = 2/9; the same 1/3 holds for D3Q19).
 pub const CS2: f64 = 1.0 / 3.0;

@@ -4,18 +4,20 @@
 //!
 //! Storage is a structure of arrays in z-planes: population q of cell (x, y, z) is at
 //! `((z Q + q) ny + y) nx + x`, so each plane (all q) is one contiguous chunk that one rayon
-//! task writes. A step pulls, for every row, the Q upstream rows into a small buffer (periodic
-//! wrap in x by three slice copies), overwrites the bounce-back links of the row
-//! (f_q(x) = f*_opp(q)(x) + delta; halfway bounce-back, seed 002 ref. 12 and Ladd 1994), then
-//! collides the fluid runs. Every cell's update reads only the previous array, so the result
-//! is the same at any thread count; sums (mass, mean velocity) are taken per plane and added
-//! in plane order.
+//! task writes. A step walks every row's fluid cells in blocks of [`LANES`] cells: it pulls
+//! the Q upstream populations of the block (one contiguous load per q away from the row's
+//! ends, a periodic gather at the ends and between solids), overwrites the bounce-back links
+//! (f_q(x) = f*_opp(q)(x) + delta; halfway bounce-back, seed 002 ref. 12 and Ladd 1994),
+//! takes the moments, collides and stores, all in registers, every q written out by
+//! [`each_q!`] so the whole block is straight-line vector code. Every cell's update reads
+//! only the previous array, so the result is the same at any thread count; sums (mass, mean
+//! velocity) are taken per plane and added in plane order.
 
 use super::boundary::Boundaries;
-use super::collision::{equilibrium, relax_run, Collision, RowState};
+use super::collision::{equilibrium, relax_block, Block, BlockState, Collision, LANES};
 use super::forcing::Forcing;
-use super::geometry::{Dims, Geometry};
-use super::lattice::{opposite, Lattice};
+use super::geometry::{Dims, Geometry, Link};
+use super::lattice::{each_q, opposite, Lattice, QMAX};
 use crate::error::{invalid, Result};
 use rayon::prelude::*;
 use std::marker::PhantomData;
@@ -45,6 +47,19 @@ impl Record {
         }
     }
 }
+
+/// Where one row's populations come from: the start in the source array of the upstream
+/// row of each population, the row's own start (population 0), its first cell index and y.
+struct RowCtx {
+    up: [usize; QMAX],
+    here: usize,
+    cell0: usize,
+    y: usize,
+}
+
+/// What every block of a row needs: source array, extent, collision, forcing, the row's
+/// [`RowCtx`] and bounce-back links.
+type RowArgs<'a, C, F> = (&'a [f64], &'a Dims, &'a C, &'a F, &'a RowCtx, &'a [Link]);
 
 /// One z-plane of a [`Record`].
 type PlaneRecord<'a> = (&'a mut [f64], &'a mut [[f64; 3]], &'a mut [[f64; 3]]);
@@ -203,48 +218,188 @@ impl<L: Lattice, C: Collision, F: Forcing> Solver<L, C, F> {
         }
     }
 
-    /// Density, momentum and the forcing's state of the run [x0, x1) of row (y, z) from the
-    /// pulled populations `buf`, into `st` (entries 0..x1 - x0).
+    /// Pulls the populations arriving at the cells `xs` of row (y, z) into the block `f` (lane
+    /// l: cell x = xs[l]), with the bounce-back links of those cells applied. `CONTIG`: the
+    /// cells are xs[0] + l, all at least one cell from either end of the row, so every upstream
+    /// cell is in the row without wrapping and each population is one contiguous load.
+    /// `up[q]`: the start of the upstream row of population q in `src`; `links`: the row's
+    /// links from the first one at or after xs[0].
     #[allow(clippy::too_many_arguments)]
     #[inline(always)]
-    fn row_state(
-        force: &F,
+    fn gather<const CONTIG: bool>(
+        src: &[f64],
         d: &Dims,
-        buf: &[f64],
-        z: usize,
-        y: usize,
-        x0: usize,
-        x1: usize,
-        st: &mut RowState,
-    ) {
-        let n = x1 - x0;
+        up: &[usize; QMAX],
+        links: &[Link],
+        here: usize,
+        xs: &[usize; LANES],
+        f: &mut Block<LANES>,
+    ) -> usize {
         let nx = d.nx;
-        let (rho, j) = (&mut st.rho[..n], &mut st.a);
-        rho.fill(0.0);
-        for jc in j.iter_mut() {
-            jc[..n].fill(0.0);
-        }
-        for q in 0..L::Q {
-            let c = L::C[q];
-            let (cx, cy, cz) = (c[0] as f64, c[1] as f64, c[2] as f64);
-            let f = &buf[q * nx + x0..q * nx + x1];
-            let [jx, jy, jz] = j;
-            let (jx, jy, jz) = (&mut jx[..n], &mut jy[..n], &mut jz[..n]);
-            for i in 0..n {
-                rho[i] += f[i];
-                jx[i] += cx * f[i];
-                jy[i] += cy * f[i];
-                jz[i] += cz * f[i];
+        each_q!(L, q, {
+            let cx = L::C[q][0];
+            let row = &src[up[q]..up[q] + nx];
+            if CONTIG {
+                let x0 = (xs[0] as isize - cx as isize) as usize;
+                f[q].copy_from_slice(&row[x0..x0 + LANES]);
+            } else {
+                for (fl, &x) in f[q].iter_mut().zip(xs) {
+                    let xu = match cx {
+                        1 if x == 0 => nx - 1,
+                        -1 if x + 1 == nx => 0,
+                        _ => (x as isize - cx as isize) as usize,
+                    };
+                    *fl = row[xu];
+                }
+            }
+        });
+        // halfway bounce-back (links sorted by x): f_q(x) = f*_opp(q)(x) + delta
+        let last = xs[LANES - 1];
+        let mut used = 0;
+        for l in links {
+            let x = l.x as usize;
+            if x > last {
+                break;
+            }
+            used += 1;
+            let q = l.q as usize;
+            let v = src[here + opposite(q) * d.ny * nx + x] + l.delta;
+            if CONTIG {
+                f[q][x - xs[0]] = v;
+            } else {
+                for (fl, &xl) in f[q].iter_mut().zip(xs) {
+                    if xl == x {
+                        *fl = v;
+                    }
+                }
             }
         }
-        let base = (z * d.ny + y) * nx + x0;
-        for i in 0..n {
-            let s = force.state(base + i, st.rho[i], [st.a[0][i], st.a[1][i], st.a[2][i]]);
-            st.set(i, st.rho[i], &s);
+        used
+    }
+
+    /// Density, momentum and the forcing's state of the block `f` (cells `cells[l]`).
+    #[inline(always)]
+    fn block_state(
+        force: &F,
+        f: &Block<LANES>,
+        cells: &[usize; LANES],
+        st: &mut BlockState<LANES>,
+    ) {
+        // seed 002 eq. 6-7: rho = sum f, j = sum f c (zero terms skipped, order kept)
+        let mut rho = [0.0; LANES];
+        let mut j = [[0.0; LANES]; 3];
+        each_q!(L, q, {
+            for l in 0..LANES {
+                rho[l] += f[q][l];
+            }
+            for (k, jk) in j.iter_mut().enumerate() {
+                match L::C[q][k] {
+                    0 => {}
+                    1 => {
+                        for l in 0..LANES {
+                            jk[l] += f[q][l];
+                        }
+                    }
+                    _ => {
+                        for l in 0..LANES {
+                            jk[l] -= f[q][l];
+                        }
+                    }
+                }
+            }
+        });
+        for l in 0..LANES {
+            let s = force.state(cells[l], rho[l], [j[0][l], j[1][l], j[2][l]]);
+            st.set(l, rho[l], &s);
         }
     }
 
+    /// Pull, bounce back, collide and store one block (see [`Self::gather`]).
+    #[allow(clippy::too_many_arguments)]
+    #[inline(always)]
+    fn block<const CONTIG: bool>(
+        src: &[f64],
+        d: &Dims,
+        coll: &C,
+        force: &F,
+        rowc: &RowCtx,
+        links: &[Link],
+        xs: &[usize; LANES],
+        n: usize,
+        out: &mut [f64],
+        rec: &mut Option<PlaneRecord>,
+    ) -> usize {
+        let mut f: Block<LANES> = [[0.0; LANES]; QMAX];
+        let used = Self::gather::<CONTIG>(src, d, &rowc.up, links, rowc.here, xs, &mut f);
+        let mut cells = [0; LANES];
+        for l in 0..LANES {
+            cells[l] = rowc.cell0 + xs[l];
+        }
+        let mut st = BlockState::<LANES>::default();
+        Self::block_state(force, &f, &cells, &mut st);
+        let mut o: Block<LANES> = [[0.0; LANES]; QMAX];
+        if F::ACTIVE {
+            relax_block::<L, C, true, LANES>(coll, &st, &f, &mut o);
+        } else {
+            relax_block::<L, C, false, LANES>(coll, &st, &f, &mut o);
+        }
+        let plane_q = d.ny * d.nx;
+        let row0 = rowc.y * d.nx;
+        each_q!(L, q, {
+            let oq = &o[q];
+            let orow = &mut out[q * plane_q + row0..q * plane_q + row0 + d.nx];
+            if CONTIG {
+                orow[xs[0]..xs[0] + LANES].copy_from_slice(oq);
+            } else {
+                for l in 0..n {
+                    orow[xs[l]] = oq[l];
+                }
+            }
+        });
+        if let Some((rho, u, a)) = rec {
+            for l in 0..n {
+                let k = row0 + xs[l];
+                rho[k] = st.rho[l];
+                u[k] = [st.u[0][l], st.u[1][l], st.u[2][l]];
+                a[k] = [st.a[0][l], st.a[1][l], st.a[2][l]];
+            }
+        }
+        used
+    }
+
+    /// The block of the `np` cells `pending` (increasing x, not contiguous), padded with
+    /// copies of the last so that every lane holds a real cell.
+    #[allow(clippy::too_many_arguments)]
+    #[inline(always)]
+    fn gathered(
+        (src, d, coll, force, rowc, links): RowArgs<C, F>,
+        pending: &mut [usize; LANES],
+        np: usize,
+        out: &mut [f64],
+        rec: &mut Option<PlaneRecord>,
+    ) {
+        for l in np..LANES {
+            pending[l] = pending[np - 1];
+        }
+        let first = links.partition_point(|k| (k.x as usize) < pending[0]);
+        Self::block::<false>(
+            src,
+            d,
+            coll,
+            force,
+            rowc,
+            &links[first..],
+            pending,
+            np,
+            out,
+            rec,
+        );
+    }
+
     /// Stream, bounce back and collide the z-plane `z` into `out` (its Q x ny x nx chunk).
+    /// Each row's fluid cells go in blocks of [`LANES`]: a run of LANES cells away from the
+    /// row's ends is one contiguous block; the rest (row ends, short runs between solids) are
+    /// packed into gathered blocks, so a mostly solid row costs its fluid cells only.
     #[allow(clippy::too_many_arguments)]
     #[inline(always)]
     fn plane_body(
@@ -254,29 +409,63 @@ impl<L: Lattice, C: Collision, F: Forcing> Solver<L, C, F> {
         force: &F,
         z: usize,
         out: &mut [f64],
-        buf: &mut [f64],
-        st: &mut RowState,
         rec: &mut Option<PlaneRecord>,
     ) {
         let d = geom.dims;
+        let nx = d.nx;
         for y in 0..d.ny {
-            Self::pull_row(src, geom, z, y, buf);
-            for &(x0, x1) in geom.runs(z * d.ny + y) {
+            let r = z * d.ny + y;
+            let mut rowc = RowCtx {
+                up: [0; QMAX],
+                here: Self::index(&d, z, 0, y, 0),
+                cell0: r * nx,
+                y,
+            };
+            each_q!(L, q, {
+                let c = L::C[q];
+                let (ys, zs) = (upstream(y, c[1], d.ny), upstream(z, c[2], d.nz));
+                rowc.up[q] = Self::index(&d, zs, q, ys, 0);
+            });
+            let links = geom.links(r);
+            let row = (src, &d, coll, force, &rowc, links);
+            let mut li = 0; // first link not before the current block
+            let mut pending = [0usize; LANES];
+            let mut np = 0;
+            for &(x0, x1) in geom.runs(r) {
                 let (x0, x1) = (x0 as usize, x1 as usize);
-                Self::row_state(force, &d, buf, z, y, x0, x1, st);
-                if let Some((rho, u, a)) = rec {
-                    for i in 0..x1 - x0 {
-                        let k = y * d.nx + x0 + i;
-                        rho[k] = st.rho[i];
-                        u[k] = [st.u[0][i], st.u[1][i], st.u[2][i]];
-                        a[k] = [st.a[0][i], st.a[1][i], st.a[2][i]];
+                let mut x = x0;
+                while x < x1 {
+                    if x >= 1 && x + LANES <= x1 && x + LANES < nx {
+                        let xs: [usize; LANES] = std::array::from_fn(|l| x + l);
+                        while li < links.len() && (links[li].x as usize) < x {
+                            li += 1;
+                        }
+                        li += Self::block::<true>(
+                            src,
+                            &d,
+                            coll,
+                            force,
+                            &rowc,
+                            &links[li..],
+                            &xs,
+                            LANES,
+                            out,
+                            rec,
+                        );
+                        x += LANES;
+                    } else {
+                        pending[np] = x;
+                        np += 1;
+                        x += 1;
+                        if np == LANES {
+                            Self::gathered(row, &mut pending, np, out, rec);
+                            np = 0;
+                        }
                     }
                 }
-                if F::ACTIVE {
-                    relax_run::<L, C, true>(coll, st, buf, d.nx, (x0, x1), out, d.ny, y);
-                } else {
-                    relax_run::<L, C, false>(coll, st, buf, d.nx, (x0, x1), out, d.ny, y);
-                }
+            }
+            if np > 0 {
+                Self::gathered(row, &mut pending, np, out, rec);
             }
         }
     }
@@ -287,7 +476,6 @@ impl<L: Lattice, C: Collision, F: Forcing> Solver<L, C, F> {
     /// The caller must have checked that the CPU supports avx2 and fma.
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2,fma")]
-    #[allow(clippy::too_many_arguments)]
     unsafe fn plane_avx2(
         src: &[f64],
         geom: &Geometry,
@@ -295,11 +483,27 @@ impl<L: Lattice, C: Collision, F: Forcing> Solver<L, C, F> {
         force: &F,
         z: usize,
         out: &mut [f64],
-        buf: &mut [f64],
-        st: &mut RowState,
         rec: &mut Option<PlaneRecord>,
     ) {
-        Self::plane_body(src, geom, coll, force, z, out, buf, st, rec)
+        Self::plane_body(src, geom, coll, force, z, out, rec)
+    }
+
+    /// [`Self::plane_body`] compiled for AVX-512 (one block of [`LANES`] cells per register).
+    ///
+    /// # Safety
+    /// The caller must have checked that the CPU supports avx512f, avx2 and fma.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx512f,avx2,fma")]
+    unsafe fn plane_avx512(
+        src: &[f64],
+        geom: &Geometry,
+        coll: &C,
+        force: &F,
+        z: usize,
+        out: &mut [f64],
+        rec: &mut Option<PlaneRecord>,
+    ) {
+        Self::plane_body(src, geom, coll, force, z, out, rec)
     }
 
     /// One time step: stream, bounce back, collide.
@@ -325,9 +529,10 @@ impl<L: Lattice, C: Collision, F: Forcing> Solver<L, C, F> {
         let d = self.dims();
         let plane = L::Q * d.nx * d.ny;
         let nxy = d.nx * d.ny;
-        let nx = d.nx;
         #[cfg(target_arch = "x86_64")]
         let avx2 = is_x86_feature_detected!("avx2") && is_x86_feature_detected!("fma");
+        #[cfg(target_arch = "x86_64")]
+        let avx512 = avx2 && is_x86_feature_detected!("avx512f");
         let (src, geom, coll, force) = (&self.f, &self.geometry, &self.collision, &self.forcing);
         let mut planes: Vec<Option<PlaneRecord>> = match rec {
             Some(r) => r
@@ -343,18 +548,21 @@ impl<L: Lattice, C: Collision, F: Forcing> Solver<L, C, F> {
             .par_chunks_mut(plane)
             .zip(planes.par_iter_mut())
             .enumerate()
-            .for_each_init(
-                || (vec![0.0; L::Q * nx], RowState::with_len(nx)),
-                |(buf, st), (z, (out, rec))| {
-                    #[cfg(target_arch = "x86_64")]
-                    if avx2 {
-                        // SAFETY: avx2 and fma were detected above.
-                        unsafe { Self::plane_avx2(src, geom, coll, force, z, out, buf, st, rec) };
-                        return;
-                    }
-                    Self::plane_body(src, geom, coll, force, z, out, buf, st, rec)
-                },
-            );
+            .for_each(|(z, (out, rec))| {
+                #[cfg(target_arch = "x86_64")]
+                if avx512 {
+                    // SAFETY: avx512f, avx2 and fma were detected above.
+                    unsafe { Self::plane_avx512(src, geom, coll, force, z, out, rec) };
+                    return;
+                }
+                #[cfg(target_arch = "x86_64")]
+                if avx2 {
+                    // SAFETY: avx2 and fma were detected above.
+                    unsafe { Self::plane_avx2(src, geom, coll, force, z, out, rec) };
+                    return;
+                }
+                Self::plane_body(src, geom, coll, force, z, out, rec)
+            });
         if !self.boundaries.is_empty() {
             self.boundaries
                 .apply::<L, C, F>(&self.f, &mut self.g, geom, coll, force);
@@ -495,6 +703,18 @@ impl<L: Lattice, C: Collision, F: Forcing> Solver<L, C, F> {
         self.f.copy_from_slice(f);
         self.steps = steps;
         Ok(())
+    }
+}
+
+/// The periodic upstream coordinate v - c of v in 0..n, for c in {-1, 0, 1}.
+#[inline(always)]
+fn upstream(v: usize, c: i32, n: usize) -> usize {
+    match c {
+        0 => v,
+        1 if v == 0 => n - 1,
+        1 => v - 1,
+        _ if v + 1 == n => 0,
+        _ => v + 1,
     }
 }
 
