@@ -232,7 +232,6 @@ impl Dem {
         self.nl.second_pairs = s.second_pairs.clone();
         self.nl.pos_at_build = vecs_from_bits(&s.pos_at_build);
         self.nl.builds = s.builds;
-        self.refresh_pair_constants();
         self.check_finite()
     }
 }

@@ -236,18 +236,6 @@ pub struct Dem {
     pub neighbour_seconds: f64,
     /// Per-particle external force (N), empty until set.
     pub(super) external: Vec<Vector3<f64>>,
-    /// Per pair of the neighbour list, the constants of its contact law, refreshed with the
-    /// list (so the pair loop divides by nothing but the distance).
-    pub(super) pair_const: Vec<PairConst>,
-}
-
-/// Radius sum, effective radius R* = R_i R_j / (R_i + R_j) and effective mass
-/// m* = m_i m_j / (m_i + m_j) of one pair.
-#[derive(Debug, Clone, Copy)]
-pub(super) struct PairConst {
-    r_sum: f64,
-    r_eff: f64,
-    m_eff: f64,
 }
 
 impl Dem {
@@ -430,7 +418,6 @@ impl Dem {
             active,
             neighbour_seconds: 0.0,
             external: Vec::new(),
-            pair_const: Vec::new(),
             p,
             setup,
         };
@@ -486,29 +473,8 @@ impl Dem {
             self.setup.lx_m,
             self.setup.ly_m,
         );
-        self.refresh_pair_constants();
         self.neighbour_seconds += t.elapsed().as_secs_f64();
         r
-    }
-
-    /// Recomputes [`PairConst`] for every pair of the current neighbour list.
-    pub(super) fn refresh_pair_constants(&mut self) {
-        let (rad, mass) = (&self.p.radius, &self.p.mass);
-        self.pair_const = self
-            .nl
-            .pairs
-            .iter()
-            .map(|pr| {
-                let (i, j) = (pr.i as usize, pr.j as usize);
-                let (ri, rj) = (rad[i], rad[j]);
-                let rs = ri + rj;
-                PairConst {
-                    r_sum: rs,
-                    r_eff: ri * rj / rs,
-                    m_eff: mass[i] * mass[j] / (mass[i] + mass[j]),
-                }
-            })
-            .collect();
     }
 
     /// One velocity-Verlet step.
@@ -671,15 +637,16 @@ impl Dem {
             &self.p.radius,
             &self.p.mass,
         );
-        let pair_force = |(pr, pc): (&mut super::neighbour::Pair, &PairConst)| {
+        let pair_force = |pr: &mut super::neighbour::Pair| {
             let (i, j) = (pr.i as usize, pr.j as usize);
             let d = Vector3::new(
                 wrap_delta(pos[i].x - pos[j].x, lx),
                 wrap_delta(pos[i].y - pos[j].y, ly),
                 pos[i].z - pos[j].z,
             );
+            let (ri, rj) = (rad[i], rad[j]);
             let dist2 = d.norm_squared();
-            let rs = pc.r_sum;
+            let rs = ri + rj;
             if dist2 >= rs * rs {
                 if pr.delta > 0.0 {
                     pr.xi = Vector3::zeros();
@@ -693,7 +660,6 @@ impl Dem {
             let dist = dist2.sqrt();
             let n = d * (1.0 / dist);
             let (v_half, v_full) = if friction {
-                let (ri, rj) = (rad[i], rad[j]);
                 (
                     vel[i] - vel[j] - (om[i] * ri + om[j] * rj).cross(&n),
                     vf[i] - vf[j] - (omf[i] * ri + omf[j] * rj).cross(&n),
@@ -706,8 +672,8 @@ impl Dem {
                 n,
                 v_half,
                 v_full,
-                r_eff: pc.r_eff,
-                m_eff: pc.m_eff,
+                r_eff: ri * rj / rs,
+                m_eff: mass[i] * mass[j] / (mass[i] + mass[j]),
                 dt,
             };
             let (f, ft) = model.force(&c, &pp, &mut pr.xi);
@@ -715,34 +681,14 @@ impl Dem {
             pr.force = f;
             pr.n_cross_ft = n.cross(&ft);
         };
-        let pair_const = &self.pair_const;
-        // One thread: one pass over the pairs that also adds each contact into both particles'
-        // sums (force into `self.force`, n x F_t into `self.torque`), in pair order. A
-        // particle's pairs as second member come before its pairs as first member in that
-        // order (pairs are sorted by first member), the order of the parallel gather below,
-        // so both paths give bitwise the same sums.
-        let serial = self.nl.pairs.len() < PAR_MIN || rayon::current_num_threads() == 1;
-        if serial {
-            self.force.fill(Vector3::zeros());
-            self.torque.fill(Vector3::zeros());
-            let (sum_f, sum_nxft) = (&mut self.force, &mut self.torque);
-            for (pr, pc) in self.nl.pairs.iter_mut().zip(pair_const.iter()) {
-                pair_force((&mut *pr, pc));
-                if pr.delta > 0.0 {
-                    let (i, j) = (pr.i as usize, pr.j as usize);
-                    sum_f[i] += pr.force;
-                    sum_nxft[i] += pr.n_cross_ft;
-                    sum_f[j] -= pr.force;
-                    sum_nxft[j] += pr.n_cross_ft;
-                }
-            }
-        } else {
+        if self.nl.pairs.len() >= PAR_MIN {
             self.nl
                 .pairs
                 .par_iter_mut()
-                .zip(pair_const.par_iter())
                 .with_min_len(512)
                 .for_each(pair_force);
+        } else {
+            self.nl.pairs.iter_mut().for_each(pair_force);
         }
         // gather
         let nl = &self.nl;
@@ -766,28 +712,22 @@ impl Dem {
             ),
         );
         let gather = |(i, ((((f_out, t_out), wxi), wfz), wf)): Slot| {
-            let (mut f, mut nxft) = if serial {
-                (*f_out, *t_out)
-            } else {
-                let mut f = Vector3::zeros();
-                let mut nxft = Vector3::zeros();
-                for &k in
-                    &nl.second_pairs[nl.second_start[i] as usize..nl.second_start[i + 1] as usize]
-                {
-                    let pr = &nl.pairs[k as usize];
-                    if pr.delta > 0.0 {
-                        f -= pr.force;
-                        nxft += pr.n_cross_ft;
-                    }
+            let mut f = Vector3::zeros();
+            let mut nxft = Vector3::zeros();
+            for &k in &nl.second_pairs[nl.second_start[i] as usize..nl.second_start[i + 1] as usize]
+            {
+                let pr = &nl.pairs[k as usize];
+                if pr.delta > 0.0 {
+                    f -= pr.force;
+                    nxft += pr.n_cross_ft;
                 }
-                for pr in &nl.pairs[nl.first_start[i] as usize..nl.first_start[i + 1] as usize] {
-                    if pr.delta > 0.0 {
-                        f += pr.force;
-                        nxft += pr.n_cross_ft;
-                    }
+            }
+            for pr in &nl.pairs[nl.first_start[i] as usize..nl.first_start[i + 1] as usize] {
+                if pr.delta > 0.0 {
+                    f += pr.force;
+                    nxft += pr.n_cross_ft;
                 }
-                (f, nxft)
-            };
+            }
             let r = rad[i];
             *wf = Vector3::zeros();
             // walls: spheres of infinite radius and mass (R* = R, m* = m)
@@ -842,7 +782,8 @@ impl Dem {
             *f_out = f;
             *t_out = -nxft * r;
         };
-        if !serial {
+        let n = self.p.len();
+        if n >= PAR_MIN {
             self.force
                 .par_iter_mut()
                 .zip(self.torque.par_iter_mut())
