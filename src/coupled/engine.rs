@@ -152,23 +152,7 @@ impl Column {
             bed + sheet
         };
         let target = g.abs() * (self.eps * self.bed + self.sheet);
-        let mut hi = 1e-12;
-        while resist(hi) < target {
-            hi *= 2.0;
-            if hi > 1e6 {
-                return f64::INFINITY;
-            }
-        }
-        let mut lo = 0.0;
-        for _ in 0..200 {
-            let mid = 0.5 * (lo + hi);
-            if resist(mid) < target {
-                lo = mid;
-            } else {
-                hi = mid;
-            }
-        }
-        0.5 * (lo + hi)
+        crate::special::root::increasing_root(resist, target, 1e6)
     }
 }
 

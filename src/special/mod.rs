@@ -8,3 +8,4 @@ pub mod double_double;
 pub mod elliptic;
 pub mod lu;
 pub mod quadrature;
+pub mod root;

@@ -750,25 +750,9 @@ fn ergun_gradient(eps: f64, d: f64, mu: f64, rho: f64, u: f64) -> f64 {
         + 1.75 * rho * (1.0 - eps) * u * u / (eps.powi(3) * d)
 }
 
-/// The root x in [0, inf) of an increasing `f` with f(0) <= target, by bisection.
+/// [`crate::special::root::increasing_root`] with the bracket allowed up to 1e12.
 fn increasing_root(f: impl Fn(f64) -> f64, target: f64) -> f64 {
-    let mut hi = 1e-12;
-    while f(hi) < target {
-        hi *= 2.0;
-        if hi > 1e12 {
-            return f64::INFINITY;
-        }
-    }
-    let mut lo = 0.0;
-    for _ in 0..200 {
-        let mid = 0.5 * (lo + hi);
-        if f(mid) < target {
-            lo = mid;
-        } else {
-            hi = mid;
-        }
-    }
-    0.5 * (lo + hi)
+    crate::special::root::increasing_root(f, target, 1e12)
 }
 
 /// Porosity of each cell of a periodic lattice by the solid length along x of `k`^2 lines
