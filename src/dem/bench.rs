@@ -272,19 +272,34 @@ pub fn run(args: &BenchArgs) -> Result<()> {
         };
         let cpu_us = c1 / ps * 1e6;
         let cpu_ratio = lcpu / cpu_us;
+        // a peer figure that was not measured prints as "-" (empty in the CSV), never as NaN
+        let shown = |x: f64, prec: usize| {
+            if x.is_finite() {
+                format!("{x:.prec$}")
+            } else {
+                "-".to_string()
+            }
+        };
+        let csv_cell = |x: f64| {
+            if x.is_finite() {
+                format!("{x}")
+            } else {
+                String::new()
+            }
+        };
         println!(
-            "{n:>7} {dt:>10.3e} {:>12.4} {:>12.4} {:>7.2} {:>7.3} {:>12.4} {:>7.3} {:>8.2} {:>10.4} \
-             {:>10.4} {:>8.2} {:>6}",
+            "{n:>7} {dt:>10.3e} {:>12.4} {:>12.4} {:>7.2} {:>7.3} {:>12} {:>7} {:>8} {:>10.4} \
+             {:>10} {:>8} {:>6}",
             t1 / ps * 1e6,
             t2 / ps * 1e6,
             t1 / t2,
             nb1 / t1,
-            lus,
-            lnb,
-            ratio,
+            shown(lus, 4),
+            shown(lnb, 3),
+            shown(ratio, 2),
             cpu_us,
-            lcpu,
-            cpu_ratio,
+            shown(lcpu, 4),
+            shown(cpu_ratio, 2),
             same
         );
         if let Err(msg) = &peer {
@@ -292,15 +307,17 @@ pub fn run(args: &BenchArgs) -> Result<()> {
         }
         let _ = writeln!(
             csv,
-            "{n},{},{dt},{},{},{},{},{},{},{},{cpu_us},{lcpu},{cpu_ratio},{same}",
+            "{n},{},{dt},{},{},{},{},{},{},{},{cpu_us},{},{},{same}",
             args.steps,
             t1 / ps * 1e6,
             t2 / ps * 1e6,
             t1 / t2,
             nb1 / t1,
-            lus,
-            lnb,
-            ratio
+            csv_cell(lus),
+            csv_cell(lnb),
+            csv_cell(ratio),
+            csv_cell(lcpu),
+            csv_cell(cpu_ratio)
         );
     }
     crate::io::write_atomic(&args.out.join("bench_dem.csv"), csv.as_bytes())?;

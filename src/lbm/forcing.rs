@@ -7,6 +7,8 @@
 //! a = -(eps nu / K) u - (eps F_eps / sqrt K) |u| u + eps G (seed 002 eq. 10).
 //! `ACTIVE = false` lets the compiler drop the source term of an unforced fluid.
 
+use super::collision::BlockState;
+
 /// The state of one cell that the collision needs.
 #[derive(Debug, Clone, Copy)]
 pub struct CellState {
@@ -27,6 +29,23 @@ pub trait Forcing: Send + Sync {
     /// The state of a cell whose velocity `u` is prescribed (a boundary node): the source
     /// term's acceleration at that velocity.
     fn state_at_velocity(&self, cell: usize, rho: f64, u: [f64; 3]) -> CellState;
+    /// The states of a block of cells (lane l: cell `cells[l]`, density `rho[l]`, momentum
+    /// `j[k][l]`) written into `st`. Lane by lane through [`Forcing::state`] by default; a
+    /// forcing may override it with lane-parallel arithmetic of the same operations in the
+    /// same order, so that the bits do not change.
+    #[inline(always)]
+    fn block_states<const N: usize>(
+        &self,
+        cells: &[usize; N],
+        rho: &[f64; N],
+        j: &[[f64; N]; 3],
+        st: &mut BlockState<N>,
+    ) {
+        for l in 0..N {
+            let s = self.state(cells[l], rho[l], [j[0][l], j[1][l], j[2][l]]);
+            st.set(l, rho[l], &s);
+        }
+    }
 }
 
 /// No force: u = j / rho.
@@ -253,6 +272,51 @@ impl Forcing for Porous {
             inv_eps: 1.0 / eps,
         }
     }
+    /// [`Porous::state`] for a block, one operation at a time over the lanes (so that the
+    /// square roots and divisions run as vector instructions), each lane's operations those
+    /// of `state` and `BlockState::set` in the same order: the same bits.
+    #[inline(always)]
+    fn block_states<const N: usize>(
+        &self,
+        cells: &[usize; N],
+        rho: &[f64; N],
+        j: &[[f64; N]; 3],
+        st: &mut BlockState<N>,
+    ) {
+        let g = self.g;
+        let (mut eps, mut lin, mut quad) = ([0.0; N], [0.0; N], [0.0; N]);
+        let mut w = [[0.0; N]; 3];
+        for l in 0..N {
+            let c = cells[l];
+            eps[l] = self.eps[c];
+            lin[l] = self.lin[c];
+            quad[l] = self.quad[c];
+            for k in 0..3 {
+                w[k][l] = self.w[c][k];
+            }
+        }
+        for l in 0..N {
+            let r = 1.0 / rho[l];
+            let v = [0, 1, 2].map(|k| j[k][l] * r + 0.5 * eps[l] * g[k] - w[k][l]);
+            let c0 = 0.5 * (1.0 + 0.5 * lin[l]);
+            let c1 = 0.5 * quad[l];
+            let vn = (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
+            let s = 1.0 / (c0 + (c0 * c0 + c1 * vn).sqrt());
+            let rel = [v[0] * s, v[1] * s, v[2] * s];
+            let drag = lin[l] + quad[l] * (vn * s);
+            let u = [0, 1, 2].map(|k| rel[k] + w[k][l]);
+            let a = [0, 1, 2].map(|k| eps[l] * g[k] - drag * rel[k]);
+            let inv_eps = 1.0 / eps[l];
+            st.rho[l] = rho[l];
+            for k in 0..3 {
+                st.u[k][l] = u[k];
+                st.a[k][l] = a[k];
+            }
+            st.inv_eps[l] = inv_eps;
+            st.uu[l] = (u[0] * u[0] + u[1] * u[1] + u[2] * u[2]) * inv_eps;
+            st.ua[l] = (u[0] * a[0] + u[1] * a[1] + u[2] * a[2]) * inv_eps;
+        }
+    }
     /// Seed 002 eq. 10 at the prescribed velocity u (relative to the matrix velocity w).
     fn state_at_velocity(&self, cell: usize, _rho: f64, u: [f64; 3]) -> CellState {
         let eps = self.eps[cell];
@@ -264,6 +328,61 @@ impl Forcing for Porous {
             u,
             a: [0, 1, 2].map(|k| eps * self.g[k] - drag * rel[k]),
             inv_eps: 1.0 / eps,
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use rand::{Rng, SeedableRng};
+    use rand_chacha::ChaCha8Rng;
+
+    /// The block form of the Guo–Zhao state gives the bits of the cell-by-cell form, on
+    /// random porosities, coefficients, matrix velocities, densities and momenta (cells
+    /// scattered, so that the loads are gathers).
+    #[test]
+    fn porous_block_states_equal_cell_states_bitwise() {
+        const N: usize = 8;
+        let mut rng = ChaCha8Rng::seed_from_u64(7);
+        let cells_total = 64;
+        let mut medium = Porous::clear(cells_total, 0.1, [1e-5, -2e-6, 3e-7], true);
+        for c in 0..cells_total {
+            let eps = rng.gen_range(0.05..=1.0);
+            medium
+                .set(c, eps, 10f64.powf(rng.gen_range(-6.0..2.0)))
+                .unwrap();
+            if c % 3 == 0 {
+                let w = [0; 3].map(|_| rng.gen_range(-0.05..0.05));
+                medium.set_matrix_velocity(c, w).unwrap();
+            }
+        }
+        for _ in 0..200 {
+            let cells = [0; N].map(|_| rng.gen_range(0..cells_total));
+            let rho = [0; N].map(|_| rng.gen_range(0.9..1.1));
+            let j = [0; 3].map(|_| [0; N].map(|_| rng.gen_range(-0.1..0.1)));
+            let mut block = BlockState::<N>::default();
+            medium.block_states(&cells, &rho, &j, &mut block);
+            let mut each = BlockState::<N>::default();
+            for l in 0..N {
+                let s = medium.state(cells[l], rho[l], [j[0][l], j[1][l], j[2][l]]);
+                each.set(l, rho[l], &s);
+            }
+            let bits = |b: &BlockState<N>| {
+                let mut v: Vec<u64> = b.rho.iter().map(|x| x.to_bits()).collect();
+                for k in 0..3 {
+                    v.extend(b.u[k].iter().chain(&b.a[k]).map(|x| x.to_bits()));
+                }
+                v.extend(
+                    b.inv_eps
+                        .iter()
+                        .chain(&b.uu)
+                        .chain(&b.ua)
+                        .map(|x| x.to_bits()),
+                );
+                v
+            };
+            assert_eq!(bits(&block), bits(&each));
         }
     }
 }

@@ -308,10 +308,7 @@ impl<L: Lattice, C: Collision, F: Forcing> Solver<L, C, F> {
                 }
             }
         });
-        for l in 0..LANES {
-            let s = force.state(cells[l], rho[l], [j[0][l], j[1][l], j[2][l]]);
-            st.set(l, rho[l], &s);
-        }
+        force.block_states(cells, &rho, &j, st);
     }
 
     /// Pull, bounce back, collide and store one block (see [`Self::gather`]).
