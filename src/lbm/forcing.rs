@@ -9,6 +9,14 @@
 
 use super::collision::BlockState;
 
+/// What the forcing sees of a block of cells: lane l is cell `cells[l]` with density `rho[l]`
+/// and momentum `j[k][l]` (lattice units).
+pub struct BlockMoments<const N: usize> {
+    pub cells: [usize; N],
+    pub rho: [f64; N],
+    pub j: [[f64; N]; 3],
+}
+
 /// The state of one cell that the collision needs.
 #[derive(Debug, Clone, Copy)]
 pub struct CellState {
@@ -29,18 +37,12 @@ pub trait Forcing: Send + Sync {
     /// The state of a cell whose velocity `u` is prescribed (a boundary node): the source
     /// term's acceleration at that velocity.
     fn state_at_velocity(&self, cell: usize, rho: f64, u: [f64; 3]) -> CellState;
-    /// The states of a block of cells (lane l: cell `cells[l]`, density `rho[l]`, momentum
-    /// `j[k][l]`) written into `st`. Lane by lane through [`Forcing::state`] by default; a
-    /// forcing may override it with lane-parallel arithmetic of the same operations in the
-    /// same order, so that the bits do not change.
+    /// The states of a block of cells written into `st`. Lane by lane through
+    /// [`Forcing::state`] by default; a forcing may override it with lane-parallel arithmetic
+    /// of the same operations in the same order, so that the bits do not change.
     #[inline(always)]
-    fn block_states<const N: usize>(
-        &self,
-        cells: &[usize; N],
-        rho: &[f64; N],
-        j: &[[f64; N]; 3],
-        st: &mut BlockState<N>,
-    ) {
+    fn block_states<const N: usize>(&self, m: &BlockMoments<N>, st: &mut BlockState<N>) {
+        let (cells, rho, j) = (&m.cells, &m.rho, &m.j);
         for l in 0..N {
             let s = self.state(cells[l], rho[l], [j[0][l], j[1][l], j[2][l]]);
             st.set(l, rho[l], &s);
@@ -276,13 +278,8 @@ impl Forcing for Porous {
     /// square roots and divisions run as vector instructions), each lane's operations those
     /// of `state` and `BlockState::set` in the same order: the same bits.
     #[inline(always)]
-    fn block_states<const N: usize>(
-        &self,
-        cells: &[usize; N],
-        rho: &[f64; N],
-        j: &[[f64; N]; 3],
-        st: &mut BlockState<N>,
-    ) {
+    fn block_states<const N: usize>(&self, m: &BlockMoments<N>, st: &mut BlockState<N>) {
+        let (cells, rho, j) = (&m.cells, &m.rho, &m.j);
         let g = self.g;
         let (mut eps, mut lin, mut quad) = ([0.0; N], [0.0; N], [0.0; N]);
         let mut w = [[0.0; N]; 3];
@@ -362,7 +359,7 @@ mod tests {
             let rho = [0; N].map(|_| rng.gen_range(0.9..1.1));
             let j = [0; 3].map(|_| [0; N].map(|_| rng.gen_range(-0.1..0.1)));
             let mut block = BlockState::<N>::default();
-            medium.block_states(&cells, &rho, &j, &mut block);
+            medium.block_states(&BlockMoments { cells, rho, j }, &mut block);
             let mut each = BlockState::<N>::default();
             for l in 0..N {
                 let s = medium.state(cells[l], rho[l], [j[0][l], j[1][l], j[2][l]]);

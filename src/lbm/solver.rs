@@ -15,7 +15,7 @@
 
 use super::boundary::Boundaries;
 use super::collision::{equilibrium, relax_block, Block, BlockState, Collision, LANES};
-use super::forcing::Forcing;
+use super::forcing::{BlockMoments, Forcing};
 use super::geometry::{Dims, Geometry, Link};
 use super::lattice::{each_q, opposite, Lattice, QMAX};
 use crate::error::{invalid, Result};
@@ -279,15 +279,14 @@ impl<L: Lattice, C: Collision, F: Forcing> Solver<L, C, F> {
 
     /// Density, momentum and the forcing's state of the block `f` (cells `cells[l]`).
     #[inline(always)]
-    fn block_state(
-        force: &F,
-        f: &Block<LANES>,
-        cells: &[usize; LANES],
-        st: &mut BlockState<LANES>,
-    ) {
+    fn block_state(force: &F, f: &Block<LANES>, cells: [usize; LANES], st: &mut BlockState<LANES>) {
         // seed 002 eq. 6-7: rho = sum f, j = sum f c (zero terms skipped, order kept)
-        let mut rho = [0.0; LANES];
-        let mut j = [[0.0; LANES]; 3];
+        let mut m = BlockMoments {
+            cells,
+            rho: [0.0; LANES],
+            j: [[0.0; LANES]; 3],
+        };
+        let (rho, j) = (&mut m.rho, &mut m.j);
         each_q!(L, q, {
             for l in 0..LANES {
                 rho[l] += f[q][l];
@@ -308,7 +307,7 @@ impl<L: Lattice, C: Collision, F: Forcing> Solver<L, C, F> {
                 }
             }
         });
-        force.block_states(cells, &rho, &j, st);
+        force.block_states(&m, st);
     }
 
     /// Pull, bounce back, collide and store one block (see [`Self::gather`]).
@@ -333,7 +332,7 @@ impl<L: Lattice, C: Collision, F: Forcing> Solver<L, C, F> {
             cells[l] = rowc.cell0 + xs[l];
         }
         let mut st = BlockState::<LANES>::default();
-        Self::block_state(force, &f, &cells, &mut st);
+        Self::block_state(force, &f, cells, &mut st);
         let mut o: Block<LANES> = [[0.0; LANES]; QMAX];
         if F::ACTIVE {
             relax_block::<L, C, true, LANES>(coll, &st, &f, &mut o);
