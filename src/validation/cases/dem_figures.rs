@@ -9,6 +9,7 @@ use super::common::band_rows;
 use crate::analysis::pore_size::distribution_quantile;
 use crate::analysis::rdf::Bed;
 use crate::dem::{observe, TopWall};
+use crate::io::xyz;
 use crate::scene::dem::{build, parse_scene, pore_sizes, run_checks, DemScene, RunProgress};
 use crate::validation::{CaseContext, Row};
 use crate::{Error, Result};
@@ -86,9 +87,11 @@ fn run_to_stop(scene: &DemScene, dem: &mut crate::dem::Dem) -> Result<String> {
     Ok(run_checks(scene, dem, &mut progress, None, |_, _, _| Ok(()))?.unwrap_or_default())
 }
 
-/// The built-in seed bed `name` (dem-seed-gravity, -compression, -drag) run once per process
-/// and kept, so that cases 930 and 931 share the gravity and drag runs.
-fn seed_bed(name: &'static str) -> Result<Arc<FinalBed>> {
+/// The built-in seed bed `name` (dem-seed-gravity, -compression, -drag) run to its stop rule
+/// once and kept for the process, so that cases 930 and 931 share the gravity and drag runs;
+/// also kept on disk under `target/porelab/validation-beds/` (keyed by the scene text's hash),
+/// so that a later run of the cases re-measures the same final beds without re-running them.
+fn seed_bed(root: &std::path::Path, name: &'static str) -> Result<Arc<FinalBed>> {
     static CACHE: Mutex<Vec<(&'static str, Arc<FinalBed>)>> = Mutex::new(Vec::new());
     // held for the whole run: a case asking while another computes waits for its result
     let mut cache = CACHE
@@ -104,21 +107,71 @@ fn seed_bed(name: &'static str) -> Result<Arc<FinalBed>> {
         _ => return Err(Error::Validation(format!("no seed bed `{name}`"))),
     };
     let scene = parse_scene(text, name)?;
-    let mut dem = build(&scene)?;
-    let clock = Instant::now();
-    let stop = run_to_stop(&scene, &mut dem)?;
-    let bed = Arc::new(FinalBed::new(
-        &scene,
-        &dem,
-        &stop,
-        clock.elapsed().as_secs_f64(),
-    ));
-    eprintln!(
-        "{name}: {stop} at t = {:.3} s ({} steps, {:.0} s)",
-        dem.time_s, dem.steps, bed.seconds
-    );
+    let stem = root
+        .join("target/porelab/validation-beds")
+        .join(format!("{name}-{}", scene.fingerprint));
+    let bed = Arc::new(match read_bed(&scene, &stem)? {
+        Some(b) => b,
+        None => {
+            let mut dem = build(&scene)?;
+            let clock = Instant::now();
+            let stop = run_to_stop(&scene, &mut dem)?;
+            let b = FinalBed::new(&scene, &dem, &stop, clock.elapsed().as_secs_f64());
+            eprintln!(
+                "{name}: {stop} at t = {:.3} s ({} steps, {:.0} s)",
+                dem.time_s, dem.steps, b.seconds
+            );
+            write_bed(&b, &stem)?;
+            b
+        }
+    });
     cache.push((name, bed.clone()));
     Ok(bed)
+}
+
+/// Writes a final bed as `stem.xyz` and its stop (settled or not, wall seconds) as `stem.stop`.
+fn write_bed(b: &FinalBed, stem: &std::path::Path) -> Result<()> {
+    let parts: Vec<_> = (0..b.pos.len())
+        .map(|i| xyz::XyzParticle::sphere(b.pos[i], b.radius[i]))
+        .collect();
+    let cell = xyz::Cell {
+        lengths: [b.lx_m, b.ly_m, observe::bed_top(&b.z(), &b.radius)],
+        origin: [0.0; 3],
+        pbc: [true, true, false],
+    };
+    if let Some(dir) = stem.parent() {
+        std::fs::create_dir_all(dir)?;
+    }
+    xyz::write(&stem.with_extension("xyz"), &cell, &parts, &[])?;
+    let stop = format!("{}\n{}\n", b.settled, b.seconds);
+    crate::io::write_atomic(&stem.with_extension("stop"), stop.as_bytes())
+}
+
+/// The final bed kept at `stem` by [`write_bed`], if there is one.
+fn read_bed(scene: &DemScene, stem: &std::path::Path) -> Result<Option<FinalBed>> {
+    let (Ok(text), Ok(stop)) = (
+        std::fs::read_to_string(stem.with_extension("xyz")),
+        std::fs::read_to_string(stem.with_extension("stop")),
+    ) else {
+        return Ok(None);
+    };
+    let origin = stem.with_extension("xyz").display().to_string();
+    let (_, parts) = xyz::parse(&text, &origin)?;
+    let mut lines = stop.lines();
+    let settled = lines.next() == Some("true");
+    let seconds = lines
+        .next()
+        .and_then(|l| l.parse().ok())
+        .unwrap_or(f64::NAN);
+    eprintln!("{origin}: final bed read back (settled: {settled}, run {seconds:.0} s)");
+    Ok(Some(FinalBed {
+        pos: parts.iter().map(|p| p.position).collect(),
+        radius: parts.iter().map(|p| p.radius).collect(),
+        lx_m: scene.setup.lx_m,
+        ly_m: scene.setup.ly_m,
+        settled,
+        seconds,
+    }))
 }
 
 /// Measured quantities with a detail appended to their row labels.
@@ -135,6 +188,7 @@ fn detailed_rows(ctx: &CaseContext, m: &Measured) -> Result<Vec<Row>> {
         {
             row.label = format!("{} ({detail})", row.label);
         }
+        eprintln!("{}: {:.4}: {}", ctx.id, row.got, row.label);
     }
     Ok(rows)
 }
@@ -143,9 +197,9 @@ fn detailed_rows(ctx: &CaseContext, m: &Measured) -> Result<Vec<Row>> {
 /// porosity below the gravity bed's, no gradient in the compression bed, a gradient (lower
 /// third denser than the upper third) in the drag bed.
 pub fn case_930(ctx: &CaseContext) -> Result<Vec<Row>> {
-    let g = seed_bed("dem-seed-gravity")?;
-    let c = seed_bed("dem-seed-compression")?;
-    let d = seed_bed("dem-seed-drag")?;
+    let g = seed_bed(&ctx.repo_root, "dem-seed-gravity")?;
+    let c = seed_bed(&ctx.repo_root, "dem-seed-compression")?;
+    let d = seed_bed(&ctx.repo_root, "dem-seed-drag")?;
     let (g_bulk, _, _) = g.bulk_and_thirds("gravity")?;
     let (c_bulk, c_lo, c_hi) = c.bulk_and_thirds("compression")?;
     let (d_bulk, d_lo, d_hi) = d.bulk_and_thirds("drag")?;
@@ -189,7 +243,7 @@ const PORE_VOXELS_PER_D: f64 = 10.0;
 pub fn case_931(ctx: &CaseContext) -> Result<Vec<Row>> {
     let mut q = Vec::new();
     for name in ["dem-seed-gravity", "dem-seed-drag"] {
-        let b = seed_bed(name)?;
+        let b = seed_bed(&ctx.repo_root, name)?;
         let dmean = b.bed().mean_diameter();
         let (rows, _) = pore_sizes(&b.bed(), PORE_VOXELS_PER_D)
             .map_err(|e| Error::Validation(format!("{name}: pore sizes: {e}")))?;
@@ -254,7 +308,7 @@ pub fn case_932(ctx: &CaseContext) -> Result<Vec<Row>> {
         speed_max_m_s,
     };
     // the second stage gets the same simulated-time allowance as the first
-    scene.max_time_s = dem.time_s + scene.max_time_s;
+    scene.max_time_s += dem.time_s;
     let stop2 = run_to_stop(&scene, &mut dem)?;
     let fin = FinalBed::new(&scene, &dem, &stop2, clock.elapsed().as_secs_f64());
     let p2 = dem.top_force_n / (scene.setup.lx_m * scene.setup.ly_m);
