@@ -311,10 +311,31 @@ pub fn pore_size_distribution(grid: &VoxelGrid) -> Result<Vec<(f64, f64)>> {
     Ok(rows.into_iter().map(|(r, c)| (r, c / total)).collect())
 }
 
+/// The `q` quantile (0 < q <= 1) of a distribution given as rows (value, fraction), values
+/// increasing: the first value at which the cumulative fraction reaches `q` (NaN for no rows).
+pub fn distribution_quantile(rows: &[(f64, f64)], q: f64) -> f64 {
+    let mut acc = 0.0;
+    rows.iter()
+        .find(|(_, f)| {
+            acc += f;
+            acc >= q
+        })
+        .map_or(f64::NAN, |(v, _)| *v)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
     use nalgebra::Vector3;
+
+    #[test]
+    fn quantile_is_the_first_value_reaching_the_fraction() {
+        let rows = [(1.0, 0.25), (2.0, 0.25), (3.0, 0.5)];
+        assert_eq!(distribution_quantile(&rows, 0.25), 1.0);
+        assert_eq!(distribution_quantile(&rows, 0.5), 2.0);
+        assert_eq!(distribution_quantile(&rows, 0.75), 3.0);
+        assert!(distribution_quantile(&[], 0.5).is_nan());
+    }
 
     fn grid(
         n: [usize; 3],

@@ -805,37 +805,38 @@ pub fn bed_pore_sizes(
         lx_m: scene.setup.lx_m,
         ly_m: scene.setup.ly_m,
     };
+    pore_sizes(&bed, scene.pore_voxels_per_d)
+}
+
+/// The pore-size distribution (local thickness, periodic laterally) of `bed` between its lowest
+/// and highest centres (seed 002, Fig. 11: "between the centres of the lowest and highest
+/// particles") on cubic voxels of edge <D> / `voxels_per_d`: rows (pore diameter 2 LT in m,
+/// pore volume fraction), diameters increasing, and the summary.
+pub fn pore_sizes(
+    bed: &Bed,
+    voxels_per_d: f64,
+) -> std::result::Result<(Vec<(f64, f64)>, PoreSummary), String> {
     let d = bed.mean_diameter();
-    let (lo, hi) = dem
-        .p
+    let (lo, hi) = bed
         .pos
         .iter()
         .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), p| {
             (a.min(p.z), b.max(p.z))
         });
-    let grid = pore_size::voxelize_bed(&bed, lo, hi, d / scene.pore_voxels_per_d)
-        .map_err(|e| e.to_string())?;
+    let grid = pore_size::voxelize_bed(bed, lo, hi, d / voxels_per_d).map_err(|e| e.to_string())?;
     let rows: Vec<(f64, f64)> = pore_size::pore_size_distribution(&grid)
         .map_err(|e| e.to_string())?
         .into_iter()
         .map(|(r, f)| (2.0 * r, f))
         .collect();
     let mean = rows.iter().map(|(dp, f)| dp * f).sum::<f64>() / d;
-    let mut acc = 0.0;
-    let median = rows
-        .iter()
-        .find(|(_, f)| {
-            acc += f;
-            acc >= 0.5
-        })
-        .map_or(f64::NAN, |(dp, _)| dp / d);
     let summary = PoreSummary {
         voxel_m: grid.spacing_m,
         grid: grid.n,
         z_range_m: (lo, hi),
         grid_porosity: grid.porosity(),
         mean_diameter_over_d: mean,
-        median_diameter_over_d: median,
+        median_diameter_over_d: pore_size::distribution_quantile(&rows, 0.5) / d,
     };
     Ok((rows, summary))
 }

@@ -11,6 +11,7 @@ mod common;
 mod contact;
 mod coupled;
 mod dem;
+mod dem_figures;
 mod dem_packing;
 mod dem_zhou;
 mod deposition;
@@ -138,6 +139,9 @@ pub fn runner_for(id: &str) -> Option<Runner> {
         "712" => Some(dem::case_711),
         "713" | "714" => Some(dem_zhou::case_713_714),
         "715" => Some(dem_packing::case_715),
+        "930" => Some(dem_figures::case_930),
+        "931" => Some(dem_figures::case_931),
+        "932" => Some(dem_figures::case_932),
         _ => None,
     }
 }
