@@ -521,37 +521,12 @@ fn cap_series_cz<T: Real>(r: f64, rho: T, h: T) -> T {
 const CAP_SERIES_MIN_DISTANCE: f64 = 10.0;
 const CAP_SERIES_MAX_L: usize = 12;
 
-/// Gauss-Legendre nodes and weights on [-1, 1] for n = 1..=24 (computed once, Newton on P_n).
+/// Gauss-Legendre nodes and weights on [-1, 1] for n = 1..=24 (computed once).
 fn gauss_legendre(n: usize) -> &'static [(f64, f64)] {
     static TABLE: OnceLock<Vec<Vec<(f64, f64)>>> = OnceLock::new();
     let t = TABLE.get_or_init(|| {
         (0..=24)
-            .map(|n| {
-                let mut v = Vec::with_capacity(n);
-                for i in 0..n {
-                    let mut x = (PI * (i as f64 + 0.75) / (n as f64 + 0.5)).cos();
-                    let mut dp = 1.0;
-                    for _ in 0..100 {
-                        let (mut p0, mut p1) = (1.0, x);
-                        for k in 1..n {
-                            let kf = k as f64;
-                            let p2 = ((2.0 * kf + 1.0) * x * p1 - kf * p0) / (kf + 1.0);
-                            p0 = p1;
-                            p1 = p2;
-                        }
-                        let pn = if n == 0 { 1.0 } else { p1 };
-                        let pm = if n <= 1 { 1.0 } else { p0 };
-                        dp = n as f64 * (x * pn - pm) / (x * x - 1.0);
-                        let dx = pn / dp;
-                        x -= dx;
-                        if dx.abs() < 1e-16 {
-                            break;
-                        }
-                    }
-                    v.push((x, 2.0 / ((1.0 - x * x) * dp * dp)));
-                }
-                v
-            })
+            .map(crate::special::quadrature::gauss_legendre)
             .collect()
     });
     &t[n]
