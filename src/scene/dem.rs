@@ -49,6 +49,7 @@
 //! max_time_s = 1.0                   # guard on simulated time [1]
 //! check_every_s = 0.01               # stop test and history interval [0.01]
 //! ke_fraction = 1e-6                 # stop when KE < ke_fraction * peak KE ... [1e-6]
+//!                                    # (KE without the spin of spheres touching nothing)
 //! height_tol_over_d = 1e-3           # ... and the bed top moved < this * <d> since last check
 //! profile_bins = 60                  # slabs of the porosity profile [60]
 //! trajectory_every_s = 0.05          # a trajectory frame at this interval [none]
@@ -736,7 +737,9 @@ pub fn run_checks(
         done += 1;
         progress.checks += 1;
         let ke = dem.kinetic_energy();
-        progress.ke_peak_j = progress.ke_peak_j.max(ke);
+        // the stop rule's energy leaves out the free spin of spheres touching nothing
+        let ke_settling = dem.settling_kinetic_energy();
+        progress.ke_peak_j = progress.ke_peak_j.max(ke_settling);
         let z: Vec<f64> = dem.p.pos.iter().map(|p| p.z).collect();
         let top = observe::bed_top(&z, &dem.p.radius);
         let ratio = dem.max_overlap_ratio();
@@ -749,7 +752,7 @@ pub fn run_checks(
             ));
         }
         let stop = if progress.ke_peak_j > 0.0
-            && ke < scene.ke_fraction * progress.ke_peak_j
+            && ke_settling < scene.ke_fraction * progress.ke_peak_j
             && (top - progress.top_prev_m).abs() < scene.height_tol_over_d * d_mean
         {
             Some(format!(

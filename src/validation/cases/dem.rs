@@ -680,7 +680,8 @@ pub fn case_708(ctx: &CaseContext) -> Result<Vec<Row>> {
 /// the built-in small scene without gravity, the wall driven to the target pressure of the
 /// table; after the scene's stop criterion, the wall pressure averaged over a window equals the
 /// target within the band of the table, and the wall no longer moves (its travel over the
-/// window below the table's fraction of a diameter). Rows' scales are their allowed deviations.
+/// window below the table's fraction of a diameter) nor shakes (its RMS speed over the window
+/// below the table's fraction of its speed limit). Rows' scales are their allowed deviations.
 pub fn case_709(ctx: &CaseContext) -> Result<Vec<Row>> {
     let t = ctx.expected_table()?;
     non_empty(&t)?;
@@ -688,10 +689,12 @@ pub fn case_709(ctx: &CaseContext) -> Result<Vec<Row>> {
     let band = t.f64(0, "pressure_rel_band")?;
     let travel_tol = t.f64(0, "wall_travel_over_d")?;
     let window = t.f64(0, "window_steps")? as u64;
+    let speed_tol = t.f64(0, "wall_speed_rms_over_vmax")?;
+    let v_max = 0.05;
     let text = include_str!("../../scene/builtin/dem-small.toml")
         .replace(
             "gravity_m_s2 = 9.81",
-            &format!("top_pressure_pa = {target}\ntop_speed_max_m_s = 0.05"),
+            &format!("top_pressure_pa = {target}\ntop_speed_max_m_s = {v_max}"),
         )
         .replace(
             "[run]",
@@ -707,10 +710,11 @@ pub fn case_709(ctx: &CaseContext) -> Result<Vec<Row>> {
     }
     let area = scene.setup.lx_m * scene.setup.ly_m;
     let z0 = dem.top_z_m;
-    let mut sum = 0.0;
+    let (mut sum, mut v2) = (0.0, 0.0);
     for _ in 0..window {
         dem.step()?;
         sum += dem.top_force_n / area;
+        v2 += dem.top_v_m_s * dem.top_v_m_s;
     }
     let d = 2.0 * scene.radius[0];
     Ok(vec![
@@ -725,6 +729,12 @@ pub fn case_709(ctx: &CaseContext) -> Result<Vec<Row>> {
             (dem.top_z_m - z0) / d,
             0.0,
             travel_tol,
+        ),
+        Row::new(
+            format!("RMS wall speed over the window / speed limit {v_max} m/s"),
+            (v2 / window as f64).sqrt() / v_max,
+            0.0,
+            speed_tol,
         ),
     ])
 }
