@@ -32,11 +32,9 @@ pub struct BenchArgs {
 }
 
 /// Bytes moved per cell update by a two-array pull kernel: read and write Q doubles, plus the
-/// write-allocate read of the destination (counted, as the triad below counts it) for the
-/// cells not stored as whole lines; `streamed`: the fraction of cells that are
-/// ([`super::solver::streamed_fraction`]).
-pub fn bytes_per_update(q: usize, streamed: f64) -> f64 {
-    (3.0 - streamed) * 8.0 * q as f64
+/// write-allocate read of the destination (counted, as the triad below counts it).
+pub fn bytes_per_update(q: usize) -> f64 {
+    3.0 * 8.0 * q as f64
 }
 
 /// STREAM-type triad a = b + s c over arrays far larger than the caches; GB/s counting
@@ -221,17 +219,14 @@ pub fn run(args: &BenchArgs) -> Result<()> {
         return invalid("bench lbm: --sizes and --threads need at least one value, threads >= 1");
     }
     let mut csv = String::from(
-        "lattice,collision,forcing,n,threads,mlups,bytes_per_update,bandwidth_limit_mlups,fraction_of_limit,peer_lbmpy_mlups,ratio_to_peer\n",
+        "lattice,collision,forcing,n,threads,mlups,bandwidth_limit_mlups,fraction_of_limit,peer_lbmpy_mlups,ratio_to_peer\n",
     );
     for &th in &args.threads {
         let bw = triad_gb_per_s(th)?;
         println!("triad bandwidth, {th} thread(s): {bw:.1} GB/s (4 x 8 bytes per element)");
         for &n in &args.sizes {
-            // the pore-resolving measurement keeps the plain kernel's bytes per update
-            let streamed = super::solver::streamed_fraction(n);
             for lat in [LatticeKind::D3Q15, LatticeKind::D3Q19] {
-                let bytes = bytes_per_update(lat.q(), streamed);
-                let limit = bw * 1e9 / bytes / 1e6;
+                let limit = bw * 1e9 / bytes_per_update(lat.q()) / 1e6;
                 for coll in [CollisionKind::Bgk, CollisionKind::Trt] {
                     let peer = if args.no_peer {
                         Err("--no-peer".to_string())
@@ -253,7 +248,7 @@ pub fn run(args: &BenchArgs) -> Result<()> {
                             _ => (String::new(), String::new()),
                         };
                         println!(
-                            "{} {} {:<8} {n:>3}^3 {th} thr: {m:7.2} MLUPS, {:5.1} % of the {limit:.1} MLUPS limit ({bytes:.0} B per update){}",
+                            "{} {} {:<8} {n:>3}^3 {th} thr: {m:7.2} MLUPS, {:5.1} % of the {limit:.1} MLUPS limit{}",
                             lat.name(),
                             coll.name(),
                             mode.name(),
@@ -265,7 +260,7 @@ pub fn run(args: &BenchArgs) -> Result<()> {
                             }
                         );
                         csv += &format!(
-                            "{},{},{},{n},{th},{m:.3},{bytes:.0},{limit:.2},{:.4},{pm},{ratio}\n",
+                            "{},{},{},{n},{th},{m:.3},{limit:.2},{:.4},{pm},{ratio}\n",
                             lat.name(),
                             coll.name(),
                             match mode {

@@ -15,7 +15,6 @@ pub mod collision;
 pub mod forcing;
 pub mod geometry;
 pub mod lattice;
-pub mod populations;
 pub mod pore;
 pub mod problems;
 pub mod solver;

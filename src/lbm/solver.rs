@@ -11,17 +11,13 @@
 //! takes the moments, collides and stores, all in registers, every q written out by
 //! [`each_q!`] so the whole block is straight-line vector code. Every cell's update reads
 //! only the previous array, so the result is the same at any thread count; sums (mass, mean
-//! velocity) are taken per plane and added in plane order. The arrays place element 1 on a
-//! cache-line boundary ([`Populations`]): with nx a multiple of 8 every contiguous block is one
-//! whole line, which the AVX kernels store non-temporally (no read of the line before it is
-//! overwritten: 2 Q instead of 3 Q doubles moved per cell update).
+//! velocity) are taken per plane and added in plane order.
 
 use super::boundary::Boundaries;
 use super::collision::{equilibrium, relax_block, Block, BlockState, Collision, LANES};
 use super::forcing::{BlockMoments, Forcing};
 use super::geometry::{Dims, Geometry, Link};
 use super::lattice::{each_q, opposite, Lattice, QMAX};
-use super::populations::{stream_line, Populations, LINE_BYTES};
 use crate::error::{invalid, Result};
 use rayon::prelude::*;
 use std::marker::PhantomData;
@@ -107,9 +103,9 @@ pub struct Solver<L: Lattice, C: Collision, F: Forcing> {
     pub collision: C,
     pub forcing: F,
     /// Post-collision populations of the current step.
-    f: Populations,
+    f: Vec<f64>,
     /// Scratch for the next step.
-    g: Populations,
+    g: Vec<f64>,
     /// Velocity and density planes (non-equilibrium extrapolation), applied after the kernel.
     boundaries: Boundaries,
     steps: u64,
@@ -127,8 +123,8 @@ impl<L: Lattice, C: Collision, F: Forcing> Solver<L, C, F> {
             geometry,
             collision,
             forcing,
-            f: Populations::zeros(n),
-            g: Populations::zeros(n),
+            f: vec![0.0; n],
+            g: vec![0.0; n],
             boundaries: Boundaries::default(),
             steps: 0,
             _l: PhantomData,
@@ -315,10 +311,9 @@ impl<L: Lattice, C: Collision, F: Forcing> Solver<L, C, F> {
     }
 
     /// Pull, bounce back, collide and store one block (see [`Self::gather`]).
-    /// `NT`: whole-line contiguous stores go out as non-temporal writes (see [`Populations`]).
     #[allow(clippy::too_many_arguments)]
     #[inline(always)]
-    fn block<const CONTIG: bool, const NT: bool>(
+    fn block<const CONTIG: bool>(
         src: &[f64],
         d: &Dims,
         coll: &C,
@@ -350,12 +345,7 @@ impl<L: Lattice, C: Collision, F: Forcing> Solver<L, C, F> {
             let oq = &o[q];
             let orow = &mut out[q * plane_q + row0..q * plane_q + row0 + d.nx];
             if CONTIG {
-                let dst = &mut orow[xs[0]..xs[0] + LANES];
-                if NT && (dst.as_ptr() as usize) % LINE_BYTES == 0 {
-                    stream_line(dst, oq);
-                } else {
-                    dst.copy_from_slice(oq);
-                }
+                orow[xs[0]..xs[0] + LANES].copy_from_slice(oq);
             } else {
                 for l in 0..n {
                     orow[xs[l]] = oq[l];
@@ -388,7 +378,7 @@ impl<L: Lattice, C: Collision, F: Forcing> Solver<L, C, F> {
             pending[l] = pending[np - 1];
         }
         let first = links.partition_point(|k| (k.x as usize) < pending[0]);
-        Self::block::<false, false>(
+        Self::block::<false>(
             src,
             d,
             coll,
@@ -406,11 +396,9 @@ impl<L: Lattice, C: Collision, F: Forcing> Solver<L, C, F> {
     /// Each row's fluid cells go in blocks of [`LANES`]: a run of LANES cells away from the
     /// row's ends is one contiguous block; the rest (row ends, short runs between solids) are
     /// packed into gathered blocks, so a mostly solid row costs its fluid cells only.
-    /// `NT`: contiguous blocks that fill a cache line are stored non-temporally (x86-64 with
-    /// AVX only; the caller then fences the plane's stores).
     #[allow(clippy::too_many_arguments)]
     #[inline(always)]
-    fn plane_body<const NT: bool>(
+    fn plane_body(
         src: &[f64],
         geom: &Geometry,
         coll: &C,
@@ -448,7 +436,7 @@ impl<L: Lattice, C: Collision, F: Forcing> Solver<L, C, F> {
                         while li < links.len() && (links[li].x as usize) < x {
                             li += 1;
                         }
-                        li += Self::block::<true, NT>(
+                        li += Self::block::<true>(
                             src,
                             &d,
                             coll,
@@ -493,10 +481,7 @@ impl<L: Lattice, C: Collision, F: Forcing> Solver<L, C, F> {
         out: &mut [f64],
         rec: &mut Option<PlaneRecord>,
     ) {
-        Self::plane_body::<true>(src, geom, coll, force, z, out, rec);
-        // the plane's non-temporal stores are weakly ordered: make them visible before the
-        // task ends
-        std::arch::x86_64::_mm_sfence();
+        Self::plane_body(src, geom, coll, force, z, out, rec)
     }
 
     /// [`Self::plane_body`] compiled for AVX-512 (one block of [`LANES`] cells per register).
@@ -514,20 +499,12 @@ impl<L: Lattice, C: Collision, F: Forcing> Solver<L, C, F> {
         out: &mut [f64],
         rec: &mut Option<PlaneRecord>,
     ) {
-        Self::plane_body::<true>(src, geom, coll, force, z, out, rec);
-        std::arch::x86_64::_mm_sfence();
+        Self::plane_body(src, geom, coll, force, z, out, rec)
     }
 
     /// One time step: stream, bounce back, collide.
     pub fn step(&mut self) {
-        self.step_inner(None, false);
-    }
-
-    /// One time step by the portable kernel alone (no AVX, no non-temporal stores), to check
-    /// that the vector kernels give the same populations bit for bit.
-    #[cfg(test)]
-    pub(super) fn step_portable(&mut self) {
-        self.step_inner(None, true);
+        self.step_inner(None);
     }
 
     /// One time step that also records, per fluid cell, the density, velocity and source
@@ -540,16 +517,16 @@ impl<L: Lattice, C: Collision, F: Forcing> Solver<L, C, F> {
                 rec.rho.len()
             ));
         }
-        self.step_inner(Some(rec), false);
+        self.step_inner(Some(rec));
         Ok(())
     }
 
-    fn step_inner(&mut self, rec: Option<&mut Record>, portable: bool) {
+    fn step_inner(&mut self, rec: Option<&mut Record>) {
         let d = self.dims();
         let plane = L::Q * d.nx * d.ny;
         let nxy = d.nx * d.ny;
         #[cfg(target_arch = "x86_64")]
-        let avx2 = !portable && is_x86_feature_detected!("avx2") && is_x86_feature_detected!("fma");
+        let avx2 = is_x86_feature_detected!("avx2") && is_x86_feature_detected!("fma");
         #[cfg(target_arch = "x86_64")]
         let avx512 = avx2 && is_x86_feature_detected!("avx512f");
         let (src, geom, coll, force) = (&self.f, &self.geometry, &self.collision, &self.forcing);
@@ -580,7 +557,7 @@ impl<L: Lattice, C: Collision, F: Forcing> Solver<L, C, F> {
                     unsafe { Self::plane_avx2(src, geom, coll, force, z, out, rec) };
                     return;
                 }
-                Self::plane_body::<false>(src, geom, coll, force, z, out, rec)
+                Self::plane_body(src, geom, coll, force, z, out, rec)
             });
         if !self.boundaries.is_empty() {
             self.boundaries
@@ -723,18 +700,6 @@ impl<L: Lattice, C: Collision, F: Forcing> Solver<L, C, F> {
         self.steps = steps;
         Ok(())
     }
-}
-
-/// The fraction of a fully fluid row's cells that the kernel stores as whole cache lines
-/// (non-temporally): the contiguous blocks at x = 1, 9, ... below nx - 8, where the CPU runs
-/// the AVX kernels (AVX2 and FMA) and nx is a multiple of 8; otherwise 0.
-pub fn streamed_fraction(nx: usize) -> f64 {
-    #[cfg(target_arch = "x86_64")]
-    if nx % LANES == 0 && is_x86_feature_detected!("avx2") && is_x86_feature_detected!("fma") {
-        return (LANES * ((nx - 2) / LANES)) as f64 / nx as f64;
-    }
-    let _ = nx;
-    0.0
 }
 
 /// The periodic upstream coordinate v - c of v in 0..n, for c in {-1, 0, 1}.

@@ -117,37 +117,3 @@ fn duct_series_limits_and_flow_rate() {
     assert!((got / want - 1.0).abs() < 1e-8, "{got} vs {want}");
     assert!((want - 0.140_57).abs() < 1e-5, "{want}");
 }
-
-/// The vector kernels (AVX-512 or AVX2, with non-temporal whole-line stores where a block fills
-/// a cache line: nx = 32 here) give the populations of the portable kernel bit for bit, with
-/// solids, bounce-back and Guo–Zhao forcing on D3Q19 TRT.
-#[test]
-fn vector_kernels_equal_portable_kernel_bitwise() {
-    use super::forcing::Porous;
-    let d = Dims::new(32, 10, 6).unwrap();
-    let mask: Vec<bool> = (0..d.cells())
-        .map(|c| {
-            let [x, y, z] = d.coords(c);
-            let r = [x as f64 - 15.5, y as f64 - 4.5, z as f64 - 2.5];
-            r[0] * r[0] + r[1] * r[1] + r[2] * r[2] < 9.0
-        })
-        .collect();
-    let geom = Geometry::new::<D3Q19>(d, mask, |_| [0.0; 3]).unwrap();
-    let mk = || {
-        let mut porous = Porous::clear(d.cells(), 0.1, [2e-5, 1e-5, 0.0], true);
-        for c in 0..d.cells() {
-            let eps = 0.6 + 0.3 * ((c % 11) as f64) / 11.0;
-            porous.set(c, eps, 0.5).unwrap();
-        }
-        let mut s = Solver::<D3Q19, _, _>::new(geom.clone(), Trt::magic(0.9), porous).unwrap();
-        s.init(|c| (1.0 + 0.01 * ((c % 7) as f64), [0.01, 0.002, 0.0]));
-        s
-    };
-    let (mut a, mut b) = (mk(), mk());
-    for _ in 0..20 {
-        a.step();
-        b.step_portable();
-    }
-    let bits = |s: &[f64]| s.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
-    assert_eq!(bits(a.populations()), bits(b.populations()));
-}
