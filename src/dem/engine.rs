@@ -930,3 +930,41 @@ impl Dem {
         self.p.mass.iter().sum::<f64>() * self.buoyancy * self.setup.gravity_m_s2.norm()
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use crate::scene::dem::{build, parse_scene};
+    use nalgebra::Vector3;
+
+    /// The stop rule's energy leaves out the spin of a sphere that touches nothing (no torque
+    /// can remove it) and keeps every translation and the spin of a sphere in contact.
+    #[test]
+    fn settling_energy_leaves_out_only_the_free_spin() {
+        let text = include_str!("../scene/builtin/dem-small.toml").replace("n = 300", "n = 20");
+        let mut dem = build(&parse_scene(&text, "test").unwrap()).unwrap();
+        dem.p.vel.iter_mut().for_each(|v| *v = Vector3::zeros());
+        dem.p.omega.iter_mut().for_each(|w| *w = Vector3::zeros());
+        let k = (0..dem.p.len())
+            .find(|&i| {
+                let (z, r) = (dem.p.pos[i].z, dem.p.radius[i]);
+                z > r
+                    && dem.top_z_m - z > r
+                    && !dem
+                        .nl
+                        .pairs
+                        .iter()
+                        .any(|p| p.delta > 0.0 && (p.i as usize == i || p.j as usize == i))
+            })
+            .expect("a free sphere in the dispersed start");
+        dem.p.omega[k] = Vector3::new(0.0, 30.0, 0.0);
+        dem.p.vel[k] = Vector3::new(0.01, 0.0, 0.0);
+        let spin = 0.5 * 900.0 / dem.inv_inertia[k];
+        let translation = 0.5 * dem.p.mass[k] * 1e-4;
+        let close = |a: f64, b: f64| (a - b).abs() <= 1e-12 * b;
+        assert!(close(dem.kinetic_energy(), translation + spin));
+        assert!(close(dem.settling_kinetic_energy(), translation));
+        // resting on the floor, its spin can be removed by friction and counts
+        dem.p.pos[k].z = 0.9 * dem.p.radius[k];
+        assert!(close(dem.settling_kinetic_energy(), translation + spin));
+    }
+}
