@@ -13,6 +13,8 @@ use super::collision::BlockState;
 /// and momentum `j[k][l]` (lattice units).
 pub struct BlockMoments<const N: usize> {
     pub cells: [usize; N],
+    /// Whether cells[l] = cells[0] + l for every lane.
+    pub contiguous: bool,
     pub rho: [f64; N],
     pub j: [[f64; N]; 3],
 }
@@ -131,6 +133,8 @@ pub struct Porous {
     lin: Vec<f64>,
     quad: Vec<f64>,
     w: Vec<[f64; 3]>,
+    /// Whether any cell was given a nonzero matrix velocity (else the kernel skips w).
+    moving: bool,
 }
 
 /// The Guo-Zhao drag coefficients (lin, quad) = (eps nu / K, eps F_eps / sqrt K) of a cell of
@@ -157,6 +161,7 @@ impl Porous {
             lin: vec![0.0; cells],
             quad: vec![0.0; cells],
             w: vec![[0.0; 3]; cells],
+            moving: false,
         }
     }
 
@@ -203,6 +208,7 @@ impl Porous {
             ));
         }
         self.w[cell] = w;
+        self.moving |= w != [0.0; 3];
         Ok(())
     }
 
@@ -276,20 +282,33 @@ impl Forcing for Porous {
     }
     /// [`Porous::state`] for a block, one operation at a time over the lanes (so that the
     /// square roots and divisions run as vector instructions), each lane's operations those
-    /// of `state` and `BlockState::set` in the same order: the same bits.
+    /// of `state` and `BlockState::set` in the same order: the same bits. The fields of a
+    /// block of consecutive cells are read as slices, and the matrix velocity only where a
+    /// cell has one (w = +0 changes no bit: x - 0 = x, and u = rel + 0 is still added).
     #[inline(always)]
     fn block_states<const N: usize>(&self, m: &BlockMoments<N>, st: &mut BlockState<N>) {
         let (cells, rho, j) = (&m.cells, &m.rho, &m.j);
         let g = self.g;
         let (mut eps, mut lin, mut quad) = ([0.0; N], [0.0; N], [0.0; N]);
         let mut w = [[0.0; N]; 3];
-        for l in 0..N {
-            let c = cells[l];
-            eps[l] = self.eps[c];
-            lin[l] = self.lin[c];
-            quad[l] = self.quad[c];
-            for k in 0..3 {
-                w[k][l] = self.w[c][k];
+        let c0 = cells[0];
+        if m.contiguous {
+            eps.copy_from_slice(&self.eps[c0..c0 + N]);
+            lin.copy_from_slice(&self.lin[c0..c0 + N]);
+            quad.copy_from_slice(&self.quad[c0..c0 + N]);
+        } else {
+            for l in 0..N {
+                let c = cells[l];
+                eps[l] = self.eps[c];
+                lin[l] = self.lin[c];
+                quad[l] = self.quad[c];
+            }
+        }
+        if self.moving {
+            for l in 0..N {
+                for k in 0..3 {
+                    w[k][l] = self.w[cells[l]][k];
+                }
             }
         }
         for l in 0..N {
@@ -336,50 +355,65 @@ mod tests {
     use rand_chacha::ChaCha8Rng;
 
     /// The block form of the Guo–Zhao state gives the bits of the cell-by-cell form, on
-    /// random porosities, coefficients, matrix velocities, densities and momenta (cells
-    /// scattered, so that the loads are gathers).
+    /// random porosities, coefficients, matrix velocities (a medium with and one without),
+    /// densities and momenta, for scattered cells (the loads are gathers) and for runs of
+    /// consecutive cells (slice loads).
     #[test]
     fn porous_block_states_equal_cell_states_bitwise() {
         const N: usize = 8;
         let mut rng = ChaCha8Rng::seed_from_u64(7);
         let cells_total = 64;
-        let mut medium = Porous::clear(cells_total, 0.1, [1e-5, -2e-6, 3e-7], true);
+        let mut fixed = Porous::clear(cells_total, 0.1, [1e-5, -2e-6, 3e-7], true);
         for c in 0..cells_total {
             let eps = rng.gen_range(0.05..=1.0);
-            medium
+            fixed
                 .set(c, eps, 10f64.powf(rng.gen_range(-6.0..2.0)))
                 .unwrap();
-            if c % 3 == 0 {
-                let w = [0; 3].map(|_| rng.gen_range(-0.05..0.05));
-                medium.set_matrix_velocity(c, w).unwrap();
-            }
         }
+        let mut moving = fixed.clone();
+        for c in (0..cells_total).step_by(3) {
+            let w = [0; 3].map(|_| rng.gen_range(-0.05..0.05));
+            moving.set_matrix_velocity(c, w).unwrap();
+        }
+        assert!(moving.moving && !fixed.moving);
+        let bits = |b: &BlockState<N>| {
+            let mut v: Vec<u64> = b.rho.iter().map(|x| x.to_bits()).collect();
+            for k in 0..3 {
+                v.extend(b.u[k].iter().chain(&b.a[k]).map(|x| x.to_bits()));
+            }
+            v.extend(
+                b.inv_eps
+                    .iter()
+                    .chain(&b.uu)
+                    .chain(&b.ua)
+                    .map(|x| x.to_bits()),
+            );
+            v
+        };
         for _ in 0..200 {
-            let cells = [0; N].map(|_| rng.gen_range(0..cells_total));
+            let scattered = [0; N].map(|_| rng.gen_range(0..cells_total));
+            let start = rng.gen_range(0..=cells_total - N);
+            let run: [usize; N] = std::array::from_fn(|l| start + l);
             let rho = [0; N].map(|_| rng.gen_range(0.9..1.1));
             let j = [0; 3].map(|_| [0; N].map(|_| rng.gen_range(-0.1..0.1)));
-            let mut block = BlockState::<N>::default();
-            medium.block_states(&BlockMoments { cells, rho, j }, &mut block);
-            let mut each = BlockState::<N>::default();
-            for l in 0..N {
-                let s = medium.state(cells[l], rho[l], [j[0][l], j[1][l], j[2][l]]);
-                each.set(l, rho[l], &s);
-            }
-            let bits = |b: &BlockState<N>| {
-                let mut v: Vec<u64> = b.rho.iter().map(|x| x.to_bits()).collect();
-                for k in 0..3 {
-                    v.extend(b.u[k].iter().chain(&b.a[k]).map(|x| x.to_bits()));
+            for medium in [&fixed, &moving] {
+                for (cells, contiguous) in [(scattered, false), (run, true)] {
+                    let m = BlockMoments {
+                        cells,
+                        contiguous,
+                        rho,
+                        j,
+                    };
+                    let mut block = BlockState::<N>::default();
+                    medium.block_states(&m, &mut block);
+                    let mut each = BlockState::<N>::default();
+                    for l in 0..N {
+                        let s = medium.state(cells[l], rho[l], [j[0][l], j[1][l], j[2][l]]);
+                        each.set(l, rho[l], &s);
+                    }
+                    assert_eq!(bits(&block), bits(&each));
                 }
-                v.extend(
-                    b.inv_eps
-                        .iter()
-                        .chain(&b.uu)
-                        .chain(&b.ua)
-                        .map(|x| x.to_bits()),
-                );
-                v
-            };
-            assert_eq!(bits(&block), bits(&each));
+            }
         }
     }
 }
