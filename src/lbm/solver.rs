@@ -6,10 +6,10 @@
 //! `((z Q + q) ny + y) nx + x`, so each plane (all q) is one contiguous chunk that one rayon
 //! task writes. A step walks every row's fluid cells in blocks of [`LANES`] cells: it pulls
 //! the Q upstream populations of the block (one contiguous load per q, with one wrapped lane
-//! at the row's ends; a gather for the cells of short runs between solids), overwrites the bounce-back links
-//! (f_q(x) = f*_opp(q)(x) + delta; halfway bounce-back, seed 002 ref. 12 and Ladd 1994),
-//! takes the moments, collides and stores, all in registers, every q written out by
-//! [`each_q!`] so the whole block is straight-line vector code. Every cell's update reads
+//! at the row's ends; a gather for the cells of short runs between solids), overwrites the
+//! bounce-back links (f_q(x) = f*_opp(q)(x) + delta; halfway bounce-back, seed 002 ref. 12 and
+//! Ladd 1994), takes the moments, collides and stores, all in registers, every q written out
+//! by [`each_q!`] so the whole block is straight-line vector code. Every cell's update reads
 //! only the previous array, so the result is the same at any thread count; sums (mass, mean
 //! velocity) are taken per plane and added in plane order.
 
