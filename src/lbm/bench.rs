@@ -23,6 +23,15 @@ pub struct BenchArgs {
     /// Seconds of stepping per measurement (at least 3 steps are timed).
     #[arg(long, default_value_t = 2.0)]
     pub seconds: f64,
+    /// Lattices to measure (D3Q15, D3Q19).
+    #[arg(long, value_delimiter = ',', default_values_t = vec!["D3Q15".to_string(), "D3Q19".to_string()])]
+    pub lattices: Vec<String>,
+    /// Collisions to measure (bgk, trt).
+    #[arg(long, value_delimiter = ',', default_values_t = vec!["bgk".to_string(), "trt".to_string()])]
+    pub collisions: Vec<String>,
+    /// Kernels to measure: plain (Guo body force), porous (Guo-Zhao), pores (solid mask).
+    #[arg(long, value_delimiter = ',', default_values_t = vec!["plain".to_string(), "porous".to_string(), "pores".to_string()])]
+    pub modes: Vec<String>,
     /// Skip the lbmpy peer.
     #[arg(long)]
     pub no_peer: bool,
@@ -218,6 +227,31 @@ pub fn run(args: &BenchArgs) -> Result<()> {
     if args.sizes.is_empty() || args.threads.is_empty() || args.threads.contains(&0) {
         return invalid("bench lbm: --sizes and --threads need at least one value, threads >= 1");
     }
+    let lattices = args
+        .lattices
+        .iter()
+        .map(|s| LatticeKind::parse(s, "--lattices"))
+        .collect::<Result<Vec<_>>>()?;
+    let collisions = args
+        .collisions
+        .iter()
+        .map(|s| CollisionKind::parse(s, "--collisions"))
+        .collect::<Result<Vec<_>>>()?;
+    let modes = args
+        .modes
+        .iter()
+        .map(|s| match s.to_ascii_lowercase().as_str() {
+            "plain" => Ok(Mode::Plain),
+            "porous" => Ok(Mode::Porous),
+            "pores" => Ok(Mode::Pores {
+                solid_fraction: PORE_SOLID_FRACTION,
+            }),
+            _ => invalid(format!("--modes {s}: must be plain, porous or pores")),
+        })
+        .collect::<Result<Vec<_>>>()?;
+    if lattices.is_empty() || collisions.is_empty() || modes.is_empty() {
+        return invalid("bench lbm: --lattices, --collisions and --modes need at least one value");
+    }
     let mut csv = String::from(
         "lattice,collision,forcing,n,threads,mlups,bandwidth_limit_mlups,fraction_of_limit,peer_lbmpy_mlups,ratio_to_peer\n",
     );
@@ -225,22 +259,15 @@ pub fn run(args: &BenchArgs) -> Result<()> {
         let bw = triad_gb_per_s(th)?;
         println!("triad bandwidth, {th} thread(s): {bw:.1} GB/s (4 x 8 bytes per element)");
         for &n in &args.sizes {
-            for lat in [LatticeKind::D3Q15, LatticeKind::D3Q19] {
+            for &lat in &lattices {
                 let limit = bw * 1e9 / bytes_per_update(lat.q()) / 1e6;
-                for coll in [CollisionKind::Bgk, CollisionKind::Trt] {
-                    let peer = if args.no_peer {
+                for &coll in &collisions {
+                    let peer = if args.no_peer || !modes.contains(&Mode::Plain) {
                         Err("--no-peer".to_string())
                     } else {
                         peer_mlups(lat, coll, n, th, args.seconds)
                     };
-                    let modes = [
-                        Mode::Plain,
-                        Mode::Porous,
-                        Mode::Pores {
-                            solid_fraction: PORE_SOLID_FRACTION,
-                        },
-                    ];
-                    for mode in modes {
+                    for &mode in &modes {
                         let plain = mode == Mode::Plain;
                         let m = mlups(lat, coll, mode, n, th, args.seconds)?;
                         let (pm, ratio) = match (&peer, plain) {
