@@ -291,6 +291,51 @@ fn brownian_summary_spells_choices_as_the_scene_does() {
 }
 
 #[test]
+fn bench_lbm_filters_select_one_kernel_and_refuse_unknown_names() {
+    let d = scratch("bench-lbm");
+    for (arg, value) in [
+        ("--modes", "foo"),
+        ("--lattices", "D3Q27"),
+        ("--collisions", "mrt"),
+    ] {
+        let o = porelab()
+            .args(["bench", "lbm", "--no-peer", arg, value])
+            .current_dir(&d)
+            .output()
+            .unwrap();
+        refused(&o, &[arg, value]);
+    }
+    let o = porelab()
+        .args([
+            "bench",
+            "lbm",
+            "--sizes",
+            "8",
+            "--threads",
+            "1",
+            "--seconds",
+            "0",
+        ])
+        .args([
+            "--lattices",
+            "D3Q19",
+            "--collisions",
+            "trt",
+            "--modes",
+            "porous",
+        ])
+        .arg("--no-peer")
+        .current_dir(&d)
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", text(&o.stderr));
+    let csv = std::fs::read_to_string(d.join("target/porelab/bench/lbm.csv")).unwrap();
+    let rows: Vec<&str> = csv.lines().skip(1).collect();
+    assert_eq!(rows.len(), 1, "{csv}");
+    assert!(rows[0].starts_with("D3Q19,TRT,guo-zhao,8,1,"), "{csv}");
+}
+
+#[test]
 fn bench_writes_under_the_working_folder() {
     let d = scratch("bench-cwd");
     let o = porelab()
