@@ -262,8 +262,11 @@ pub fn run(args: &BenchArgs) -> Result<()> {
             for &lat in &lattices {
                 let limit = bw * 1e9 / bytes_per_update(lat.q()) / 1e6;
                 for &coll in &collisions {
-                    let peer = if args.no_peer || !modes.contains(&Mode::Plain) {
+                    // lbmpy is compared with the plain kernel only
+                    let peer = if args.no_peer {
                         Err("--no-peer".to_string())
+                    } else if !modes.contains(&Mode::Plain) {
+                        Err("plain kernel not selected".to_string())
                     } else {
                         peer_mlups(lat, coll, n, th, args.seconds)
                     };
