@@ -16,9 +16,10 @@
 //! dynamics (the top wall's force) are serial. The same seed gives bitwise the same run at any
 //! thread count.
 
+use super::lanes::{Lane, V3};
 use super::model::{
-    hertz_contact_time, rayleigh_time, ContactModel, ContactState, DampingModel, Material,
-    NormalModel, PairMaterial,
+    hertz_contact_time, rayleigh_time, ContactLanes, ContactModel, ContactState, DampingModel,
+    Material, NormalModel, PairMaterial,
 };
 use super::neighbour::{wrap_delta, NeighbourList, PAR_MIN};
 use crate::error::{invalid, require_positive};
@@ -139,72 +140,94 @@ struct PairCtx<'a> {
     mass: &'a [f64],
 }
 
-/// The contact force of one neighbour pair (and its tangential history), or its reset when the
-/// pair is apart.
+/// The contact forces of `T::LANES` neighbour pairs side by side, one per lane (and their
+/// tangential histories), or their resets for pairs that are apart: lane l holds bitwise the
+/// result of the pair alone (see [`ContactModel::force_lanes`]).
 #[inline(always)]
-fn pair_force(c: &PairCtx, pr: &mut super::neighbour::Pair) {
-    let (i, j) = (pr.i as usize, pr.j as usize);
-    let d = Vector3::new(
-        wrap_delta(c.pos[i].x - c.pos[j].x, c.lx),
-        wrap_delta(c.pos[i].y - c.pos[j].y, c.ly),
-        c.pos[i].z - c.pos[j].z,
-    );
-    let (ri, rj) = (c.rad[i], c.rad[j]);
+fn pair_forces<T: Lane>(c: &PairCtx, prs: &mut [super::neighbour::Pair]) {
+    debug_assert_eq!(prs.len(), T::LANES);
+    let mut i = [0usize; 4];
+    let mut j = [0usize; 4];
+    for (l, pr) in prs.iter().enumerate() {
+        (i[l], j[l]) = (pr.i as usize, pr.j as usize);
+    }
+    let d = V3::<T> {
+        x: T::from_fn(|l| wrap_delta(c.pos[i[l]].x - c.pos[j[l]].x, c.lx)),
+        y: T::from_fn(|l| wrap_delta(c.pos[i[l]].y - c.pos[j[l]].y, c.ly)),
+        z: T::from_fn(|l| c.pos[i[l]].z - c.pos[j[l]].z),
+    };
+    let ri = T::from_fn(|l| c.rad[i[l]]);
+    let rj = T::from_fn(|l| c.rad[j[l]]);
     let dist2 = d.norm_squared();
     let rs = ri + rj;
-    if dist2 >= rs * rs {
-        if pr.delta > 0.0 {
-            pr.xi = Vector3::zeros();
-            pr.force = Vector3::zeros();
-            pr.n_cross_ft = Vector3::zeros();
-        }
-        // apart: only the sign of delta is used until the pair touches again
-        pr.delta = -1.0;
-        return;
-    }
+    let touching = dist2.lt(rs * rs);
     let dist = dist2.sqrt();
-    let n = d * (1.0 / dist);
+    let n = d.scale(T::splat(1.0) / dist);
+    let rel = |v: &[Vector3<f64>]| V3::<T>::from_fn(|l| v[i[l]] - v[j[l]]);
     let (v_half, v_full) = if c.friction {
+        let spin_half = V3::<T>::from_fn(|l| c.om[i[l]] * ri.lane(l) + c.om[j[l]] * rj.lane(l));
+        let spin_full = V3::<T>::from_fn(|l| c.omf[i[l]] * ri.lane(l) + c.omf[j[l]] * rj.lane(l));
         (
-            c.vel[i] - c.vel[j] - (c.om[i] * ri + c.om[j] * rj).cross(&n),
-            c.vf[i] - c.vf[j] - (c.omf[i] * ri + c.omf[j] * rj).cross(&n),
+            rel(c.vel).sub(&spin_half.cross(&n)),
+            rel(c.vf).sub(&spin_full.cross(&n)),
         )
     } else {
-        (c.vel[i] - c.vel[j], c.vf[i] - c.vf[j])
+        (rel(c.vel), rel(c.vf))
     };
-    let state = ContactState {
+    let (mi, mj) = (T::from_fn(|l| c.mass[i[l]]), T::from_fn(|l| c.mass[j[l]]));
+    let state = ContactLanes {
         delta: rs - dist,
         n,
         v_half,
         v_full,
         r_eff: ri * rj / rs,
-        m_eff: c.mass[i] * c.mass[j] / (c.mass[i] + c.mass[j]),
+        m_eff: mi * mj / (mi + mj),
         dt: c.dt,
     };
-    let (f, ft) = c.model.force(&state, &c.pp, &mut pr.xi);
-    pr.delta = state.delta;
-    pr.force = f;
-    pr.n_cross_ft = n.cross(&ft);
-}
-
-/// [`pair_force`] on every pair of `prs`.
-#[inline(always)]
-fn each_pair(prs: &mut [super::neighbour::Pair], ctx: &PairCtx) {
-    for pr in prs {
-        pair_force(ctx, pr);
+    let mut xi = V3::from_fn(|l| prs[l].xi);
+    let (f, ft) = c.model.force_lanes(&state, &c.pp, &mut xi);
+    let n_cross_ft = n.cross(&ft);
+    for (l, pr) in prs.iter_mut().enumerate() {
+        if T::mask_lane(touching, l) {
+            pr.delta = state.delta.lane(l);
+            pr.xi = xi.lane(l);
+            pr.force = f.lane(l);
+            pr.n_cross_ft = n_cross_ft.lane(l);
+        } else {
+            // apart: history and force cleared when the pair touched at the last step; only
+            // the sign of delta is used until it touches again
+            if pr.delta > 0.0 {
+                pr.xi = Vector3::zeros();
+                pr.force = Vector3::zeros();
+                pr.n_cross_ft = Vector3::zeros();
+            }
+            pr.delta = -1.0;
+        }
     }
 }
 
-/// [`each_pair`] compiled for AVX2 + FMA (chosen at run time where the CPU has them): the
-/// three-operand VEX forms spare the register copies of the baseline SSE2 code. Rust never
-/// fuses a multiply and an add by itself, so every operation and every bit is the baseline's.
+/// [`pair_forces`] on every pair of `prs`, `T::LANES` at a time.
+#[inline(always)]
+fn each_pair<T: Lane>(prs: &mut [super::neighbour::Pair], ctx: &PairCtx) {
+    let mut blocks = prs.chunks_exact_mut(T::LANES);
+    for b in &mut blocks {
+        pair_forces::<T>(ctx, b);
+    }
+    for pr in blocks.into_remainder() {
+        pair_forces::<f64>(ctx, std::slice::from_mut(pr));
+    }
+}
+
+/// [`each_pair`] four pairs per AVX register, compiled for AVX2 + FMA (chosen at run time
+/// where the CPU has them). Rust never fuses a multiply and an add by itself and each lane
+/// operation is the scalar one, so every bit is the scalar loop's.
 ///
 /// # Safety
 /// The caller must have checked that the CPU supports avx2 and fma.
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2,fma")]
 unsafe fn each_pair_avx2(prs: &mut [super::neighbour::Pair], ctx: &PairCtx) {
-    each_pair(prs, ctx)
+    each_pair::<super::lanes::F64x4>(prs, ctx)
 }
 
 /// x wrapped into [0, l) after a move shorter than l.
@@ -752,7 +775,7 @@ impl Dem {
                 unsafe { each_pair_avx2(prs, &ctx) };
                 return;
             }
-            each_pair(prs, &ctx);
+            each_pair::<f64>(prs, &ctx);
         };
         if self.nl.pairs.len() >= PAR_MIN {
             self.nl.pairs.par_chunks_mut(512).for_each(run);
@@ -998,6 +1021,151 @@ impl Dem {
 mod tests {
     use crate::scene::dem::{build, parse_scene};
     use nalgebra::Vector3;
+
+    /// The AVX2 pair loop (four pairs per register) gives every pair's force, torque term,
+    /// overlap and history bit for bit as the scalar loop, for each contact model, with pairs
+    /// apart, touching, newly apart and sliding, in a periodic box with polydisperse spheres.
+    #[cfg(target_arch = "x86_64")]
+    #[test]
+    fn four_pair_lanes_equal_the_scalar_loop_bitwise() {
+        use super::super::model::*;
+        use super::super::neighbour::Pair;
+        use super::{each_pair, each_pair_avx2, PairCtx};
+        use rand::{Rng, SeedableRng};
+        if !(is_x86_feature_detected!("avx2") && is_x86_feature_detected!("fma")) {
+            eprintln!("skipped: this CPU has no AVX2 + FMA, so the scalar loop is the only one");
+            return;
+        }
+        let mat = Material::new(1e7, 0.3).unwrap();
+        let pp = PairMaterial::new(&mat, &mat);
+        let restitution = DampingModel::restitution(0.5).unwrap();
+        let models = [
+            (
+                NormalModel::Hertz,
+                restitution,
+                TangentialModel::Mindlin {
+                    mu: 0.3,
+                    damp_ratio: 1.0,
+                },
+            ),
+            (NormalModel::Hertz, restitution, TangentialModel::None),
+            (
+                NormalModel::Linear { k_n_n_per_m: 50.0 },
+                restitution,
+                TangentialModel::Linear {
+                    kt_over_kn: 2.0 / 7.0,
+                    mu: 0.5,
+                    damp_ratio: 0.5,
+                },
+            ),
+            (
+                NormalModel::Hertz,
+                DampingModel::Zhou { c_n: 0.3 },
+                TangentialModel::Zhou { mu: 0.3, c_t: 0.3 },
+            ),
+        ];
+        let mut rng = rand::rngs::StdRng::seed_from_u64(7);
+        let (n, lx, ly) = (42, 1.2e-3, 1.0e-3);
+        let v3 = |rng: &mut rand::rngs::StdRng, s: f64| {
+            Vector3::new(
+                rng.gen_range(-s..s),
+                rng.gen_range(-s..s),
+                rng.gen_range(-s..s),
+            )
+        };
+        let pos: Vec<_> = (0..n)
+            .map(|_| {
+                Vector3::new(
+                    rng.gen_range(0.0..lx),
+                    rng.gen_range(0.0..ly),
+                    rng.gen_range(0.0..8e-4),
+                )
+            })
+            .collect();
+        let rad: Vec<f64> = (0..n).map(|_| rng.gen_range(1e-4..3e-4)).collect();
+        let mass: Vec<f64> = rad.iter().map(|r| 2500.0 * 4.19 * r * r * r).collect();
+        let [vel, om, vf, omf]: [Vec<_>; 4] = std::array::from_fn(|k| {
+            (0..n)
+                .map(|_| v3(&mut rng, [0.05, 200.0, 0.05, 200.0][k]))
+                .collect()
+        });
+        let mut pairs = Vec::new();
+        for i in 0..n as u32 {
+            for j in i + 1..n as u32 {
+                let touched = rng.gen_bool(0.5);
+                pairs.push(Pair {
+                    i,
+                    j,
+                    xi: if touched && rng.gen_bool(0.8) {
+                        v3(&mut rng, 2e-5)
+                    } else {
+                        Vector3::zeros()
+                    },
+                    force: v3(&mut rng, 1.0),
+                    n_cross_ft: v3(&mut rng, 1.0),
+                    delta: if touched { 1e-6 } else { -1.0 },
+                });
+            }
+        }
+        let (mut touching, mut sliding) = (0, 0);
+        for (normal, damping, tangential) in models {
+            let model = ContactModel {
+                normal,
+                damping,
+                tangential,
+            };
+            let ctx = PairCtx {
+                lx,
+                ly,
+                model,
+                dt: 1e-6,
+                friction: model.has_friction(),
+                pp,
+                pos: &pos,
+                vel: &vel,
+                om: &om,
+                vf: &vf,
+                omf: &omf,
+                rad: &rad,
+                mass: &mass,
+            };
+            let mut scalar = pairs.clone();
+            each_pair::<f64>(&mut scalar, &ctx);
+            let mut lanes = pairs.clone();
+            // SAFETY: avx2 and fma were detected above
+            unsafe { each_pair_avx2(&mut lanes, &ctx) };
+            let bits = |p: &Pair| {
+                [p.xi, p.force, p.n_cross_ft]
+                    .iter()
+                    .flat_map(|v| v.iter().map(|c| c.to_bits()).collect::<Vec<_>>())
+                    .chain([p.delta.to_bits()])
+                    .collect::<Vec<_>>()
+            };
+            for (k, (a, b)) in scalar.iter().zip(&lanes).enumerate() {
+                assert_eq!(bits(a), bits(b), "{model:?}: pair {k} differs: {a:?} {b:?}");
+            }
+            touching += scalar.iter().filter(|p| p.delta > 0.0).count();
+            // sliding: |F_t| = mu |F_n|, with |F_t| = |n x F_t| and F_n^2 = |F|^2 - |F_t|^2
+            if let TangentialModel::Mindlin { mu, .. } | TangentialModel::Linear { mu, .. } =
+                tangential
+            {
+                sliding += scalar
+                    .iter()
+                    .filter(|p| {
+                        let ft2 = p.n_cross_ft.norm_squared();
+                        let fn2 = p.force.norm_squared() - ft2;
+                        p.delta > 0.0 && (ft2 - mu * mu * fn2).abs() <= 1e-9 * ft2
+                    })
+                    .count();
+            }
+        }
+        assert!(pairs.len() % 4 != 0, "the scalar tail is exercised");
+        assert!(
+            touching > 40 && touching < 4 * pairs.len() - 40,
+            "{touching} touching"
+        );
+        assert!(sliding > 20, "{sliding} sliding");
+    }
 
     /// The stop rule's energy leaves out the spin of a sphere that touches nothing (no torque
     /// can remove it) and keeps every translation and the spin of a sphere in contact.

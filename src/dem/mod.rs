@@ -6,6 +6,8 @@
 //! * [`model`]: contact laws composed of normal, damping and tangential sub-models (Hertz–Mindlin
 //!   with restitution damping, linear spring–dashpot with Coulomb friction); walls use the same
 //!   model as spheres of infinite radius and mass.
+//! * [`lanes`]: contacts side by side (one `f64`, or four in an AVX register), so that the
+//!   contact law is written once and the pair loop runs four pairs at a time, bit for bit.
 //! * [`neighbour`]: cell list + half Verlet list with skin; tangential history per pair kept
 //!   across rebuilds.
 //! * [`engine`]: the velocity-Verlet integrator, drivers and the time-step rule.
@@ -18,6 +20,7 @@
 pub mod bench;
 pub mod checkpoint;
 pub mod engine;
+pub mod lanes;
 pub mod model;
 pub mod neighbour;
 pub mod observe;

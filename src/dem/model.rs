@@ -8,6 +8,7 @@
 //! Sign conventions: `n` is the unit normal from body j to body i, `delta` > 0 the overlap,
 //! `v_rel` the velocity of i's contact point relative to j's. The force returned acts on i.
 
+use super::lanes::{Lane, V3};
 use crate::error::{invalid, require_positive};
 use crate::Result;
 use nalgebra::Vector3;
@@ -70,12 +71,18 @@ impl NormalModel {
     /// (elastic force magnitude, contact stiffness S_n = dF/d delta) at overlap `delta` > 0.
     #[inline(always)]
     pub fn elastic(&self, delta: f64, r_eff: f64, e_star: f64) -> (f64, f64) {
+        self.elastic_lanes(delta, r_eff, e_star)
+    }
+
+    /// [`NormalModel::elastic`] of contacts side by side.
+    #[inline(always)]
+    pub fn elastic_lanes<T: Lane>(&self, delta: T, r_eff: T, e_star: f64) -> (T, T) {
         match *self {
             NormalModel::Hertz => {
-                let s = 2.0 * e_star * (r_eff * delta).sqrt();
-                (s * delta * (2.0 / 3.0), s)
+                let s = T::splat(2.0 * e_star) * (r_eff * delta).sqrt();
+                (s * delta * T::splat(2.0 / 3.0), s)
             }
-            NormalModel::Linear { k_n_n_per_m: k } => (k * delta, k),
+            NormalModel::Linear { k_n_n_per_m: k } => (T::splat(k) * delta, T::splat(k)),
         }
     }
 
@@ -135,14 +142,15 @@ impl DampingModel {
         })
     }
 
+    /// eta_n of contacts side by side.
     #[inline(always)]
-    fn eta(&self, normal: &NormalModel, s_n: f64, m_eff: f64) -> f64 {
+    fn eta_lanes<T: Lane>(&self, normal: &NormalModel, s_n: T, m_eff: T) -> T {
         match *self {
-            DampingModel::None => 0.0,
+            DampingModel::None => T::splat(0.0),
             DampingModel::Restitution { neg_beta, .. } => {
-                2.0 * neg_beta * (normal.damping_factor() * s_n * m_eff).sqrt()
+                T::splat(2.0 * neg_beta) * (T::splat(normal.damping_factor()) * s_n * m_eff).sqrt()
             }
-            DampingModel::Zhou { c_n } => c_n * (6.0 * m_eff * s_n).sqrt(),
+            DampingModel::Zhou { c_n } => T::splat(c_n) * (T::splat(6.0) * m_eff * s_n).sqrt(),
         }
     }
 }
@@ -173,36 +181,37 @@ impl TangentialModel {
         matches!(self, TangentialModel::None)
     }
 
-    /// (k_t, eta_t, mu).
+    /// (k_t, eta_t, mu) of contacts side by side.
     #[inline(always)]
     #[allow(clippy::too_many_arguments)]
-    fn parameters(
+    fn parameters_lanes<T: Lane>(
         &self,
         normal: &NormalModel,
-        s_n: f64,
-        eta_n: f64,
-        delta: f64,
-        r_eff: f64,
+        s_n: T,
+        eta_n: T,
+        delta: T,
+        r_eff: T,
         e_star: f64,
         g_star: f64,
-    ) -> (f64, f64, f64) {
+    ) -> (T, T, f64) {
+        let zero = T::splat(0.0);
         match *self {
-            TangentialModel::None => (0.0, 0.0, 0.0),
+            TangentialModel::None => (zero, zero, 0.0),
             TangentialModel::Mindlin { mu, damp_ratio } => {
                 // 8 G* sqrt(R* delta); with a Hertz normal S_n = 2 E* sqrt(R* delta) holds the root
                 let k_t = match normal {
-                    NormalModel::Hertz => 4.0 * g_star / e_star * s_n,
-                    NormalModel::Linear { .. } => 8.0 * g_star * (r_eff * delta).sqrt(),
+                    NormalModel::Hertz => T::splat(4.0 * g_star / e_star) * s_n,
+                    NormalModel::Linear { .. } => T::splat(8.0 * g_star) * (r_eff * delta).sqrt(),
                 };
-                (k_t, damp_ratio * eta_n, mu)
+                (k_t, T::splat(damp_ratio) * eta_n, mu)
             }
             TangentialModel::Linear {
                 kt_over_kn,
                 mu,
                 damp_ratio,
-            } => (kt_over_kn * s_n, damp_ratio * eta_n, mu),
+            } => (T::splat(kt_over_kn) * s_n, T::splat(damp_ratio) * eta_n, mu),
             // a nonlinear spring: its force is computed in `zhou_tangential`
-            TangentialModel::Zhou { mu, .. } => (0.0, 0.0, mu),
+            TangentialModel::Zhou { mu, .. } => (zero, zero, mu),
         }
     }
 }
@@ -231,11 +240,22 @@ pub struct ContactState {
     pub dt: f64,
 }
 
+/// [`ContactState`] of several contacts side by side, one per lane (see
+/// [`ContactModel::force_lanes`]).
+#[derive(Debug, Clone, Copy)]
+pub struct ContactLanes<T> {
+    pub delta: T,
+    pub n: V3<T>,
+    pub v_half: V3<T>,
+    pub v_full: V3<T>,
+    pub r_eff: T,
+    pub m_eff: T,
+    pub dt: f64,
+}
+
 impl ContactModel {
     /// Force on i, and its tangential part, for one contact; advances the tangential
-    /// displacement `xi` (history) over the step: xi is first turned onto the current tangent
-    /// plane with its length kept (LAMMPS), then xi += v_t(half step) dt; when the Coulomb
-    /// limit binds, xi is reset to the spring length that gives the limited force.
+    /// displacement `xi` (history) over the step (see [`ContactModel::force_lanes`]).
     #[inline(always)]
     pub fn force(
         &self,
@@ -243,15 +263,44 @@ impl ContactModel {
         mat: &PairMaterial,
         xi: &mut Vector3<f64>,
     ) -> (Vector3<f64>, Vector3<f64>) {
-        let (f_el, s_n) = self.normal.elastic(c.delta, c.r_eff, mat.e_star_pa);
-        let eta_n = self.damping.eta(&self.normal, s_n, c.m_eff);
+        let one = ContactLanes {
+            delta: c.delta,
+            n: V3::of(&c.n),
+            v_half: V3::of(&c.v_half),
+            v_full: V3::of(&c.v_full),
+            r_eff: c.r_eff,
+            m_eff: c.m_eff,
+            dt: c.dt,
+        };
+        let mut xi_lane = V3::of(xi);
+        let (f, ft) = self.force_lanes(&one, mat, &mut xi_lane);
+        *xi = xi_lane.lane(0);
+        (f.lane(0), ft.lane(0))
+    }
+
+    /// [`ContactModel::force`] of contacts side by side, one per lane: each lane performs the
+    /// scalar operations in the scalar order, branches becoming per-lane selects, so a
+    /// contact's bits do not depend on the lane type (see [`super::lanes`]).
+    ///
+    /// The tangential displacement xi is first turned onto the current tangent plane with its
+    /// length kept (LAMMPS), then xi += v_t(half step) dt; when the Coulomb limit binds, xi is
+    /// reset to the spring length that gives the limited force.
+    #[inline(always)]
+    pub fn force_lanes<T: Lane>(
+        &self,
+        c: &ContactLanes<T>,
+        mat: &PairMaterial,
+        xi: &mut V3<T>,
+    ) -> (V3<T>, V3<T>) {
+        let (f_el, s_n) = self.normal.elastic_lanes(c.delta, c.r_eff, mat.e_star_pa);
+        let eta_n = self.damping.eta_lanes(&self.normal, s_n, c.m_eff);
         let vn_full = c.v_full.dot(&c.n);
         let f_n = f_el - eta_n * vn_full;
-        let mut f = c.n * f_n;
+        let f = c.n.scale(f_n);
         if self.tangential.is_none() {
-            return (f, Vector3::zeros());
+            return (f, V3::zeros());
         }
-        let (k_t, eta_t, mu) = self.tangential.parameters(
+        let (k_t, eta_t, mu) = self.tangential.parameters_lanes(
             &self.normal,
             s_n,
             eta_n,
@@ -260,34 +309,47 @@ impl ContactModel {
             mat.e_star_pa,
             mat.g_star_pa,
         );
+        let zero = T::splat(0.0);
         // history onto the tangent plane, length kept
         let len0 = xi.norm_squared();
-        if len0 > 0.0 {
-            *xi -= c.n * xi.dot(&c.n);
-            let len1 = xi.norm_squared();
-            if len1 > 0.0 {
-                *xi *= (len0 / len1).sqrt();
-            }
-        }
-        let vt_half = c.v_half - c.n * c.v_half.dot(&c.n);
-        let vt_full = c.v_full - c.n * vn_full;
-        *xi += vt_half * c.dt;
+        let turned = xi.sub(&c.n.scale(xi.dot(&c.n)));
+        let len1 = turned.norm_squared();
+        let kept = turned.scale((len0 / len1).sqrt());
+        let turned = V3::select(len1.gt(zero), &kept, &turned);
+        let xi_turned = V3::select(len0.gt(zero), &turned, xi);
+        let vt_half = c.v_half.sub(&c.n.scale(c.v_half.dot(&c.n)));
+        let vt_full = c.v_full.sub(&c.n.scale(vn_full));
+        *xi = xi_turned.add(&vt_half.scale(T::splat(c.dt)));
         if let TangentialModel::Zhou { mu, c_t } = self.tangential {
-            let xi_max = zhou_slip_displacement(mu, c.delta, mat);
-            let f_t = zhou_tangential(mu, c_t, f_el, xi_max, c.m_eff, xi, &vt_full);
-            return (f + f_t, f_t);
-        }
-        let mut f_t = -(*xi * k_t) - vt_full * eta_t;
-        let limit = mu * f_n.abs();
-        let ft2 = f_t.norm_squared();
-        if ft2 > limit * limit {
-            f_t *= limit / ft2.sqrt();
-            if k_t > 0.0 {
-                *xi = -(f_t + vt_full * eta_t) / k_t;
+            let mut f_t = [Vector3::zeros(); 4];
+            let mut xi_out = [Vector3::zeros(); 4];
+            for l in 0..T::LANES {
+                let xi_max = zhou_slip_displacement(mu, c.delta.lane(l), mat);
+                xi_out[l] = xi.lane(l);
+                let vt = vt_full.lane(l);
+                f_t[l] = zhou_tangential(
+                    mu,
+                    c_t,
+                    f_el.lane(l),
+                    xi_max,
+                    c.m_eff.lane(l),
+                    &mut xi_out[l],
+                    &vt,
+                );
             }
+            *xi = V3::from_fn(|l| xi_out[l]);
+            let f_t = V3::from_fn(|l| f_t[l]);
+            return (f.add(&f_t), f_t);
         }
-        f += f_t;
-        (f, f_t)
+        let f_t = xi.scale(k_t).neg().sub(&vt_full.scale(eta_t));
+        let limit = T::splat(mu) * f_n.abs();
+        let ft2 = f_t.norm_squared();
+        let slides = ft2.gt(limit * limit);
+        let f_t_limited = f_t.scale(limit / ft2.sqrt());
+        let xi_limited = f_t_limited.add(&vt_full.scale(eta_t)).neg().div(k_t);
+        *xi = V3::select(slides & k_t.gt(zero), &xi_limited, xi);
+        let f_t = V3::select(slides, &f_t_limited, &f_t);
+        (f.add(&f_t), f_t)
     }
 
     /// Whether the model needs rotation (a tangential force).
