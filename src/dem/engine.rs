@@ -218,17 +218,242 @@ fn each_pair<T: Lane>(prs: &mut [super::neighbour::Pair], ctx: &PairCtx) {
     }
 }
 
-/// [`each_pair`] four pairs per AVX register, compiled for AVX2 + FMA (chosen at run time
-/// where the CPU has them). Rust never fuses a multiply and an add by itself and each lane
-/// operation is the scalar one, so every bit is the scalar loop's.
-///
-/// # Safety
-/// The caller must have checked that the CPU supports avx2 and fma.
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2,fma")]
-unsafe fn each_pair_avx2(prs: &mut [super::neighbour::Pair], ctx: &PairCtx) {
-    each_pair::<super::lanes::F64x4>(prs, ctx)
+/// What the per-particle gather reads: the pair list with its forces, the particles' state,
+/// walls, gravity, drag and external forces.
+struct GatherCtx<'a> {
+    nl: &'a NeighbourList,
+    pos: &'a [Vector3<f64>],
+    vel: &'a [Vector3<f64>],
+    om: &'a [Vector3<f64>],
+    vf: &'a [Vector3<f64>],
+    omf: &'a [Vector3<f64>],
+    rad: &'a [f64],
+    mass: &'a [f64],
+    pw: PairMaterial,
+    model: ContactModel,
+    friction: bool,
+    dt: f64,
+    top_z: f64,
+    top_v: f64,
+    g: Vector3<f64>,
+    drag: Option<Drag>,
+    external: &'a [Vector3<f64>],
 }
+
+/// What the gather writes, for a run of consecutive particles.
+struct GatherOut<'a> {
+    force: &'a mut [Vector3<f64>],
+    torque: &'a mut [Vector3<f64>],
+    wall_xi: &'a mut [[Vector3<f64>; 2]],
+    wall_fz: &'a mut [[f64; 3]],
+    wall_f: &'a mut [Vector3<f64>],
+}
+
+/// Particles per parallel task of the per-particle loops.
+const CHUNK: usize = 256;
+
+/// Force and torque on particles start.. (as many as `out` holds): the pair forces in the
+/// list's fixed order, the walls, gravity, external force and drag.
+#[inline(always)]
+fn gather(c: &GatherCtx, start: usize, out: GatherOut) {
+    let GatherCtx {
+        nl,
+        pos,
+        vel,
+        om,
+        vf,
+        omf,
+        rad,
+        mass,
+        pw,
+        model,
+        friction,
+        dt,
+        top_z,
+        top_v,
+        g,
+        drag,
+        external,
+    } = c;
+    let (model, friction, dt, top_z, top_v) = (*model, *friction, *dt, *top_z, *top_v);
+    for (offset, ((((f_out, t_out), wxi), wfz), wf)) in out
+        .force
+        .iter_mut()
+        .zip(out.torque.iter_mut())
+        .zip(out.wall_xi.iter_mut())
+        .zip(out.wall_fz.iter_mut())
+        .zip(out.wall_f.iter_mut())
+        .enumerate()
+    {
+        let i = start + offset;
+        let mut f = Vector3::zeros();
+        let mut nxft = Vector3::zeros();
+        for &k in &nl.second_pairs[nl.second_start[i] as usize..nl.second_start[i + 1] as usize] {
+            let pr = &nl.pairs[k as usize];
+            if pr.delta > 0.0 {
+                f -= pr.force;
+                nxft += pr.n_cross_ft;
+            }
+        }
+        for pr in &nl.pairs[nl.first_start[i] as usize..nl.first_start[i + 1] as usize] {
+            if pr.delta > 0.0 {
+                f += pr.force;
+                nxft += pr.n_cross_ft;
+            }
+        }
+        let r = rad[i];
+        *wf = Vector3::zeros();
+        // walls: spheres of infinite radius and mass (R* = R, m* = m)
+        for (k, (dist, nz, wall_v)) in [(pos[i].z, 1.0, 0.0), (top_z - pos[i].z, -1.0, top_v)]
+            .into_iter()
+            .enumerate()
+        {
+            let delta = r - dist;
+            if delta <= 0.0 {
+                wxi[k] = Vector3::zeros();
+                wfz[k] = 0.0;
+                if k == 1 {
+                    wfz[2] = 0.0;
+                }
+                continue;
+            }
+            if k == 1 {
+                wfz[2] = model.normal.elastic(delta, r, pw.e_star_pa).1;
+            }
+            let n = Vector3::new(0.0, 0.0, nz);
+            let wv = Vector3::new(0.0, 0.0, wall_v);
+            let (v_half, v_full) = if friction {
+                (
+                    vel[i] - wv - (om[i] * r).cross(&n),
+                    vf[i] - wv - (omf[i] * r).cross(&n),
+                )
+            } else {
+                (vel[i] - wv, vf[i] - wv)
+            };
+            let c = ContactState {
+                delta,
+                n,
+                v_half,
+                v_full,
+                r_eff: r,
+                m_eff: mass[i],
+                dt,
+            };
+            let (fw, ft) = model.force(&c, &pw, &mut wxi[k]);
+            f += fw;
+            *wf += fw;
+            nxft += n.cross(&ft);
+            wfz[k] = fw.z;
+        }
+        f += g * mass[i];
+        if let Some(e) = external.get(i) {
+            f += *e;
+        }
+        if let Some(d) = &drag {
+            f += (d.fluid_velocity_m_s - vf[i]) * (6.0 * PI * d.viscosity_pa_s * r);
+        }
+        *f_out = f;
+        *t_out = -nxft * r;
+    }
+}
+
+/// What the integrator's kicks read.
+struct KickCtx<'a> {
+    force: &'a [Vector3<f64>],
+    torque: &'a [Vector3<f64>],
+    inv_mass: &'a [f64],
+    inv_inertia: &'a [f64],
+    dt: f64,
+    lx: f64,
+    ly: f64,
+    rotation: bool,
+}
+
+/// What the first kick and the drift move, for a run of consecutive particles.
+struct KickOut<'a> {
+    pos: &'a mut [Vector3<f64>],
+    vel: &'a mut [Vector3<f64>],
+    vel_full: &'a mut [Vector3<f64>],
+    omega: &'a mut [Vector3<f64>],
+    omega_full: &'a mut [Vector3<f64>],
+}
+
+/// Half kick and drift of particles start..: v(n+1/2) = v(n) + a dt/2, x(n+1) = x(n) +
+/// v(n+1/2) dt (wrapped in x and y), and the full-step velocity predicted for the dashpots,
+/// v(n+1) ~ v(n+1/2) + a dt/2 (the same for the spin).
+#[inline(always)]
+fn kick_drift(c: &KickCtx, start: usize, out: KickOut) {
+    let h = 0.5 * c.dt;
+    for (offset, ((((x, v), vf), w), wf)) in out
+        .pos
+        .iter_mut()
+        .zip(out.vel.iter_mut())
+        .zip(out.vel_full.iter_mut())
+        .zip(out.omega.iter_mut())
+        .zip(out.omega_full.iter_mut())
+        .enumerate()
+    {
+        let i = start + offset;
+        let a = c.force[i] * c.inv_mass[i];
+        *v += a * h;
+        *x += *v * c.dt;
+        x.x = wrap_into(x.x, c.lx);
+        x.y = wrap_into(x.y, c.ly);
+        *vf = *v + a * h;
+        if c.rotation {
+            let b = c.torque[i] * c.inv_inertia[i];
+            *w += b * h;
+            *wf = *w + b * h;
+        }
+    }
+}
+
+/// Second half kick of particles start..: v(n+1) = v(n+1/2) + a(n+1) dt/2 (the same for the
+/// spin).
+#[inline(always)]
+fn kick(c: &KickCtx, start: usize, vel: &mut [Vector3<f64>], omega: &mut [Vector3<f64>]) {
+    let h = 0.5 * c.dt;
+    for (offset, (v, w)) in vel.iter_mut().zip(omega.iter_mut()).enumerate() {
+        let i = start + offset;
+        *v += c.force[i] * (c.inv_mass[i] * h);
+        if c.rotation {
+            *w += c.torque[i] * (c.inv_inertia[i] * h);
+        }
+    }
+}
+
+/// `$run`: `$fast` compiled for AVX2 + FMA (as `$avx2`) where the CPU has them, else `$slow`
+/// (the same function on baseline x86-64, or its scalar form). Rust never fuses a multiply and
+/// an add by itself and every lane operation is the scalar one, so the bits are the same either
+/// way; the three-operand VEX forms spare the register copies of the baseline SSE2 code.
+macro_rules! avx2_copy {
+    ($run:ident, $avx2:ident: $fast:expr, else $slow:expr, ($($a:ident: $t:ty),*)) => {
+        /// # Safety
+        /// The caller must have checked that the CPU supports avx2 and fma.
+        #[cfg(target_arch = "x86_64")]
+        #[target_feature(enable = "avx2,fma")]
+        unsafe fn $avx2($($a: $t),*) {
+            $fast($($a),*)
+        }
+        #[inline(always)]
+        fn $run($($a: $t),*) {
+            #[cfg(target_arch = "x86_64")]
+            if is_x86_feature_detected!("avx2") && is_x86_feature_detected!("fma") {
+                // SAFETY: avx2 and fma were detected just above.
+                unsafe { $avx2($($a),*) };
+                return;
+            }
+            $slow($($a),*)
+        }
+    };
+}
+avx2_copy!(run_pairs, each_pair_avx2: each_pair::<super::lanes::F64x4>, else each_pair::<f64>,
+    (prs: &mut [super::neighbour::Pair], ctx: &PairCtx));
+avx2_copy!(run_gather, gather_avx2: gather, else gather, (c: &GatherCtx, start: usize, out: GatherOut));
+avx2_copy!(run_kick_drift, kick_drift_avx2: kick_drift, else kick_drift,
+    (c: &KickCtx, start: usize, out: KickOut));
+avx2_copy!(run_kick, kick_avx2: kick, else kick,
+    (c: &KickCtx, start: usize, vel: &mut [Vector3<f64>], omega: &mut [Vector3<f64>]));
 
 /// x wrapped into [0, l) after a move shorter than l.
 #[inline(always)]
@@ -590,64 +815,74 @@ impl Dem {
         r
     }
 
-    /// One velocity-Verlet step.
-    pub fn step(&mut self) -> Result<()> {
+    /// The first half kick and the drift (`drift`), or the second half kick, in parallel over
+    /// chunks of particles (the same bits at any thread count).
+    fn kick(&mut self, drift: bool) {
         let dt = self.dt_s;
-        let h = 0.5 * dt;
         let (lx, ly) = (self.setup.lx_m, self.setup.ly_m);
         let rotation = self.active.friction_rotation;
-        {
-            let (force, torque, im, ii) =
-                (&self.force, &self.torque, &self.inv_mass, &self.inv_inertia);
-            type Item<'a> = (
-                usize,
-                (
-                    (
-                        (
-                            (&'a mut Vector3<f64>, &'a mut Vector3<f64>),
-                            &'a mut Vector3<f64>,
-                        ),
-                        &'a mut Vector3<f64>,
-                    ),
-                    &'a mut Vector3<f64>,
-                ),
-            );
-            let kick_drift = |(i, ((((x, v), vf), w), wf)): Item| {
-                let a = force[i] * im[i];
-                *v += a * h;
-                *x += *v * dt;
-                x.x = wrap_into(x.x, lx);
-                x.y = wrap_into(x.y, ly);
-                *vf = *v + a * h;
-                if rotation {
-                    let b = torque[i] * ii[i];
-                    *w += b * h;
-                    *wf = *w + b * h;
-                }
-            };
+        let ctx = KickCtx {
+            force: &self.force,
+            torque: &self.torque,
+            inv_mass: &self.inv_mass,
+            inv_inertia: &self.inv_inertia,
+            dt,
+            lx,
+            ly,
+            rotation,
+        };
+        if drift {
             if self.p.len() >= PAR_MIN {
                 self.p
                     .pos
-                    .par_iter_mut()
-                    .zip(self.p.vel.par_iter_mut())
-                    .zip(self.vel_full.par_iter_mut())
-                    .zip(self.p.omega.par_iter_mut())
-                    .zip(self.omega_full.par_iter_mut())
+                    .par_chunks_mut(CHUNK)
+                    .zip(self.p.vel.par_chunks_mut(CHUNK))
+                    .zip(self.vel_full.par_chunks_mut(CHUNK))
+                    .zip(self.p.omega.par_chunks_mut(CHUNK))
+                    .zip(self.omega_full.par_chunks_mut(CHUNK))
                     .enumerate()
-                    .with_min_len(256)
-                    .for_each(kick_drift);
+                    .for_each(|(k, ((((pos, vel), vel_full), omega), omega_full))| {
+                        run_kick_drift(
+                            &ctx,
+                            k * CHUNK,
+                            KickOut {
+                                pos,
+                                vel,
+                                vel_full,
+                                omega,
+                                omega_full,
+                            },
+                        )
+                    });
             } else {
+                let out = KickOut {
+                    pos: &mut self.p.pos,
+                    vel: &mut self.p.vel,
+                    vel_full: &mut self.vel_full,
+                    omega: &mut self.p.omega,
+                    omega_full: &mut self.omega_full,
+                };
+                run_kick_drift(&ctx, 0, out);
+            }
+        } else {
+            if self.p.len() >= PAR_MIN {
                 self.p
-                    .pos
-                    .iter_mut()
-                    .zip(self.p.vel.iter_mut())
-                    .zip(self.vel_full.iter_mut())
-                    .zip(self.p.omega.iter_mut())
-                    .zip(self.omega_full.iter_mut())
+                    .vel
+                    .par_chunks_mut(CHUNK)
+                    .zip(self.p.omega.par_chunks_mut(CHUNK))
                     .enumerate()
-                    .for_each(kick_drift);
+                    .for_each(|(k, (vel, omega))| run_kick(&ctx, k * CHUNK, vel, omega));
+            } else {
+                run_kick(&ctx, 0, &mut self.p.vel, &mut self.p.omega);
             }
         }
+    }
+
+    /// One velocity-Verlet step.
+    pub fn step(&mut self) -> Result<()> {
+        let dt = self.dt_s;
+        let (lx, ly) = (self.setup.lx_m, self.setup.ly_m);
+        self.kick(true);
         self.top_z_m += self.top_v_m_s * dt;
         if self.top_z_m <= 0.0 {
             return invalid(format!(
@@ -660,32 +895,7 @@ impl Dem {
             self.rebuild()?;
         }
         self.compute_forces();
-        {
-            let (force, torque, im, ii) =
-                (&self.force, &self.torque, &self.inv_mass, &self.inv_inertia);
-            let kick = |(i, (v, w)): (usize, (&mut Vector3<f64>, &mut Vector3<f64>))| {
-                *v += force[i] * (im[i] * h);
-                if rotation {
-                    *w += torque[i] * (ii[i] * h);
-                }
-            };
-            if self.p.len() >= PAR_MIN {
-                self.p
-                    .vel
-                    .par_iter_mut()
-                    .zip(self.p.omega.par_iter_mut())
-                    .enumerate()
-                    .with_min_len(256)
-                    .for_each(kick);
-            } else {
-                self.p
-                    .vel
-                    .iter_mut()
-                    .zip(self.p.omega.iter_mut())
-                    .enumerate()
-                    .for_each(kick);
-            }
-        }
+        self.kick(false);
         if let TopWall::Pressure {
             target_pa,
             speed_max_m_s,
@@ -766,134 +976,64 @@ impl Dem {
             rad,
             mass,
         };
-        #[cfg(target_arch = "x86_64")]
-        let avx2 = is_x86_feature_detected!("avx2") && is_x86_feature_detected!("fma");
-        let run = |prs: &mut [super::neighbour::Pair]| {
-            #[cfg(target_arch = "x86_64")]
-            if avx2 {
-                // SAFETY: avx2 and fma were detected above.
-                unsafe { each_pair_avx2(prs, &ctx) };
-                return;
-            }
-            each_pair::<f64>(prs, &ctx);
-        };
         if self.nl.pairs.len() >= PAR_MIN {
-            self.nl.pairs.par_chunks_mut(512).for_each(run);
+            self.nl
+                .pairs
+                .par_chunks_mut(512)
+                .for_each(|prs| run_pairs(prs, &ctx));
         } else {
-            run(&mut self.nl.pairs);
+            run_pairs(&mut self.nl.pairs, &ctx);
         }
         // gather
-        let nl = &self.nl;
-        let pw = self.pw;
-        let top_z = self.top_z_m;
-        let top_v = self.top_v_m_s;
-        let g = self.setup.gravity_m_s2 * self.buoyancy;
-        let drag = self.setup.drag;
-        let external = &self.external;
-        type Slot<'a> = (
-            usize,
-            (
-                (
-                    (
-                        (&'a mut Vector3<f64>, &'a mut Vector3<f64>),
-                        &'a mut [Vector3<f64>; 2],
-                    ),
-                    &'a mut [f64; 3],
-                ),
-                &'a mut Vector3<f64>,
-            ),
-        );
-        let gather = |(i, ((((f_out, t_out), wxi), wfz), wf)): Slot| {
-            let mut f = Vector3::zeros();
-            let mut nxft = Vector3::zeros();
-            for &k in &nl.second_pairs[nl.second_start[i] as usize..nl.second_start[i + 1] as usize]
-            {
-                let pr = &nl.pairs[k as usize];
-                if pr.delta > 0.0 {
-                    f -= pr.force;
-                    nxft += pr.n_cross_ft;
-                }
-            }
-            for pr in &nl.pairs[nl.first_start[i] as usize..nl.first_start[i + 1] as usize] {
-                if pr.delta > 0.0 {
-                    f += pr.force;
-                    nxft += pr.n_cross_ft;
-                }
-            }
-            let r = rad[i];
-            *wf = Vector3::zeros();
-            // walls: spheres of infinite radius and mass (R* = R, m* = m)
-            for (k, (dist, nz, wall_v)) in [(pos[i].z, 1.0, 0.0), (top_z - pos[i].z, -1.0, top_v)]
-                .into_iter()
-                .enumerate()
-            {
-                let delta = r - dist;
-                if delta <= 0.0 {
-                    wxi[k] = Vector3::zeros();
-                    wfz[k] = 0.0;
-                    if k == 1 {
-                        wfz[2] = 0.0;
-                    }
-                    continue;
-                }
-                if k == 1 {
-                    wfz[2] = model.normal.elastic(delta, r, pw.e_star_pa).1;
-                }
-                let n = Vector3::new(0.0, 0.0, nz);
-                let wv = Vector3::new(0.0, 0.0, wall_v);
-                let (v_half, v_full) = if friction {
-                    (
-                        vel[i] - wv - (om[i] * r).cross(&n),
-                        vf[i] - wv - (omf[i] * r).cross(&n),
-                    )
-                } else {
-                    (vel[i] - wv, vf[i] - wv)
-                };
-                let c = ContactState {
-                    delta,
-                    n,
-                    v_half,
-                    v_full,
-                    r_eff: r,
-                    m_eff: mass[i],
-                    dt,
-                };
-                let (fw, ft) = model.force(&c, &pw, &mut wxi[k]);
-                f += fw;
-                *wf += fw;
-                nxft += n.cross(&ft);
-                wfz[k] = fw.z;
-            }
-            f += g * mass[i];
-            if let Some(e) = external.get(i) {
-                f += *e;
-            }
-            if let Some(d) = &drag {
-                f += (d.fluid_velocity_m_s - vf[i]) * (6.0 * PI * d.viscosity_pa_s * r);
-            }
-            *f_out = f;
-            *t_out = -nxft * r;
+        let ctx = GatherCtx {
+            nl: &self.nl,
+            pos: &self.p.pos,
+            vel: &self.p.vel,
+            om: &self.p.omega,
+            vf: &self.vel_full,
+            omf: &self.omega_full,
+            rad: &self.p.radius,
+            mass: &self.p.mass,
+            pw: self.pw,
+            model,
+            friction,
+            dt,
+            top_z: self.top_z_m,
+            top_v: self.top_v_m_s,
+            g: self.setup.gravity_m_s2 * self.buoyancy,
+            drag: self.setup.drag,
+            external: &self.external,
         };
-        let n = self.p.len();
-        if n >= PAR_MIN {
+        if self.p.len() >= PAR_MIN {
             self.force
-                .par_iter_mut()
-                .zip(self.torque.par_iter_mut())
-                .zip(self.wall_xi.par_iter_mut())
-                .zip(self.wall_fz.par_iter_mut())
-                .zip(self.wall_f.par_iter_mut())
+                .par_chunks_mut(CHUNK)
+                .zip(self.torque.par_chunks_mut(CHUNK))
+                .zip(self.wall_xi.par_chunks_mut(CHUNK))
+                .zip(self.wall_fz.par_chunks_mut(CHUNK))
+                .zip(self.wall_f.par_chunks_mut(CHUNK))
                 .enumerate()
-                .with_min_len(256)
-                .for_each(gather);
+                .for_each(|(k, ((((force, torque), wall_xi), wall_fz), wall_f))| {
+                    run_gather(
+                        &ctx,
+                        k * CHUNK,
+                        GatherOut {
+                            force,
+                            torque,
+                            wall_xi,
+                            wall_fz,
+                            wall_f,
+                        },
+                    )
+                });
         } else {
-            self.force
-                .iter_mut()
-                .zip(self.torque.iter_mut())
-                .zip(self.wall_xi.iter_mut())
-                .zip(self.wall_fz.iter_mut())
-                .zip(self.wall_f.iter_mut())
-                .enumerate()
-                .for_each(gather);
+            let out = GatherOut {
+                force: &mut self.force,
+                torque: &mut self.torque,
+                wall_xi: &mut self.wall_xi,
+                wall_fz: &mut self.wall_fz,
+                wall_f: &mut self.wall_f,
+            };
+            run_gather(&ctx, 0, out);
         }
         let (mut fl, mut tp, mut kt) = (0.0, 0.0, 0.0);
         for w in &self.wall_fz {

@@ -71,14 +71,19 @@ impl NeighbourList {
             return true;
         }
         let lim2 = 0.25 * self.skin * self.skin;
-        pos.iter().zip(&self.pos_at_build).any(|(p, q)| {
+        let moved = |(p, q): (&Vector3<f64>, &Vector3<f64>)| {
             let d = Vector3::new(
                 wrap_delta(p.x - q.x, lx),
                 wrap_delta(p.y - q.y, ly),
                 p.z - q.z,
             );
             d.norm_squared() > lim2
-        })
+        };
+        if pos.len() >= PAR_MIN {
+            pos.par_iter().zip(&self.pos_at_build).any(moved)
+        } else {
+            pos.iter().zip(&self.pos_at_build).any(moved)
+        }
     }
 
     /// Rebuilds the list for positions `pos` (x in [0, lx), y in [0, ly)), keeping the history
