@@ -194,7 +194,7 @@ impl V3<f64> {
 }
 
 #[cfg(target_arch = "x86_64")]
-pub use avx::F64x4;
+pub(crate) use avx::F64x4;
 
 #[cfg(target_arch = "x86_64")]
 mod avx {
@@ -204,15 +204,15 @@ mod avx {
 
     /// Four contacts in one AVX register.
     ///
-    /// Safety: a value of this type exists only where the CPU has AVX: it is made only by
-    /// code reached after `is_x86_feature_detected!("avx2")` (the pair loop's AVX2 copy),
-    /// and its methods are inlined into that code.
+    /// Safety: a value of this type exists only where the CPU has AVX. The type is private to
+    /// the crate and made only by code reached after `is_x86_feature_detected!("avx2")` (the
+    /// pair loop's AVX2 copy, and a test that checks first), into which its methods inline.
     #[derive(Debug, Clone, Copy)]
-    pub struct F64x4(__m256d);
+    pub(crate) struct F64x4(__m256d);
 
     /// Four conditions (all bits set where true).
     #[derive(Debug, Clone, Copy)]
-    pub struct Mask4(__m256d);
+    pub(crate) struct Mask4(__m256d);
 
     macro_rules! binop {
         ($tr:ident, $f:ident, $intr:ident) => {
