@@ -123,6 +123,19 @@ pub fn auto_time_step(setup: &DemSetup, r_min: f64, v_scale: f64) -> f64 {
     (RAYLEIGH_SAFETY * tr).min(CONTACT_TIME_FRACTION * tc)
 }
 
+/// The particles' state that the force loops read: positions, half-step and predicted
+/// full-step velocities and spins, radii, masses.
+#[derive(Clone, Copy)]
+struct Bodies<'a> {
+    pos: &'a [Vector3<f64>],
+    vel: &'a [Vector3<f64>],
+    om: &'a [Vector3<f64>],
+    vf: &'a [Vector3<f64>],
+    omf: &'a [Vector3<f64>],
+    rad: &'a [f64],
+    mass: &'a [f64],
+}
+
 /// What the pair force reads: box, contact model, time step and the particles' state.
 struct PairCtx<'a> {
     lx: f64,
@@ -131,13 +144,7 @@ struct PairCtx<'a> {
     dt: f64,
     friction: bool,
     pp: PairMaterial,
-    pos: &'a [Vector3<f64>],
-    vel: &'a [Vector3<f64>],
-    om: &'a [Vector3<f64>],
-    vf: &'a [Vector3<f64>],
-    omf: &'a [Vector3<f64>],
-    rad: &'a [f64],
-    mass: &'a [f64],
+    b: Bodies<'a>,
 }
 
 /// The contact forces of `T::LANES` neighbour pairs side by side, one per lane (and their
@@ -152,12 +159,12 @@ fn pair_forces<T: Lane>(c: &PairCtx, prs: &mut [super::neighbour::Pair]) {
         (i[l], j[l]) = (pr.i as usize, pr.j as usize);
     }
     let d = V3::<T> {
-        x: T::from_fn(|l| wrap_delta(c.pos[i[l]].x - c.pos[j[l]].x, c.lx)),
-        y: T::from_fn(|l| wrap_delta(c.pos[i[l]].y - c.pos[j[l]].y, c.ly)),
-        z: T::from_fn(|l| c.pos[i[l]].z - c.pos[j[l]].z),
+        x: T::from_fn(|l| wrap_delta(c.b.pos[i[l]].x - c.b.pos[j[l]].x, c.lx)),
+        y: T::from_fn(|l| wrap_delta(c.b.pos[i[l]].y - c.b.pos[j[l]].y, c.ly)),
+        z: T::from_fn(|l| c.b.pos[i[l]].z - c.b.pos[j[l]].z),
     };
-    let ri = T::from_fn(|l| c.rad[i[l]]);
-    let rj = T::from_fn(|l| c.rad[j[l]]);
+    let ri = T::from_fn(|l| c.b.rad[i[l]]);
+    let rj = T::from_fn(|l| c.b.rad[j[l]]);
     let dist2 = d.norm_squared();
     let rs = ri + rj;
     let touching = dist2.lt(rs * rs);
@@ -165,16 +172,20 @@ fn pair_forces<T: Lane>(c: &PairCtx, prs: &mut [super::neighbour::Pair]) {
     let n = d.scale(T::splat(1.0) / dist);
     let rel = |v: &[Vector3<f64>]| V3::<T>::from_fn(|l| v[i[l]] - v[j[l]]);
     let (v_half, v_full) = if c.friction {
-        let spin_half = V3::<T>::from_fn(|l| c.om[i[l]] * ri.lane(l) + c.om[j[l]] * rj.lane(l));
-        let spin_full = V3::<T>::from_fn(|l| c.omf[i[l]] * ri.lane(l) + c.omf[j[l]] * rj.lane(l));
+        let spin_half = V3::<T>::from_fn(|l| c.b.om[i[l]] * ri.lane(l) + c.b.om[j[l]] * rj.lane(l));
+        let spin_full =
+            V3::<T>::from_fn(|l| c.b.omf[i[l]] * ri.lane(l) + c.b.omf[j[l]] * rj.lane(l));
         (
-            rel(c.vel).sub(&spin_half.cross(&n)),
-            rel(c.vf).sub(&spin_full.cross(&n)),
+            rel(c.b.vel).sub(&spin_half.cross(&n)),
+            rel(c.b.vf).sub(&spin_full.cross(&n)),
         )
     } else {
-        (rel(c.vel), rel(c.vf))
+        (rel(c.b.vel), rel(c.b.vf))
     };
-    let (mi, mj) = (T::from_fn(|l| c.mass[i[l]]), T::from_fn(|l| c.mass[j[l]]));
+    let (mi, mj) = (
+        T::from_fn(|l| c.b.mass[i[l]]),
+        T::from_fn(|l| c.b.mass[j[l]]),
+    );
     let state = ContactLanes {
         delta: rs - dist,
         n,
@@ -222,13 +233,7 @@ fn each_pair<T: Lane>(prs: &mut [super::neighbour::Pair], ctx: &PairCtx) {
 /// walls, gravity, drag and external forces.
 struct GatherCtx<'a> {
     nl: &'a NeighbourList,
-    pos: &'a [Vector3<f64>],
-    vel: &'a [Vector3<f64>],
-    om: &'a [Vector3<f64>],
-    vf: &'a [Vector3<f64>],
-    omf: &'a [Vector3<f64>],
-    rad: &'a [f64],
-    mass: &'a [f64],
+    b: Bodies<'a>,
     pw: PairMaterial,
     model: ContactModel,
     friction: bool,
@@ -258,13 +263,7 @@ const CHUNK: usize = 256;
 fn gather(c: &GatherCtx, start: usize, out: GatherOut) {
     let GatherCtx {
         nl,
-        pos,
-        vel,
-        om,
-        vf,
-        omf,
-        rad,
-        mass,
+        b,
         pw,
         model,
         friction,
@@ -276,6 +275,15 @@ fn gather(c: &GatherCtx, start: usize, out: GatherOut) {
         external,
     } = c;
     let (model, friction, dt, top_z, top_v) = (*model, *friction, *dt, *top_z, *top_v);
+    let Bodies {
+        pos,
+        vel,
+        om,
+        vf,
+        omf,
+        rad,
+        mass,
+    } = *b;
     for (offset, ((((f_out, t_out), wxi), wfz), wf)) in out
         .force
         .iter_mut()
@@ -951,30 +959,23 @@ impl Dem {
         let model = self.setup.contact;
         let dt = self.dt_s;
         let friction = model.has_friction();
-        let pp = self.pp;
-        let (pos, vel, om, vf, omf, rad, mass) = (
-            &self.p.pos,
-            &self.p.vel,
-            &self.p.omega,
-            &self.vel_full,
-            &self.omega_full,
-            &self.p.radius,
-            &self.p.mass,
-        );
+        let b = Bodies {
+            pos: &self.p.pos,
+            vel: &self.p.vel,
+            om: &self.p.omega,
+            vf: &self.vel_full,
+            omf: &self.omega_full,
+            rad: &self.p.radius,
+            mass: &self.p.mass,
+        };
         let ctx = PairCtx {
             lx,
             ly,
             model,
             dt,
             friction,
-            pp,
-            pos,
-            vel,
-            om,
-            vf,
-            omf,
-            rad,
-            mass,
+            pp: self.pp,
+            b,
         };
         if self.nl.pairs.len() >= PAR_MIN {
             self.nl
@@ -987,13 +988,7 @@ impl Dem {
         // gather
         let ctx = GatherCtx {
             nl: &self.nl,
-            pos: &self.p.pos,
-            vel: &self.p.vel,
-            om: &self.p.omega,
-            vf: &self.vel_full,
-            omf: &self.omega_full,
-            rad: &self.p.radius,
-            mass: &self.p.mass,
+            b,
             pw: self.pw,
             model,
             friction,
@@ -1170,7 +1165,7 @@ mod tests {
     fn four_pair_lanes_equal_the_scalar_loop_bitwise() {
         use super::super::model::*;
         use super::super::neighbour::Pair;
-        use super::{each_pair, each_pair_avx2, PairCtx};
+        use super::{each_pair, each_pair_avx2, Bodies, PairCtx};
         use rand::{Rng, SeedableRng};
         if !(is_x86_feature_detected!("avx2") && is_x86_feature_detected!("fma")) {
             eprintln!("skipped: this CPU has no AVX2 + FMA, so the scalar loop is the only one");
@@ -1261,13 +1256,15 @@ mod tests {
                 dt: 1e-6,
                 friction: model.has_friction(),
                 pp,
-                pos: &pos,
-                vel: &vel,
-                om: &om,
-                vf: &vf,
-                omf: &omf,
-                rad: &rad,
-                mass: &mass,
+                b: Bodies {
+                    pos: &pos,
+                    vel: &vel,
+                    om: &om,
+                    vf: &vf,
+                    omf: &omf,
+                    rad: &rad,
+                    mass: &mass,
+                },
             };
             let mut scalar = pairs.clone();
             each_pair::<f64>(&mut scalar, &ctx);
