@@ -21,7 +21,7 @@ use super::model::{
     hertz_contact_time, rayleigh_time, ContactLanes, ContactModel, ContactState, DampingModel,
     Material, NormalModel, PairMaterial,
 };
-use super::neighbour::{wrap_delta, NeighbourList, PAR_MIN};
+use super::neighbour::{moved_beyond, wrap_delta, NeighbourList, PAR_MIN};
 use crate::error::{invalid, require_positive};
 use crate::Result;
 use nalgebra::Vector3;
@@ -229,11 +229,16 @@ fn each_pair<T: Lane>(prs: &mut [super::neighbour::Pair], ctx: &PairCtx) {
     }
 }
 
-/// What the per-particle gather reads: the pair list with its forces, the particles' state,
-/// walls, gravity, drag and external forces.
+/// What the per-particle gather reads: the pair list with its forces, the particles' state
+/// (each particle's own half-step velocity and spin come with [`GatherOut`]), walls, gravity,
+/// drag and external forces, and the second half kick when the gather ends a step.
 struct GatherCtx<'a> {
     nl: &'a NeighbourList,
-    b: Bodies<'a>,
+    pos: &'a [Vector3<f64>],
+    vf: &'a [Vector3<f64>],
+    omf: &'a [Vector3<f64>],
+    rad: &'a [f64],
+    mass: &'a [f64],
     pw: PairMaterial,
     model: ContactModel,
     friction: bool,
@@ -243,27 +248,58 @@ struct GatherCtx<'a> {
     g: Vector3<f64>,
     drag: Option<Drag>,
     external: &'a [Vector3<f64>],
+    kick: Option<HalfKick<'a>>,
 }
 
-/// What the gather writes, for a run of consecutive particles.
+/// The second half kick, v(n+1) = v(n+1/2) + a(n+1) dt/2 (the same for the spin), taken by the
+/// gather on each particle as soon as its force is summed.
+struct HalfKick<'a> {
+    inv_mass: &'a [f64],
+    inv_inertia: &'a [f64],
+    rotation: bool,
+}
+
+/// What the gather writes, for a run of consecutive particles, and their half-step velocity
+/// and spin (read by the wall contacts, then kicked to the full step).
 struct GatherOut<'a> {
     force: &'a mut [Vector3<f64>],
     torque: &'a mut [Vector3<f64>],
     wall_xi: &'a mut [[Vector3<f64>; 2]],
     wall_fz: &'a mut [[f64; 3]],
     wall_f: &'a mut [Vector3<f64>],
+    vel: &'a mut [Vector3<f64>],
+    omega: &'a mut [Vector3<f64>],
 }
 
-/// Particles per parallel task of the per-particle loops.
-const CHUNK: usize = 256;
+/// Particles from which the per-particle loops run in parallel.
+const PAR_MIN_PARTICLES: usize = 512;
+
+/// Parallel tasks per thread of the pool in each parallel loop: few, so that a loop costs few
+/// hand-overs between threads, but more than one, so that a thread delayed by other work on the
+/// machine leaves some of its share to the other (four measured best of one, two and four).
+const TASKS_PER_THREAD: usize = 4;
+
+/// The length of the parallel tasks that split `len` items evenly into [`TASKS_PER_THREAD`]
+/// per thread, a multiple of `align`. (Every item's result is independent of where the tasks
+/// split.)
+fn task_len(len: usize, align: usize) -> usize {
+    len.div_ceil(TASKS_PER_THREAD * rayon::current_num_threads())
+        .next_multiple_of(align)
+        .max(align)
+}
 
 /// Force and torque on particles start.. (as many as `out` holds): the pair forces in the
-/// list's fixed order, the walls, gravity, external force and drag.
+/// list's fixed order, the walls, gravity, external force and drag; then the second half kick
+/// when `c.kick` asks for it.
 #[inline(always)]
 fn gather(c: &GatherCtx, start: usize, out: GatherOut) {
     let GatherCtx {
         nl,
-        b,
+        pos,
+        vf,
+        omf,
+        rad,
+        mass,
         pw,
         model,
         friction,
@@ -273,17 +309,10 @@ fn gather(c: &GatherCtx, start: usize, out: GatherOut) {
         g,
         drag,
         external,
+        kick,
     } = c;
     let (model, friction, dt, top_z, top_v) = (*model, *friction, *dt, *top_z, *top_v);
-    let Bodies {
-        pos,
-        vel,
-        om,
-        vf,
-        omf,
-        rad,
-        mass,
-    } = *b;
+    let h = 0.5 * dt;
     for (offset, ((((f_out, t_out), wxi), wfz), wf)) in out
         .force
         .iter_mut()
@@ -294,6 +323,7 @@ fn gather(c: &GatherCtx, start: usize, out: GatherOut) {
         .enumerate()
     {
         let i = start + offset;
+        let (vel, om) = (&mut out.vel[offset], &mut out.omega[offset]);
         let mut f = Vector3::zeros();
         let mut nxft = Vector3::zeros();
         for &k in &nl.second_pairs[nl.second_start[i] as usize..nl.second_start[i + 1] as usize] {
@@ -332,11 +362,11 @@ fn gather(c: &GatherCtx, start: usize, out: GatherOut) {
             let wv = Vector3::new(0.0, 0.0, wall_v);
             let (v_half, v_full) = if friction {
                 (
-                    vel[i] - wv - (om[i] * r).cross(&n),
+                    *vel - wv - (*om * r).cross(&n),
                     vf[i] - wv - (omf[i] * r).cross(&n),
                 )
             } else {
-                (vel[i] - wv, vf[i] - wv)
+                (*vel - wv, vf[i] - wv)
             };
             let c = ContactState {
                 delta,
@@ -362,6 +392,12 @@ fn gather(c: &GatherCtx, start: usize, out: GatherOut) {
         }
         *f_out = f;
         *t_out = -nxft * r;
+        if let Some(k) = kick {
+            *vel += f * (k.inv_mass[i] * h);
+            if k.rotation {
+                *om += *t_out * (k.inv_inertia[i] * h);
+            }
+        }
     }
 }
 
@@ -375,6 +411,9 @@ struct KickCtx<'a> {
     lx: f64,
     ly: f64,
     rotation: bool,
+    /// The neighbour list's positions at its build and its squared drift limit (None: the list
+    /// must be rebuilt anyway).
+    at_build: Option<(&'a [Vector3<f64>], f64)>,
 }
 
 /// What the first kick and the drift move, for a run of consecutive particles.
@@ -388,10 +427,12 @@ struct KickOut<'a> {
 
 /// Half kick and drift of particles start..: v(n+1/2) = v(n) + a dt/2, x(n+1) = x(n) +
 /// v(n+1/2) dt (wrapped in x and y), and the full-step velocity predicted for the dashpots,
-/// v(n+1) ~ v(n+1/2) + a dt/2 (the same for the spin).
+/// v(n+1) ~ v(n+1/2) + a dt/2 (the same for the spin). True when some particle of the run
+/// moved past the neighbour list's drift limit (or the list is due anyway).
 #[inline(always)]
-fn kick_drift(c: &KickCtx, start: usize, out: KickOut) {
+fn kick_drift(c: &KickCtx, start: usize, out: KickOut) -> bool {
     let h = 0.5 * c.dt;
+    let mut moved = c.at_build.is_none();
     for (offset, ((((x, v), vf), w), wf)) in out
         .pos
         .iter_mut()
@@ -413,21 +454,11 @@ fn kick_drift(c: &KickCtx, start: usize, out: KickOut) {
             *w += b * h;
             *wf = *w + b * h;
         }
-    }
-}
-
-/// Second half kick of particles start..: v(n+1) = v(n+1/2) + a(n+1) dt/2 (the same for the
-/// spin).
-#[inline(always)]
-fn kick(c: &KickCtx, start: usize, vel: &mut [Vector3<f64>], omega: &mut [Vector3<f64>]) {
-    let h = 0.5 * c.dt;
-    for (offset, (v, w)) in vel.iter_mut().zip(omega.iter_mut()).enumerate() {
-        let i = start + offset;
-        *v += c.force[i] * (c.inv_mass[i] * h);
-        if c.rotation {
-            *w += c.torque[i] * (c.inv_inertia[i] * h);
+        if let Some((at, lim2)) = c.at_build {
+            moved |= moved_beyond(x, &at[i], c.lx, c.ly, lim2);
         }
     }
+    moved
 }
 
 /// `$run`: `$fast` compiled for AVX2 + FMA (as `$avx2`) where the CPU has them, else `$slow`
@@ -435,33 +466,31 @@ fn kick(c: &KickCtx, start: usize, vel: &mut [Vector3<f64>], omega: &mut [Vector
 /// an add by itself and every lane operation is the scalar one, so the bits are the same either
 /// way; the three-operand VEX forms spare the register copies of the baseline SSE2 code.
 macro_rules! avx2_copy {
-    ($run:ident, $avx2:ident: $fast:expr, else $slow:expr, ($($a:ident: $t:ty),*)) => {
+    ($run:ident, $avx2:ident: $fast:expr, else $slow:expr, ($($a:ident: $t:ty),*) -> $r:ty) => {
         /// # Safety
         /// The caller must have checked that the CPU supports avx2 and fma.
         #[cfg(target_arch = "x86_64")]
         #[target_feature(enable = "avx2,fma")]
-        unsafe fn $avx2($($a: $t),*) {
+        unsafe fn $avx2($($a: $t),*) -> $r {
             $fast($($a),*)
         }
         #[inline(always)]
-        fn $run($($a: $t),*) {
+        fn $run($($a: $t),*) -> $r {
             #[cfg(target_arch = "x86_64")]
             if is_x86_feature_detected!("avx2") && is_x86_feature_detected!("fma") {
                 // SAFETY: avx2 and fma were detected just above.
-                unsafe { $avx2($($a),*) };
-                return;
+                return unsafe { $avx2($($a),*) };
             }
             $slow($($a),*)
         }
     };
 }
 avx2_copy!(run_pairs, each_pair_avx2: each_pair::<super::lanes::F64x4>, else each_pair::<f64>,
-    (prs: &mut [super::neighbour::Pair], ctx: &PairCtx));
-avx2_copy!(run_gather, gather_avx2: gather, else gather, (c: &GatherCtx, start: usize, out: GatherOut));
+    (prs: &mut [super::neighbour::Pair], ctx: &PairCtx) -> ());
+avx2_copy!(run_gather, gather_avx2: gather, else gather,
+    (c: &GatherCtx, start: usize, out: GatherOut) -> ());
 avx2_copy!(run_kick_drift, kick_drift_avx2: kick_drift, else kick_drift,
-    (c: &KickCtx, start: usize, out: KickOut));
-avx2_copy!(run_kick, kick_avx2: kick, else kick,
-    (c: &KickCtx, start: usize, vel: &mut [Vector3<f64>], omega: &mut [Vector3<f64>]));
+    (c: &KickCtx, start: usize, out: KickOut) -> bool);
 
 /// x wrapped into [0, l) after a move shorter than l.
 #[inline(always)]
@@ -773,7 +802,7 @@ impl Dem {
         }
         dem.rebuild()?;
         // first forces with the initial velocities; the tangential springs start at zero
-        dem.compute_forces();
+        dem.compute_forces(false);
         for xi in dem.wall_xi.iter_mut() {
             *xi = [Vector3::zeros(); 2];
         }
@@ -823,66 +852,53 @@ impl Dem {
         r
     }
 
-    /// The first half kick and the drift (`drift`), or the second half kick, in parallel over
-    /// chunks of particles (the same bits at any thread count).
-    fn kick(&mut self, drift: bool) {
-        let dt = self.dt_s;
-        let (lx, ly) = (self.setup.lx_m, self.setup.ly_m);
-        let rotation = self.active.friction_rotation;
+    /// The first half kick and the drift, in parallel over chunks of particles (the same bits
+    /// at any thread count); true when the neighbour list must be rebuilt.
+    fn kick_drift(&mut self) -> bool {
         let ctx = KickCtx {
             force: &self.force,
             torque: &self.torque,
             inv_mass: &self.inv_mass,
             inv_inertia: &self.inv_inertia,
-            dt,
-            lx,
-            ly,
-            rotation,
+            dt: self.dt_s,
+            lx: self.setup.lx_m,
+            ly: self.setup.ly_m,
+            rotation: self.active.friction_rotation,
+            at_build: self.nl.built_positions(self.p.len()),
         };
-        if drift {
-            if self.p.len() >= PAR_MIN {
-                self.p
-                    .pos
-                    .par_chunks_mut(CHUNK)
-                    .zip(self.p.vel.par_chunks_mut(CHUNK))
-                    .zip(self.vel_full.par_chunks_mut(CHUNK))
-                    .zip(self.p.omega.par_chunks_mut(CHUNK))
-                    .zip(self.omega_full.par_chunks_mut(CHUNK))
-                    .enumerate()
-                    .for_each(|(k, ((((pos, vel), vel_full), omega), omega_full))| {
-                        run_kick_drift(
-                            &ctx,
-                            k * CHUNK,
-                            KickOut {
-                                pos,
-                                vel,
-                                vel_full,
-                                omega,
-                                omega_full,
-                            },
-                        )
-                    });
-            } else {
-                let out = KickOut {
-                    pos: &mut self.p.pos,
-                    vel: &mut self.p.vel,
-                    vel_full: &mut self.vel_full,
-                    omega: &mut self.p.omega,
-                    omega_full: &mut self.omega_full,
-                };
-                run_kick_drift(&ctx, 0, out);
-            }
+        if self.p.len() >= PAR_MIN_PARTICLES {
+            let chunk = task_len(self.p.len(), 8);
+            self.p
+                .pos
+                .par_chunks_mut(chunk)
+                .zip(self.p.vel.par_chunks_mut(chunk))
+                .zip(self.vel_full.par_chunks_mut(chunk))
+                .zip(self.p.omega.par_chunks_mut(chunk))
+                .zip(self.omega_full.par_chunks_mut(chunk))
+                .enumerate()
+                .map(|(k, ((((pos, vel), vel_full), omega), omega_full))| {
+                    run_kick_drift(
+                        &ctx,
+                        k * chunk,
+                        KickOut {
+                            pos,
+                            vel,
+                            vel_full,
+                            omega,
+                            omega_full,
+                        },
+                    )
+                })
+                .reduce(|| false, |a, b| a || b)
         } else {
-            if self.p.len() >= PAR_MIN {
-                self.p
-                    .vel
-                    .par_chunks_mut(CHUNK)
-                    .zip(self.p.omega.par_chunks_mut(CHUNK))
-                    .enumerate()
-                    .for_each(|(k, (vel, omega))| run_kick(&ctx, k * CHUNK, vel, omega));
-            } else {
-                run_kick(&ctx, 0, &mut self.p.vel, &mut self.p.omega);
-            }
+            let out = KickOut {
+                pos: &mut self.p.pos,
+                vel: &mut self.p.vel,
+                vel_full: &mut self.vel_full,
+                omega: &mut self.p.omega,
+                omega_full: &mut self.omega_full,
+            };
+            run_kick_drift(&ctx, 0, out)
         }
     }
 
@@ -890,7 +906,7 @@ impl Dem {
     pub fn step(&mut self) -> Result<()> {
         let dt = self.dt_s;
         let (lx, ly) = (self.setup.lx_m, self.setup.ly_m);
-        self.kick(true);
+        let stale = self.kick_drift();
         self.top_z_m += self.top_v_m_s * dt;
         if self.top_z_m <= 0.0 {
             return invalid(format!(
@@ -899,11 +915,11 @@ impl Dem {
                 self.time_s
             ));
         }
-        if self.nl.needs_rebuild(&self.p.pos, lx, ly) {
+        if stale {
             self.rebuild()?;
         }
-        self.compute_forces();
-        self.kick(false);
+        // the forces at the new positions, and the second half kick
+        self.compute_forces(true);
         if let TopWall::Pressure {
             target_pa,
             speed_max_m_s,
@@ -953,21 +969,13 @@ impl Dem {
         Ok(())
     }
 
-    /// Contact forces on all pairs, then the per-particle gather with walls, gravity and drag.
-    fn compute_forces(&mut self) {
+    /// Contact forces on all pairs, then the per-particle gather with walls, gravity and drag,
+    /// and the second half kick (`kick`).
+    fn compute_forces(&mut self, kick: bool) {
         let (lx, ly) = (self.setup.lx_m, self.setup.ly_m);
         let model = self.setup.contact;
         let dt = self.dt_s;
         let friction = model.has_friction();
-        let b = Bodies {
-            pos: &self.p.pos,
-            vel: &self.p.vel,
-            om: &self.p.omega,
-            vf: &self.vel_full,
-            omf: &self.omega_full,
-            rad: &self.p.radius,
-            mass: &self.p.mass,
-        };
         let ctx = PairCtx {
             lx,
             ly,
@@ -975,12 +983,21 @@ impl Dem {
             dt,
             friction,
             pp: self.pp,
-            b,
+            b: Bodies {
+                pos: &self.p.pos,
+                vel: &self.p.vel,
+                om: &self.p.omega,
+                vf: &self.vel_full,
+                omf: &self.omega_full,
+                rad: &self.p.radius,
+                mass: &self.p.mass,
+            },
         };
         if self.nl.pairs.len() >= PAR_MIN {
+            let chunk = task_len(self.nl.pairs.len(), 4);
             self.nl
                 .pairs
-                .par_chunks_mut(512)
+                .par_chunks_mut(chunk)
                 .for_each(|prs| run_pairs(prs, &ctx));
         } else {
             run_pairs(&mut self.nl.pairs, &ctx);
@@ -988,7 +1005,11 @@ impl Dem {
         // gather
         let ctx = GatherCtx {
             nl: &self.nl,
-            b,
+            pos: &self.p.pos,
+            vf: &self.vel_full,
+            omf: &self.omega_full,
+            rad: &self.p.radius,
+            mass: &self.p.mass,
             pw: self.pw,
             model,
             friction,
@@ -998,28 +1019,40 @@ impl Dem {
             g: self.setup.gravity_m_s2 * self.buoyancy,
             drag: self.setup.drag,
             external: &self.external,
+            kick: kick.then_some(HalfKick {
+                inv_mass: &self.inv_mass,
+                inv_inertia: &self.inv_inertia,
+                rotation: self.active.friction_rotation,
+            }),
         };
-        if self.p.len() >= PAR_MIN {
+        if self.p.len() >= PAR_MIN_PARTICLES {
+            let chunk = task_len(self.p.len(), 8);
             self.force
-                .par_chunks_mut(CHUNK)
-                .zip(self.torque.par_chunks_mut(CHUNK))
-                .zip(self.wall_xi.par_chunks_mut(CHUNK))
-                .zip(self.wall_fz.par_chunks_mut(CHUNK))
-                .zip(self.wall_f.par_chunks_mut(CHUNK))
+                .par_chunks_mut(chunk)
+                .zip(self.torque.par_chunks_mut(chunk))
+                .zip(self.wall_xi.par_chunks_mut(chunk))
+                .zip(self.wall_fz.par_chunks_mut(chunk))
+                .zip(self.wall_f.par_chunks_mut(chunk))
+                .zip(self.p.vel.par_chunks_mut(chunk))
+                .zip(self.p.omega.par_chunks_mut(chunk))
                 .enumerate()
-                .for_each(|(k, ((((force, torque), wall_xi), wall_fz), wall_f))| {
-                    run_gather(
-                        &ctx,
-                        k * CHUNK,
-                        GatherOut {
-                            force,
-                            torque,
-                            wall_xi,
-                            wall_fz,
-                            wall_f,
-                        },
-                    )
-                });
+                .for_each(
+                    |(k, ((((((force, torque), wall_xi), wall_fz), wall_f), vel), omega))| {
+                        run_gather(
+                            &ctx,
+                            k * chunk,
+                            GatherOut {
+                                force,
+                                torque,
+                                wall_xi,
+                                wall_fz,
+                                wall_f,
+                                vel,
+                                omega,
+                            },
+                        )
+                    },
+                );
         } else {
             let out = GatherOut {
                 force: &mut self.force,
@@ -1027,6 +1060,8 @@ impl Dem {
                 wall_xi: &mut self.wall_xi,
                 wall_fz: &mut self.wall_fz,
                 wall_f: &mut self.wall_f,
+                vel: &mut self.p.vel,
+                omega: &mut self.p.omega,
             };
             run_gather(&ctx, 0, out);
         }

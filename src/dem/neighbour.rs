@@ -42,6 +42,24 @@ pub(crate) fn wrap_delta(d: f64, l: f64) -> f64 {
     }
 }
 
+/// True when a particle now at `p`, at `q` when the list was built, moved more than
+/// sqrt(`lim2`) (periodic in x and y): the list must be rebuilt.
+#[inline(always)]
+pub(crate) fn moved_beyond(
+    p: &Vector3<f64>,
+    q: &Vector3<f64>,
+    lx: f64,
+    ly: f64,
+    lim2: f64,
+) -> bool {
+    let d = Vector3::new(
+        wrap_delta(p.x - q.x, lx),
+        wrap_delta(p.y - q.y, ly),
+        p.z - q.z,
+    );
+    d.norm_squared() > lim2
+}
+
 /// The half Verlet list with per-particle gather ranges.
 #[derive(Debug, Clone, Default)]
 pub struct NeighbourList {
@@ -65,25 +83,11 @@ impl NeighbourList {
         }
     }
 
-    /// True when some particle moved more than skin / 2 since the last build (or never built).
-    pub fn needs_rebuild(&self, pos: &[Vector3<f64>], lx: f64, ly: f64) -> bool {
-        if self.pos_at_build.len() != pos.len() {
-            return true;
-        }
-        let lim2 = 0.25 * self.skin * self.skin;
-        let moved = |(p, q): (&Vector3<f64>, &Vector3<f64>)| {
-            let d = Vector3::new(
-                wrap_delta(p.x - q.x, lx),
-                wrap_delta(p.y - q.y, ly),
-                p.z - q.z,
-            );
-            d.norm_squared() > lim2
-        };
-        if pos.len() >= PAR_MIN {
-            pos.par_iter().zip(&self.pos_at_build).any(moved)
-        } else {
-            pos.iter().zip(&self.pos_at_build).any(moved)
-        }
+    /// The positions of the last build, when it was made for `n` particles (None: a rebuild
+    /// is due), and the squared distance, (skin / 2)^2, a particle may move before the next.
+    pub fn built_positions(&self, n: usize) -> Option<(&[Vector3<f64>], f64)> {
+        (self.pos_at_build.len() == n)
+            .then(|| (&self.pos_at_build[..], 0.25 * self.skin * self.skin))
     }
 
     /// Rebuilds the list for positions `pos` (x in [0, lx), y in [0, ly)), keeping the history
