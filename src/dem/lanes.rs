@@ -34,6 +34,8 @@ pub trait Lane:
     /// Lane of `a` where `m`, else of `b`.
     fn select(m: Self::Mask, a: Self, b: Self) -> Self;
     fn mask_lane(m: Self::Mask, l: usize) -> bool;
+    /// Whether the condition holds in some lane.
+    fn any(m: Self::Mask) -> bool;
 }
 
 impl Lane for f64 {
@@ -77,6 +79,10 @@ impl Lane for f64 {
     }
     #[inline(always)]
     fn mask_lane(m: bool, _: usize) -> bool {
+        m
+    }
+    #[inline(always)]
+    fn any(m: bool) -> bool {
         m
     }
 }
@@ -309,6 +315,11 @@ mod avx {
             // SAFETY: see the type's invariant
             (unsafe { _mm256_movemask_pd(m.0) } >> l) & 1 == 1
         }
+        #[inline(always)]
+        fn any(m: Mask4) -> bool {
+            // SAFETY: see the type's invariant
+            (unsafe { _mm256_movemask_pd(m.0) }) != 0
+        }
     }
 }
 
@@ -317,7 +328,7 @@ mod tests {
     use super::*;
 
     /// Each lane operation of F64x4 gives the bits of the f64 operation, signs of zero, NaN and
-    /// infinities included.
+    /// infinities included; `any` is the or of the lanes.
     #[cfg(target_arch = "x86_64")]
     #[test]
     fn f64x4_lanes_equal_scalar_bits() {
@@ -362,6 +373,8 @@ mod tests {
                         if x > y { x } else { y }
                     ));
                 }
+                let m = va.gt(vb);
+                assert_eq!(F64x4::any(m), (0..4).any(|l| a[l] > b[l]));
             }
         }
     }

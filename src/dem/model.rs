@@ -345,6 +345,10 @@ impl ContactModel {
         let limit = T::splat(mu) * f_n.abs();
         let ft2 = f_t.norm_squared();
         let slides = ft2.gt(limit * limit);
+        if !T::any(slides) {
+            // no lane at the Coulomb limit: the selects below would keep every lane as it is
+            return (f.add(&f_t), f_t);
+        }
         let f_t_limited = f_t.scale(limit / ft2.sqrt());
         let xi_limited = f_t_limited.add(&vt_full.scale(eta_t)).neg().div(k_t);
         *xi = V3::select(slides & k_t.gt(zero), &xi_limited, xi);
