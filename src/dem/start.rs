@@ -117,10 +117,39 @@ pub fn random_dispersion(
     Ok(pos)
 }
 
+/// The permutation that numbers spheres cell by cell (cells of side `cell_m`; layer by layer
+/// in z, row by row in y, then along x; ties in the order given), so that spheres in contact
+/// sit near each other in memory. A random dispersion is numbered at random, and the pair loop
+/// then reads its neighbours' state from anywhere in memory: a bed of 1e5 spheres numbered at
+/// random stepped 4x slower than the same bed numbered by rows (benches/RESULTS.md, DEM).
+pub fn cell_order(pos: &[Vector3<f64>], cell_m: f64) -> Vec<usize> {
+    let key = |p: &Vector3<f64>| {
+        let c = |x: f64| (x / cell_m).floor().max(0.0) as u64;
+        (c(p.z), c(p.y), c(p.x))
+    };
+    let mut order: Vec<usize> = (0..pos.len()).collect();
+    // a stable sort: equal keys keep the given order
+    order.sort_by_key(|&i| key(&pos[i]));
+    order
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
     use rand::SeedableRng;
+
+    #[test]
+    fn cell_order_numbers_layer_by_layer() {
+        let pos = [
+            Vector3::new(0.5, 0.5, 1.5),
+            Vector3::new(1.5, 0.5, 0.5),
+            Vector3::new(0.5, 1.5, 0.5),
+            Vector3::new(0.5, 0.5, 0.5),
+            Vector3::new(0.7, 0.2, 0.9),
+        ];
+        // cells (z, y, x): (1,0,0), (0,0,1), (0,1,0), (0,0,0), (0,0,0)
+        assert_eq!(cell_order(&pos, 1.0), vec![3, 4, 1, 2, 0]);
+    }
 
     #[test]
     fn dispersion_has_no_overlap() {

@@ -675,7 +675,12 @@ pub fn build(scene: &DemScene) -> Result<Dem> {
         scene.height_m,
         &mut rng,
     )?;
-    let p = Particles::at_rest(pos, scene.radius.clone(), scene.setup.density_kg_m3);
+    // numbered cell by cell (cells of the largest diameter), the radii with their spheres
+    let d_max = scene.radius.iter().cloned().fold(0.0, f64::max) * 2.0;
+    let order = start::cell_order(&pos, d_max);
+    let pos = order.iter().map(|&i| pos[i]).collect();
+    let radius = order.iter().map(|&i| scene.radius[i]).collect();
+    let p = Particles::at_rest(pos, radius, scene.setup.density_kg_m3);
     Dem::new(scene.setup.clone(), p, scene.v_scale)
 }
 
