@@ -1,6 +1,7 @@
 //! Stress and bad-input tests of the DEM engine: a time step too large for the stiffness is
 //! refused with a message naming it; stiff materials (E = 1e11 Pa) and a size ratio of 10 run
-//! without NaN or spheres lost through the walls; results do not depend on the thread count.
+//! without NaN or spheres lost through the walls; results do not depend on the thread count
+//! (one-loop-at-a-time steps against the team of threads, with and without a pressure wall).
 
 use nalgebra::Vector3;
 use porelab::dem::{
@@ -100,17 +101,52 @@ fn size_ratio_ten_runs_clean() {
 
 #[test]
 fn same_result_at_any_thread_count() {
-    let run = |threads: usize| {
-        let (s, p) = bed(1e7, vec![2e-4; 3000], 5);
+    // one thread steps one loop at a time; two and three run the steps as a team between
+    // list rebuilds, entered afresh at every call of `run`; a pressure wall as well
+    let run = |threads: usize, pressure: bool, pieces: u64| {
+        let (mut s, mut p) = bed(1e7, vec![2e-4; 3000], 5);
+        // random velocities up to 0.2 m/s, so that spheres collide and the list is rebuilt
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(7);
+        for v in p.vel.iter_mut() {
+            *v = Vector3::from_fn(|_, _| 0.2 * (rng.gen::<f64>() - 0.5));
+        }
+        if pressure {
+            let TopWall::Fixed { z_m } = s.top else {
+                unreachable!()
+            };
+            s.top = TopWall::Pressure {
+                z0_m: z_m,
+                target_pa: 20.0,
+                speed_max_m_s: 2.0,
+            };
+        }
         let pool = rayon::ThreadPoolBuilder::new()
             .num_threads(threads)
             .build()
             .unwrap();
         pool.install(|| {
             let mut dem = Dem::new(s, p, 1.0).unwrap();
-            dem.run(300).unwrap();
-            (dem.p.pos.clone(), dem.p.vel.clone(), dem.p.omega.clone())
+            for _ in 0..pieces {
+                dem.run(2400 / pieces).unwrap();
+            }
+            assert!(
+                dem.nl.builds > 2,
+                "the run rebuilds its list: {}",
+                dem.nl.builds
+            );
+            (
+                dem.p.pos.clone(),
+                dem.p.vel.clone(),
+                dem.p.omega.clone(),
+                dem.top_z_m.to_bits(),
+                dem.top_force_n.to_bits(),
+                dem.steps,
+            )
         })
     };
-    assert!(run(1) == run(2));
+    for pressure in [false, true] {
+        let one = run(1, pressure, 1);
+        assert!(one == run(2, pressure, 1), "pressure wall {pressure}");
+        assert!(one == run(3, pressure, 3), "pressure wall {pressure}");
+    }
 }

@@ -13,8 +13,9 @@
 //!
 //! Determinism: pair forces are computed per pair into the list (in parallel), then gathered
 //! per particle in the list's fixed order (in parallel over particles); sums that drive the
-//! dynamics (the top wall's force) are serial. The same seed gives bitwise the same run at any
-//! thread count.
+//! dynamics (the top wall's force) are serial. On one thread the pair loop adds each force
+//! into both members as it goes, which is the gather's order. The same seed gives bitwise the
+//! same run at any thread count.
 
 use super::lanes::{Lane, V3};
 use super::model::{
@@ -137,7 +138,7 @@ struct Bodies<'a> {
 }
 
 /// What the pair force reads: box, contact model, time step and the particles' state.
-struct PairCtx<'a> {
+pub(super) struct PairCtx<'a> {
     lx: f64,
     ly: f64,
     model: ContactModel,
@@ -149,9 +150,14 @@ struct PairCtx<'a> {
 
 /// The contact forces of `T::LANES` neighbour pairs side by side, one per lane (and their
 /// tangential histories), or their resets for pairs that are apart: lane l holds bitwise the
-/// result of the pair alone (see [`ContactModel::force_lanes`]).
+/// result of the pair alone (see [`ContactModel::force_lanes`]). With `sums`, each touching
+/// pair's force and n x F_t are added into both members' sums at once, in list order.
 #[inline(always)]
-fn pair_forces<T: Lane>(c: &PairCtx, prs: &mut [super::neighbour::Pair]) {
+fn pair_forces<T: Lane>(
+    c: &PairCtx,
+    prs: &mut [super::neighbour::Pair],
+    sums: Option<&mut PairSums>,
+) {
     debug_assert_eq!(prs.len(), T::LANES);
     let mut i = [0usize; 4];
     let mut j = [0usize; 4];
@@ -215,24 +221,48 @@ fn pair_forces<T: Lane>(c: &PairCtx, prs: &mut [super::neighbour::Pair]) {
             pr.delta = -1.0;
         }
     }
+    if let Some(s) = sums {
+        // the gather's order for each particle: the pairs where it is second, by first
+        // member, then those where it is first; that is, the list order
+        for pr in prs.iter() {
+            if pr.delta > 0.0 {
+                let (i, j) = (pr.i as usize, pr.j as usize);
+                s.force[i] += pr.force;
+                s.n_cross_ft[i] += pr.n_cross_ft;
+                s.force[j] -= pr.force;
+                s.n_cross_ft[j] += pr.n_cross_ft;
+            }
+        }
+    }
+}
+
+/// Per particle, the sums of its pairs' forces and of their n x F_t, accumulated by the pair
+/// loop on one thread; zero outside a step's force computation (the gather takes them).
+pub(super) struct PairSums<'a> {
+    force: &'a mut [Vector3<f64>],
+    n_cross_ft: &'a mut [Vector3<f64>],
 }
 
 /// [`pair_forces`] on every pair of `prs`, `T::LANES` at a time.
 #[inline(always)]
-fn each_pair<T: Lane>(prs: &mut [super::neighbour::Pair], ctx: &PairCtx) {
+fn each_pair<T: Lane>(
+    prs: &mut [super::neighbour::Pair],
+    ctx: &PairCtx,
+    mut sums: Option<&mut PairSums>,
+) {
     let mut blocks = prs.chunks_exact_mut(T::LANES);
     for b in &mut blocks {
-        pair_forces::<T>(ctx, b);
+        pair_forces::<T>(ctx, b, sums.as_deref_mut());
     }
     for pr in blocks.into_remainder() {
-        pair_forces::<f64>(ctx, std::slice::from_mut(pr));
+        pair_forces::<f64>(ctx, std::slice::from_mut(pr), sums.as_deref_mut());
     }
 }
 
 /// What the per-particle gather reads: the pair list with its forces, the particles' state
 /// (each particle's own half-step velocity and spin come with [`GatherOut`]), walls, gravity,
 /// drag and external forces, and the second half kick when the gather ends a step.
-struct GatherCtx<'a> {
+pub(super) struct GatherCtx<'a> {
     nl: &'a NeighbourList,
     pos: &'a [Vector3<f64>],
     vf: &'a [Vector3<f64>],
@@ -261,29 +291,31 @@ struct HalfKick<'a> {
 
 /// What the gather writes, for a run of consecutive particles, and their half-step velocity
 /// and spin (read by the wall contacts, then kicked to the full step).
-struct GatherOut<'a> {
-    force: &'a mut [Vector3<f64>],
-    torque: &'a mut [Vector3<f64>],
-    wall_xi: &'a mut [[Vector3<f64>; 2]],
-    wall_fz: &'a mut [[f64; 3]],
-    wall_f: &'a mut [Vector3<f64>],
-    vel: &'a mut [Vector3<f64>],
-    omega: &'a mut [Vector3<f64>],
+pub(super) struct GatherOut<'a> {
+    pub(super) force: &'a mut [Vector3<f64>],
+    pub(super) torque: &'a mut [Vector3<f64>],
+    pub(super) wall_xi: &'a mut [[Vector3<f64>; 2]],
+    pub(super) wall_fz: &'a mut [[f64; 3]],
+    pub(super) wall_f: &'a mut [Vector3<f64>],
+    pub(super) vel: &'a mut [Vector3<f64>],
+    pub(super) omega: &'a mut [Vector3<f64>],
+    /// The pair loop's sums, when it made them: taken (and left zero) instead of gathering.
+    pub(super) pair_sums: Option<PairSums<'a>>,
 }
 
 /// Particles from which the per-particle loops run in parallel.
-const PAR_MIN_PARTICLES: usize = 512;
+pub(super) const PAR_MIN_PARTICLES: usize = 512;
 
 /// Parallel tasks per thread of the pool in each parallel loop: few, so that a loop costs few
 /// hand-overs between threads, but more than one, so that a thread delayed by other work on the
 /// machine leaves some of its share to the other (four measured best of one, two and four).
 const TASKS_PER_THREAD: usize = 4;
 
-/// The length of the parallel tasks that split `len` items evenly into [`TASKS_PER_THREAD`]
-/// per thread, a multiple of `align`. (Every item's result is independent of where the tasks
+/// The length of the parallel tasks that split `len` items evenly into `tasks_per_thread` per
+/// thread, a multiple of `align`. (Every item's result is independent of where the tasks
 /// split.)
-fn task_len(len: usize, align: usize) -> usize {
-    len.div_ceil(TASKS_PER_THREAD * rayon::current_num_threads())
+pub(super) fn task_len(len: usize, align: usize, tasks_per_thread: usize) -> usize {
+    len.div_ceil(tasks_per_thread * rayon::current_num_threads())
         .next_multiple_of(align)
         .max(align)
 }
@@ -292,7 +324,7 @@ fn task_len(len: usize, align: usize) -> usize {
 /// list's fixed order, the walls, gravity, external force and drag; then the second half kick
 /// when `c.kick` asks for it.
 #[inline(always)]
-fn gather(c: &GatherCtx, start: usize, out: GatherOut) {
+fn gather(c: &GatherCtx, start: usize, mut out: GatherOut) {
     let GatherCtx {
         nl,
         pos,
@@ -326,17 +358,23 @@ fn gather(c: &GatherCtx, start: usize, out: GatherOut) {
         let (vel, om) = (&mut out.vel[offset], &mut out.omega[offset]);
         let mut f = Vector3::zeros();
         let mut nxft = Vector3::zeros();
-        for &k in &nl.second_pairs[nl.second_start[i] as usize..nl.second_start[i + 1] as usize] {
-            let pr = &nl.pairs[k as usize];
-            if pr.delta > 0.0 {
-                f -= pr.force;
-                nxft += pr.n_cross_ft;
+        if let Some(s) = &mut out.pair_sums {
+            f = std::mem::take(&mut s.force[offset]);
+            nxft = std::mem::take(&mut s.n_cross_ft[offset]);
+        } else {
+            let second = nl.second_start[i] as usize..nl.second_start[i + 1] as usize;
+            for &k in &nl.second_pairs[second] {
+                let pr = &nl.pairs[k as usize];
+                if pr.delta > 0.0 {
+                    f -= pr.force;
+                    nxft += pr.n_cross_ft;
+                }
             }
-        }
-        for pr in &nl.pairs[nl.first_start[i] as usize..nl.first_start[i + 1] as usize] {
-            if pr.delta > 0.0 {
-                f += pr.force;
-                nxft += pr.n_cross_ft;
+            for pr in &nl.pairs[nl.first_start[i] as usize..nl.first_start[i + 1] as usize] {
+                if pr.delta > 0.0 {
+                    f += pr.force;
+                    nxft += pr.n_cross_ft;
+                }
             }
         }
         let r = rad[i];
@@ -402,7 +440,7 @@ fn gather(c: &GatherCtx, start: usize, out: GatherOut) {
 }
 
 /// What the integrator's kicks read.
-struct KickCtx<'a> {
+pub(super) struct KickCtx<'a> {
     force: &'a [Vector3<f64>],
     torque: &'a [Vector3<f64>],
     inv_mass: &'a [f64],
@@ -417,12 +455,12 @@ struct KickCtx<'a> {
 }
 
 /// What the first kick and the drift move, for a run of consecutive particles.
-struct KickOut<'a> {
-    pos: &'a mut [Vector3<f64>],
-    vel: &'a mut [Vector3<f64>],
-    vel_full: &'a mut [Vector3<f64>],
-    omega: &'a mut [Vector3<f64>],
-    omega_full: &'a mut [Vector3<f64>],
+pub(super) struct KickOut<'a> {
+    pub(super) pos: &'a mut [Vector3<f64>],
+    pub(super) vel: &'a mut [Vector3<f64>],
+    pub(super) vel_full: &'a mut [Vector3<f64>],
+    pub(super) omega: &'a mut [Vector3<f64>],
+    pub(super) omega_full: &'a mut [Vector3<f64>],
 }
 
 /// Half kick and drift of particles start..: v(n+1/2) = v(n) + a dt/2, x(n+1) = x(n) +
@@ -475,7 +513,7 @@ macro_rules! avx2_copy {
             $fast($($a),*)
         }
         #[inline(always)]
-        fn $run($($a: $t),*) -> $r {
+        pub(super) fn $run($($a: $t),*) -> $r {
             #[cfg(target_arch = "x86_64")]
             if is_x86_feature_detected!("avx2") && is_x86_feature_detected!("fma") {
                 // SAFETY: avx2 and fma were detected just above.
@@ -486,7 +524,7 @@ macro_rules! avx2_copy {
     };
 }
 avx2_copy!(run_pairs, each_pair_avx2: each_pair::<super::lanes::F64x4>, else each_pair::<f64>,
-    (prs: &mut [super::neighbour::Pair], ctx: &PairCtx) -> ());
+    (prs: &mut [super::neighbour::Pair], ctx: &PairCtx, sums: Option<&mut PairSums>) -> ());
 avx2_copy!(run_gather, gather_avx2: gather, else gather,
     (c: &GatherCtx, start: usize, out: GatherOut) -> ());
 avx2_copy!(run_kick_drift, kick_drift_avx2: kick_drift, else kick_drift,
@@ -501,6 +539,35 @@ fn wrap_into(x: f64, l: f64) -> f64 {
         x + l
     } else {
         x
+    }
+}
+
+/// The top wall's height after a step of `dt` at `top_v` from `top_z`; an error when it reaches
+/// the floor (at time `time_s`).
+pub(super) fn next_top_z(top_z: f64, top_v: f64, dt: f64, time_s: f64) -> Result<f64> {
+    let z = top_z + top_v * dt;
+    if z <= 0.0 {
+        return invalid(format!(
+            "top wall reached the floor at t = {time_s:e} s: the target pressure cannot be held \
+             by these particles"
+        ));
+    }
+    Ok(z)
+}
+
+/// The walls' forces on the particles summed after a gather (see [`Dem`]'s fields of the same
+/// names).
+pub(super) struct WallTotals {
+    floor_force_n: f64,
+    top_force_n: f64,
+    top_stiffness_n_per_m: f64,
+    pub(super) top_elastic_force_n: f64,
+    wall_force_n: Vector3<f64>,
+}
+
+impl WallTotals {
+    pub(super) fn top_stiffness(&self) -> f64 {
+        self.top_stiffness_n_per_m
     }
 }
 
@@ -610,6 +677,9 @@ pub struct Dem {
     pub neighbour_seconds: f64,
     /// Per-particle external force (N), empty until set.
     pub(super) external: Vec<Vector3<f64>>,
+    /// The one-thread pair loop's per-particle sums of force and n x F_t (zero between steps).
+    pair_force_sum: Vec<Vector3<f64>>,
+    pair_n_cross_ft_sum: Vec<Vector3<f64>>,
 }
 
 impl Dem {
@@ -793,6 +863,8 @@ impl Dem {
             active,
             neighbour_seconds: 0.0,
             external: Vec::new(),
+            pair_force_sum: vec![Vector3::zeros(); n],
+            pair_n_cross_ft_sum: vec![Vector3::zeros(); n],
             p,
             setup,
         };
@@ -852,10 +924,9 @@ impl Dem {
         r
     }
 
-    /// The first half kick and the drift, in parallel over chunks of particles (the same bits
-    /// at any thread count); true when the neighbour list must be rebuilt.
-    fn kick_drift(&mut self) -> bool {
-        let ctx = KickCtx {
+    /// What the first half kick and the drift read.
+    pub(super) fn kick_ctx(&self, n_particles: usize) -> KickCtx<'_> {
+        KickCtx {
             force: &self.force,
             torque: &self.torque,
             inv_mass: &self.inv_mass,
@@ -864,17 +935,28 @@ impl Dem {
             lx: self.setup.lx_m,
             ly: self.setup.ly_m,
             rotation: self.active.friction_rotation,
-            at_build: self.nl.built_positions(self.p.len()),
-        };
-        if self.p.len() >= PAR_MIN_PARTICLES {
-            let chunk = task_len(self.p.len(), 8);
-            self.p
-                .pos
-                .par_chunks_mut(chunk)
-                .zip(self.p.vel.par_chunks_mut(chunk))
-                .zip(self.vel_full.par_chunks_mut(chunk))
-                .zip(self.p.omega.par_chunks_mut(chunk))
-                .zip(self.omega_full.par_chunks_mut(chunk))
+            at_build: self.nl.built_positions(n_particles),
+        }
+    }
+
+    /// The first half kick and the drift, in parallel over chunks of particles (the same bits
+    /// at any thread count); true when the neighbour list must be rebuilt.
+    fn kick_drift(&mut self) -> bool {
+        let n = self.p.len();
+        // the arrays the loop writes are moved out while its context borrows the rest
+        let mut pos = std::mem::take(&mut self.p.pos);
+        let mut vel = std::mem::take(&mut self.p.vel);
+        let mut vel_full = std::mem::take(&mut self.vel_full);
+        let mut omega = std::mem::take(&mut self.p.omega);
+        let mut omega_full = std::mem::take(&mut self.omega_full);
+        let ctx = self.kick_ctx(n);
+        let moved = if n >= PAR_MIN_PARTICLES {
+            let chunk = task_len(n, 8, TASKS_PER_THREAD);
+            pos.par_chunks_mut(chunk)
+                .zip(vel.par_chunks_mut(chunk))
+                .zip(vel_full.par_chunks_mut(chunk))
+                .zip(omega.par_chunks_mut(chunk))
+                .zip(omega_full.par_chunks_mut(chunk))
                 .enumerate()
                 .map(|(k, ((((pos, vel), vel_full), omega), omega_full))| {
                     run_kick_drift(
@@ -892,61 +974,85 @@ impl Dem {
                 .reduce(|| false, |a, b| a || b)
         } else {
             let out = KickOut {
-                pos: &mut self.p.pos,
-                vel: &mut self.p.vel,
-                vel_full: &mut self.vel_full,
-                omega: &mut self.p.omega,
-                omega_full: &mut self.omega_full,
+                pos: &mut pos,
+                vel: &mut vel,
+                vel_full: &mut vel_full,
+                omega: &mut omega,
+                omega_full: &mut omega_full,
             };
             run_kick_drift(&ctx, 0, out)
-        }
+        };
+        (self.p.pos, self.p.vel, self.vel_full) = (pos, vel, vel_full);
+        (self.p.omega, self.omega_full) = (omega, omega_full);
+        moved
     }
 
     /// One velocity-Verlet step.
     pub fn step(&mut self) -> Result<()> {
-        let dt = self.dt_s;
-        let (lx, ly) = (self.setup.lx_m, self.setup.ly_m);
         let stale = self.kick_drift();
-        self.top_z_m += self.top_v_m_s * dt;
-        if self.top_z_m <= 0.0 {
-            return invalid(format!(
-                "top wall reached the floor at t = {:e} s: the target pressure cannot be held by \
-                 these particles",
-                self.time_s
-            ));
-        }
+        self.top_z_m = next_top_z(self.top_z_m, self.top_v_m_s, self.dt_s, self.time_s)?;
         if stale {
             self.rebuild()?;
         }
         // the forces at the new positions, and the second half kick
         self.compute_forces(true);
-        if let TopWall::Pressure {
-            target_pa,
-            speed_max_m_s,
-            ..
-        } = self.setup.top
-        {
-            // without contact: approach at v_max; in contact: a relaxed Newton step on the
-            // elastic wall force, dz = -WALL_RELAXATION (F_target - F_el) / K_top, capped at
-            // v_max dt
-            let f_target = target_pa * lx * ly;
-            let err = f_target - self.top_elastic_force_n;
-            self.top_v_m_s = if self.top_stiffness_n_per_m > 0.0 {
-                (-WALL_RELAXATION * err / (self.top_stiffness_n_per_m * dt))
-                    .clamp(-speed_max_m_s, speed_max_m_s)
-            } else {
-                -speed_max_m_s
-            };
-        }
-        self.time_s += dt;
+        self.top_v_m_s = self.top_speed(self.top_elastic_force_n, self.top_stiffness_n_per_m);
+        self.time_s += self.dt_s;
         self.steps += 1;
         Ok(())
     }
 
-    /// Runs `n` steps; fails on a non-finite state (checked at the end).
+    /// The pressure wall's speed for the next step from the elastic part of its contact force
+    /// and the summed stiffness of its contacts (a fixed wall: 0).
+    pub(super) fn top_speed(&self, elastic_n: f64, stiffness_n_per_m: f64) -> f64 {
+        match self.setup.top {
+            TopWall::Fixed { .. } => self.top_v_m_s,
+            TopWall::Pressure {
+                target_pa,
+                speed_max_m_s,
+                ..
+            } => {
+                // without contact: approach at v_max; in contact: a relaxed Newton step on the
+                // elastic wall force, dz = -WALL_RELAXATION (F_target - F_el) / K_top, capped
+                // at v_max dt
+                let f_target = target_pa * self.setup.lx_m * self.setup.ly_m;
+                let err = f_target - elastic_n;
+                if stiffness_n_per_m > 0.0 {
+                    (-WALL_RELAXATION * err / (stiffness_n_per_m * self.dt_s))
+                        .clamp(-speed_max_m_s, speed_max_m_s)
+                } else {
+                    -speed_max_m_s
+                }
+            }
+        }
+    }
+
+    /// Runs `n` steps; fails on a non-finite state (checked at the end). On two threads or
+    /// more, a bed of [`PAR_MIN_PARTICLES`] or more steps as one team of threads between
+    /// neighbour-list rebuilds (see [`super::team`]): bitwise the steps of [`Dem::step`].
     pub fn run(&mut self, n: u64) -> Result<()> {
-        for _ in 0..n {
-            self.step()?;
+        if rayon::current_num_threads() < 2 || self.p.len() < PAR_MIN_PARTICLES {
+            for _ in 0..n {
+                self.step()?;
+            }
+        } else {
+            let mut done = 0;
+            // true when the team stopped after the first half of a step for a rebuild
+            let mut half_done = false;
+            while done < n {
+                let stale = half_done || {
+                    let stale = self.kick_drift();
+                    self.top_z_m =
+                        next_top_z(self.top_z_m, self.top_v_m_s, self.dt_s, self.time_s)?;
+                    stale
+                };
+                if stale {
+                    self.rebuild()?;
+                }
+                let (steps, stopped_half_way) = self.team_steps(n - done)?;
+                done += steps;
+                half_done = stopped_half_way;
+            }
         }
         self.check_finite()
     }
@@ -969,19 +1075,15 @@ impl Dem {
         Ok(())
     }
 
-    /// Contact forces on all pairs, then the per-particle gather with walls, gravity and drag,
-    /// and the second half kick (`kick`).
-    fn compute_forces(&mut self, kick: bool) {
-        let (lx, ly) = (self.setup.lx_m, self.setup.ly_m);
+    /// What the pair loop reads.
+    pub(super) fn pair_ctx(&self) -> PairCtx<'_> {
         let model = self.setup.contact;
-        let dt = self.dt_s;
-        let friction = model.has_friction();
-        let ctx = PairCtx {
-            lx,
-            ly,
+        PairCtx {
+            lx: self.setup.lx_m,
+            ly: self.setup.ly_m,
             model,
-            dt,
-            friction,
+            dt: self.dt_s,
+            friction: model.has_friction(),
             pp: self.pp,
             b: Bodies {
                 pos: &self.p.pos,
@@ -992,18 +1094,13 @@ impl Dem {
                 rad: &self.p.radius,
                 mass: &self.p.mass,
             },
-        };
-        if self.nl.pairs.len() >= PAR_MIN {
-            let chunk = task_len(self.nl.pairs.len(), 4);
-            self.nl
-                .pairs
-                .par_chunks_mut(chunk)
-                .for_each(|prs| run_pairs(prs, &ctx));
-        } else {
-            run_pairs(&mut self.nl.pairs, &ctx);
         }
-        // gather
-        let ctx = GatherCtx {
+    }
+
+    /// What the gather reads, with the top wall at `top_z` moving at `top_v`.
+    pub(super) fn gather_ctx(&self, kick: bool, top_z: f64, top_v: f64) -> GatherCtx<'_> {
+        let model = self.setup.contact;
+        GatherCtx {
             nl: &self.nl,
             pos: &self.p.pos,
             vf: &self.vel_full,
@@ -1012,10 +1109,10 @@ impl Dem {
             mass: &self.p.mass,
             pw: self.pw,
             model,
-            friction,
-            dt,
-            top_z: self.top_z_m,
-            top_v: self.top_v_m_s,
+            friction: model.has_friction(),
+            dt: self.dt_s,
+            top_z,
+            top_v,
             g: self.setup.gravity_m_s2 * self.buoyancy,
             drag: self.setup.drag,
             external: &self.external,
@@ -1024,17 +1121,55 @@ impl Dem {
                 inv_inertia: &self.inv_inertia,
                 rotation: self.active.friction_rotation,
             }),
-        };
-        if self.p.len() >= PAR_MIN_PARTICLES {
-            let chunk = task_len(self.p.len(), 8);
-            self.force
+        }
+    }
+
+    /// Contact forces on all pairs, then the per-particle gather with walls, gravity and drag,
+    /// and the second half kick (`kick`).
+    fn compute_forces(&mut self, kick: bool) {
+        // the arrays each loop writes are moved out while its context borrows the rest
+        let mut pairs = std::mem::take(&mut self.nl.pairs);
+        // one thread: the pair loop adds each force into both members as it goes, in the
+        // gather's order (bitwise the same sums), and the gather takes them; this spares the
+        // gather's second pass over the pair list
+        let one_thread = rayon::current_num_threads() == 1;
+        let mut sum_f = std::mem::take(&mut self.pair_force_sum);
+        let mut sum_n = std::mem::take(&mut self.pair_n_cross_ft_sum);
+        let ctx = self.pair_ctx();
+        if one_thread {
+            let mut sums = PairSums {
+                force: &mut sum_f,
+                n_cross_ft: &mut sum_n,
+            };
+            run_pairs(&mut pairs, &ctx, Some(&mut sums));
+        } else if pairs.len() >= PAR_MIN {
+            let chunk = task_len(pairs.len(), 4, TASKS_PER_THREAD);
+            pairs
                 .par_chunks_mut(chunk)
-                .zip(self.torque.par_chunks_mut(chunk))
-                .zip(self.wall_xi.par_chunks_mut(chunk))
-                .zip(self.wall_fz.par_chunks_mut(chunk))
-                .zip(self.wall_f.par_chunks_mut(chunk))
-                .zip(self.p.vel.par_chunks_mut(chunk))
-                .zip(self.p.omega.par_chunks_mut(chunk))
+                .for_each(|prs| run_pairs(prs, &ctx, None));
+        } else {
+            run_pairs(&mut pairs, &ctx, None);
+        }
+        self.nl.pairs = pairs;
+        let n = self.p.len();
+        let mut force = std::mem::take(&mut self.force);
+        let mut torque = std::mem::take(&mut self.torque);
+        let mut wall_xi = std::mem::take(&mut self.wall_xi);
+        let mut wall_fz = std::mem::take(&mut self.wall_fz);
+        let mut wall_f = std::mem::take(&mut self.wall_f);
+        let mut vel = std::mem::take(&mut self.p.vel);
+        let mut omega = std::mem::take(&mut self.p.omega);
+        let ctx = self.gather_ctx(kick, self.top_z_m, self.top_v_m_s);
+        if !one_thread && n >= PAR_MIN_PARTICLES {
+            let chunk = task_len(n, 8, TASKS_PER_THREAD);
+            force
+                .par_chunks_mut(chunk)
+                .zip(torque.par_chunks_mut(chunk))
+                .zip(wall_xi.par_chunks_mut(chunk))
+                .zip(wall_fz.par_chunks_mut(chunk))
+                .zip(wall_f.par_chunks_mut(chunk))
+                .zip(vel.par_chunks_mut(chunk))
+                .zip(omega.par_chunks_mut(chunk))
                 .enumerate()
                 .for_each(
                     |(k, ((((((force, torque), wall_xi), wall_fz), wall_f), vel), omega))| {
@@ -1049,46 +1184,73 @@ impl Dem {
                                 wall_f,
                                 vel,
                                 omega,
+                                pair_sums: None,
                             },
                         )
                     },
                 );
         } else {
             let out = GatherOut {
-                force: &mut self.force,
-                torque: &mut self.torque,
-                wall_xi: &mut self.wall_xi,
-                wall_fz: &mut self.wall_fz,
-                wall_f: &mut self.wall_f,
-                vel: &mut self.p.vel,
-                omega: &mut self.p.omega,
+                force: &mut force,
+                torque: &mut torque,
+                wall_xi: &mut wall_xi,
+                wall_fz: &mut wall_fz,
+                wall_f: &mut wall_f,
+                vel: &mut vel,
+                omega: &mut omega,
+                pair_sums: one_thread.then_some(PairSums {
+                    force: &mut sum_f,
+                    n_cross_ft: &mut sum_n,
+                }),
             };
             run_gather(&ctx, 0, out);
         }
+        (self.force, self.torque, self.wall_xi) = (force, torque, wall_xi);
+        (self.wall_fz, self.wall_f) = (wall_fz, wall_f);
+        (self.p.vel, self.p.omega) = (vel, omega);
+        (self.pair_force_sum, self.pair_n_cross_ft_sum) = (sum_f, sum_n);
+        let totals = self.wall_totals(self.top_z_m);
+        self.set_wall_totals(&totals);
+    }
+
+    /// The walls' forces summed over the particles (serially, in particle order) after a
+    /// gather, the top wall at `top_z`.
+    pub(super) fn wall_totals(&self, top_z: f64) -> WallTotals {
         let (mut fl, mut tp, mut kt) = (0.0, 0.0, 0.0);
         for w in &self.wall_fz {
             fl += w[0];
             tp -= w[1];
             kt += w[2];
         }
-        self.floor_force_n = fl;
-        self.top_force_n = tp;
-        self.top_stiffness_n_per_m = kt;
         // The controller's force is the elastic part alone: the total also holds the contacts'
         // damping, set by the wall's own velocity (eta v, with eta / dt far above K_top), and a
         // Newton step on the total alternated between +-v_max every step, the wall standing
         // still on average while shaking the top layer.
         let mut top_elastic = 0.0;
         if self.active.pressure_wall {
+            let model = self.setup.contact;
             for (p, &r) in self.p.pos.iter().zip(&self.p.radius) {
-                let delta = r - (self.top_z_m - p.z);
+                let delta = r - (top_z - p.z);
                 if delta > 0.0 {
                     top_elastic += model.normal.elastic(delta, r, self.pw.e_star_pa).0;
                 }
             }
         }
-        self.top_elastic_force_n = top_elastic;
-        self.wall_force_n = self.wall_f.iter().fold(Vector3::zeros(), |a, w| a + w);
+        WallTotals {
+            floor_force_n: fl,
+            top_force_n: tp,
+            top_stiffness_n_per_m: kt,
+            top_elastic_force_n: top_elastic,
+            wall_force_n: self.wall_f.iter().fold(Vector3::zeros(), |a, w| a + w),
+        }
+    }
+
+    pub(super) fn set_wall_totals(&mut self, t: &WallTotals) {
+        self.floor_force_n = t.floor_force_n;
+        self.top_force_n = t.top_force_n;
+        self.top_stiffness_n_per_m = t.top_stiffness_n_per_m;
+        self.top_elastic_force_n = t.top_elastic_force_n;
+        self.wall_force_n = t.wall_force_n;
     }
 
     /// Translational + rotational kinetic energy (J) at the full step.
@@ -1302,10 +1464,10 @@ mod tests {
                 },
             };
             let mut scalar = pairs.clone();
-            each_pair::<f64>(&mut scalar, &ctx);
+            each_pair::<f64>(&mut scalar, &ctx, None);
             let mut lanes = pairs.clone();
             // SAFETY: avx2 and fma were detected above
-            unsafe { each_pair_avx2(&mut lanes, &ctx) };
+            unsafe { each_pair_avx2(&mut lanes, &ctx, None) };
             let bits = |p: &Pair| {
                 [p.xi, p.force, p.n_cross_ft]
                     .iter()

@@ -13,6 +13,7 @@
 //! * [`engine`]: the velocity-Verlet integrator, drivers and the time-step rule.
 //! * [`start`]: the random overlap-free dispersion at a prescribed porosity.
 //! * [`observe`]: porosity profiles from exact sphere–slab volumes, bed height.
+//! * `team`: steps on two threads or more as one team of threads meeting at spinning barriers.
 //! * [`checkpoint`]: the exact dynamic state, for runs that resume bitwise.
 //!
 //! Vertical axis: z (the seed's x); SI units throughout.
@@ -25,6 +26,7 @@ pub mod model;
 pub mod neighbour;
 pub mod observe;
 pub mod start;
+mod team;
 
 pub use engine::{ActiveTerms, Dem, DemSetup, Drag, Particles, TopWall};
 pub use model::{ContactModel, DampingModel, Material, NormalModel, PairMaterial, TangentialModel};
