@@ -13,7 +13,8 @@
 //! * [`engine`]: the velocity-Verlet integrator, drivers and the time-step rule.
 //! * [`start`]: the random overlap-free dispersion at a prescribed porosity.
 //! * [`observe`]: porosity profiles from exact sphere–slab volumes, bed height.
-//! * `team`: steps on two threads or more as one team of threads meeting at spinning barriers.
+//! * `team`: steps on two threads or more as one team: a leader publishes each loop, spinning
+//!   helpers claim chunks of it.
 //! * [`checkpoint`]: the exact dynamic state, for runs that resume bitwise.
 //!
 //! Vertical axis: z (the seed's x); SI units throughout.

@@ -139,14 +139,15 @@ impl<T> Shared<T> {
     }
 
     /// # Safety
-    /// No thread writes the pointee while the reference lives.
+    /// No thread writes the pointee itself while the reference lives (the arrays it owns may be
+    /// written, in chunks no reader of the loop reads).
     unsafe fn get(&self) -> &T {
         &*self.0
     }
 
     /// # Safety
-    /// start..start + len lies in the array, and no other thread touches it until the next
-    /// barrier.
+    /// start..start + len lies in the array, and no other thread touches it until the loop
+    /// ends.
     #[allow(clippy::mut_from_ref)]
     unsafe fn chunk(&self, start: usize, len: usize) -> &mut [T] {
         std::slice::from_raw_parts_mut(self.0.add(start), len)
