@@ -1003,7 +1003,7 @@ impl Dem {
     }
 
     /// The pressure wall's speed for the next step from the elastic part of its contact force
-    /// and the summed stiffness of its contacts (a fixed wall: 0).
+    /// and the summed stiffness of its contacts (a fixed wall keeps its speed, 0).
     pub(super) fn top_speed(&self, elastic_n: f64, stiffness_n_per_m: f64) -> f64 {
         match self.setup.top {
             TopWall::Fixed { .. } => self.top_v_m_s,

@@ -177,7 +177,8 @@ impl Dem {
         };
         let chunk_of = |k: usize, size: usize, len: usize| (k * size, size.min(len - k * size));
 
-        // the arrays the loops write, each written in one loop and only read in the others
+        // the arrays the loops write (vel and omega in two of them), each read only in loops that
+        // do not write it
         let pairs = Shared::of(&mut self.nl.pairs);
         let (pos, vel, omega) = (
             Shared::of(&mut self.p.pos),
