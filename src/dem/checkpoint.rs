@@ -11,7 +11,31 @@ use super::neighbour::Pair;
 use crate::error::invalid;
 use crate::Result;
 use nalgebra::Vector3;
-use serde::{Deserialize, Serialize};
+use serde::{de::DeserializeOwned, Deserialize, Serialize};
+
+/// Parses a checkpoint file's JSON, reading its `format` first, so that a file written in
+/// another format is named as such (and not reported as malformed). `kind` names the run.
+pub fn parse_checkpoint<T: DeserializeOwned>(
+    bytes: &[u8],
+    format: u32,
+    kind: &str,
+) -> std::result::Result<T, String> {
+    #[derive(Deserialize)]
+    struct Format {
+        format: u32,
+    }
+    let malformed = |e: serde_json::Error| format!("not a {kind} checkpoint: {e}");
+    let found = serde_json::from_slice::<Format>(bytes)
+        .map_err(malformed)?
+        .format;
+    if found != format {
+        return Err(format!(
+            "checkpoint format {found}: this porelab reads format {format}; delete the \
+             checkpoint to start the run afresh"
+        ));
+    }
+    serde_json::from_slice(bytes).map_err(malformed)
+}
 
 /// Bits of three f64.
 type V3 = [u64; 3];
@@ -36,8 +60,9 @@ fn vecs_from_bits(v: &[V3]) -> Vec<Vector3<f64>> {
     v.iter().map(from_bits).collect()
 }
 
-/// One neighbour-list pair: (i, j, xi, force, n x F_t, delta bits).
-type PairBits = (u32, u32, V3, V3, V3, u64);
+/// One neighbour-list pair: (i, j, xi, delta bits). (The pairs' forces are not state: every
+/// step computes them before it reads them.)
+type PairBits = (u32, u32, V3, u64);
 
 /// The state of a DEM run (see the module note).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -109,16 +134,7 @@ impl Dem {
                 .nl
                 .pairs
                 .iter()
-                .map(|p| {
-                    (
-                        p.i,
-                        p.j,
-                        to_bits(&p.xi),
-                        to_bits(&p.force),
-                        to_bits(&p.n_cross_ft),
-                        p.delta.to_bits(),
-                    )
-                })
+                .map(|p| (p.i, p.j, to_bits(&p.xi), p.delta.to_bits()))
                 .collect(),
             first_start: self.nl.first_start.clone(),
             second_start: self.nl.second_start.clone(),
@@ -221,10 +237,8 @@ impl Dem {
             .map(|p| Pair {
                 i: p.0,
                 j: p.1,
+                delta: f(p.3),
                 xi: from_bits(&p.2),
-                force: from_bits(&p.3),
-                n_cross_ft: from_bits(&p.4),
-                delta: f(p.5),
             })
             .collect();
         self.nl.first_start = s.first_start.clone();
@@ -240,6 +254,18 @@ impl Dem {
 mod tests {
     use super::*;
     use crate::scene::dem::{build, parse_scene};
+
+    #[test]
+    fn a_checkpoint_of_another_format_is_named_as_such() {
+        let old = br#"{"format": 1, "state": {}}"#;
+        let e = parse_checkpoint::<DemState>(old, 2, "DEM").unwrap_err();
+        assert!(
+            e.starts_with("checkpoint format 1: this porelab reads format 2"),
+            "{e}"
+        );
+        let e = parse_checkpoint::<DemState>(br#"{"state": {}}"#, 2, "DEM").unwrap_err();
+        assert!(e.starts_with("not a DEM checkpoint"), "{e}");
+    }
 
     /// The built-in small bed with 120 spheres at 68 % porosity, thrown at the floor so that
     /// contacts (with tangential springs) form within a few thousand steps.

@@ -22,7 +22,7 @@ use super::model::{
     hertz_contact_time, rayleigh_time, ContactLanes, ContactModel, ContactState, DampingModel,
     Material, NormalModel, PairMaterial,
 };
-use super::neighbour::{moved_beyond, wrap_delta, NeighbourList, PAR_MIN};
+use super::neighbour::{moved_beyond, wrap_delta, NeighbourList, Pair, PairForce, PAR_MIN};
 use crate::error::{invalid, require_positive};
 use crate::Result;
 use nalgebra::Vector3;
@@ -150,12 +150,14 @@ pub(super) struct PairCtx<'a> {
 
 /// The contact forces of `T::LANES` neighbour pairs side by side, one per lane (and their
 /// tangential histories), or their resets for pairs that are apart: lane l holds bitwise the
-/// result of the pair alone (see [`ContactModel::force_lanes`]). With `sums`, each touching
-/// pair's force and n x F_t are added into both members' sums at once, in list order.
+/// result of the pair alone (see [`ContactModel::force_lanes`]). Each touching pair's force
+/// and n x F_t go into `forces` (the pairs' entries), or with `sums` into both members' sums at
+/// once, in list order.
 #[inline(always)]
 fn pair_forces<T: Lane>(
     c: &PairCtx,
-    prs: &mut [super::neighbour::Pair],
+    prs: &mut [Pair],
+    forces: Option<&mut [PairForce]>,
     sums: Option<&mut PairSums>,
 ) {
     debug_assert_eq!(prs.len(), T::LANES);
@@ -208,29 +210,33 @@ fn pair_forces<T: Lane>(
         if T::mask_lane(touching, l) {
             pr.delta = state.delta.lane(l);
             pr.xi = xi.lane(l);
-            pr.force = f.lane(l);
-            pr.n_cross_ft = n_cross_ft.lane(l);
         } else {
-            // apart: history and force cleared when the pair touched at the last step; only
-            // the sign of delta is used until it touches again
+            // apart: history cleared when the pair touched at the last step; only the sign of
+            // delta is used until it touches again
             if pr.delta > 0.0 {
                 pr.xi = Vector3::zeros();
-                pr.force = Vector3::zeros();
-                pr.n_cross_ft = Vector3::zeros();
             }
             pr.delta = -1.0;
+        }
+    }
+    if let Some(fs) = forces {
+        for (l, pf) in fs.iter_mut().enumerate() {
+            if T::mask_lane(touching, l) {
+                pf.force = f.lane(l);
+                pf.n_cross_ft = n_cross_ft.lane(l);
+            }
         }
     }
     if let Some(s) = sums {
         // the gather's order for each particle: the pairs where it is second, by first
         // member, then those where it is first; that is, the list order
-        for pr in prs.iter() {
+        for (l, pr) in prs.iter().enumerate() {
             if pr.delta > 0.0 {
-                let (i, j) = (pr.i as usize, pr.j as usize);
-                s.force[i] += pr.force;
-                s.n_cross_ft[i] += pr.n_cross_ft;
-                s.force[j] -= pr.force;
-                s.n_cross_ft[j] += pr.n_cross_ft;
+                let (fl, nl) = (f.lane(l), n_cross_ft.lane(l));
+                s.force[i[l]] += fl;
+                s.n_cross_ft[i[l]] += nl;
+                s.force[j[l]] -= fl;
+                s.n_cross_ft[j[l]] += nl;
             }
         }
     }
@@ -243,19 +249,39 @@ pub(super) struct PairSums<'a> {
     n_cross_ft: &'a mut [Vector3<f64>],
 }
 
-/// [`pair_forces`] on every pair of `prs`, `T::LANES` at a time.
+/// [`pair_forces`] on every pair of `prs`, `T::LANES` at a time (`forces`: the pairs'
+/// entries, as many).
 #[inline(always)]
 fn each_pair<T: Lane>(
-    prs: &mut [super::neighbour::Pair],
+    prs: &mut [Pair],
+    forces: Option<&mut [PairForce]>,
     ctx: &PairCtx,
     mut sums: Option<&mut PairSums>,
 ) {
-    let mut blocks = prs.chunks_exact_mut(T::LANES);
-    for b in &mut blocks {
-        pair_forces::<T>(ctx, b, sums.as_deref_mut());
-    }
-    for pr in blocks.into_remainder() {
-        pair_forces::<f64>(ctx, std::slice::from_mut(pr), sums.as_deref_mut());
+    match forces {
+        Some(fs) => {
+            debug_assert_eq!(fs.len(), prs.len());
+            let mut blocks = prs.chunks_exact_mut(T::LANES);
+            let mut f_blocks = fs.chunks_exact_mut(T::LANES);
+            for (b, f) in (&mut blocks).zip(&mut f_blocks) {
+                pair_forces::<T>(ctx, b, Some(f), None);
+            }
+            let tail = blocks.into_remainder().iter_mut();
+            for (pr, f) in tail.zip(f_blocks.into_remainder()) {
+                let (pr, f) = (std::slice::from_mut(pr), std::slice::from_mut(f));
+                pair_forces::<f64>(ctx, pr, Some(f), None);
+            }
+        }
+        None => {
+            let mut blocks = prs.chunks_exact_mut(T::LANES);
+            for b in &mut blocks {
+                pair_forces::<T>(ctx, b, None, sums.as_deref_mut());
+            }
+            for pr in blocks.into_remainder() {
+                let pr = std::slice::from_mut(pr);
+                pair_forces::<f64>(ctx, pr, None, sums.as_deref_mut());
+            }
+        }
     }
 }
 
@@ -364,16 +390,17 @@ fn gather(c: &GatherCtx, start: usize, mut out: GatherOut) {
         } else {
             let second = nl.second_start[i] as usize..nl.second_start[i + 1] as usize;
             for &k in &nl.second_pairs[second] {
-                let pr = &nl.pairs[k as usize];
-                if pr.delta > 0.0 {
-                    f -= pr.force;
-                    nxft += pr.n_cross_ft;
+                if nl.pairs[k as usize].delta > 0.0 {
+                    let pf = &nl.forces[k as usize];
+                    f -= pf.force;
+                    nxft += pf.n_cross_ft;
                 }
             }
-            for pr in &nl.pairs[nl.first_start[i] as usize..nl.first_start[i + 1] as usize] {
-                if pr.delta > 0.0 {
-                    f += pr.force;
-                    nxft += pr.n_cross_ft;
+            for k in nl.first_start[i] as usize..nl.first_start[i + 1] as usize {
+                if nl.pairs[k].delta > 0.0 {
+                    let pf = &nl.forces[k];
+                    f += pf.force;
+                    nxft += pf.n_cross_ft;
                 }
             }
         }
@@ -524,7 +551,8 @@ macro_rules! avx2_copy {
     };
 }
 avx2_copy!(run_pairs, each_pair_avx2: each_pair::<super::lanes::F64x4>, else each_pair::<f64>,
-    (prs: &mut [super::neighbour::Pair], ctx: &PairCtx, sums: Option<&mut PairSums>) -> ());
+    (prs: &mut [Pair], forces: Option<&mut [PairForce]>, ctx: &PairCtx,
+        sums: Option<&mut PairSums>) -> ());
 avx2_copy!(run_gather, gather_avx2: gather, else gather,
     (c: &GatherCtx, start: usize, out: GatherOut) -> ());
 avx2_copy!(run_kick_drift, kick_drift_avx2: kick_drift, else kick_drift,
@@ -1128,11 +1156,16 @@ impl Dem {
     /// and the second half kick (`kick`).
     fn compute_forces(&mut self, kick: bool) {
         // the arrays each loop writes are moved out while its context borrows the rest
-        let mut pairs = std::mem::take(&mut self.nl.pairs);
         // one thread: the pair loop adds each force into both members as it goes, in the
         // gather's order (bitwise the same sums), and the gather takes them; this spares the
-        // gather's second pass over the pair list
+        // gather's second pass over the pair list, and storing the forces
         let one_thread = rayon::current_num_threads() == 1;
+        let mut forces = if one_thread {
+            std::mem::take(&mut self.nl.forces)
+        } else {
+            self.nl.take_forces()
+        };
+        let mut pairs = std::mem::take(&mut self.nl.pairs);
         let mut sum_f = std::mem::take(&mut self.pair_force_sum);
         let mut sum_n = std::mem::take(&mut self.pair_n_cross_ft_sum);
         let ctx = self.pair_ctx();
@@ -1141,16 +1174,17 @@ impl Dem {
                 force: &mut sum_f,
                 n_cross_ft: &mut sum_n,
             };
-            run_pairs(&mut pairs, &ctx, Some(&mut sums));
+            run_pairs(&mut pairs, None, &ctx, Some(&mut sums));
         } else if pairs.len() >= PAR_MIN {
             let chunk = task_len(pairs.len(), 4, TASKS_PER_THREAD);
             pairs
                 .par_chunks_mut(chunk)
-                .for_each(|prs| run_pairs(prs, &ctx, None));
+                .zip(forces.par_chunks_mut(chunk))
+                .for_each(|(prs, fs)| run_pairs(prs, Some(fs), &ctx, None));
         } else {
-            run_pairs(&mut pairs, &ctx, None);
+            run_pairs(&mut pairs, Some(&mut forces), &ctx, None);
         }
-        self.nl.pairs = pairs;
+        (self.nl.pairs, self.nl.forces) = (pairs, forces);
         let n = self.p.len();
         let mut force = std::mem::take(&mut self.force);
         let mut torque = std::mem::take(&mut self.torque);
@@ -1361,7 +1395,7 @@ mod tests {
     #[test]
     fn four_pair_lanes_equal_the_scalar_loop_bitwise() {
         use super::super::model::*;
-        use super::super::neighbour::Pair;
+        use super::super::neighbour::{Pair, PairForce};
         use super::{each_pair, each_pair_avx2, Bodies, PairCtx};
         use rand::{Rng, SeedableRng};
         if !(is_x86_feature_detected!("avx2") && is_x86_feature_detected!("fma")) {
@@ -1421,21 +1455,23 @@ mod tests {
                 .map(|_| v3(&mut rng, [0.05, 200.0, 0.05, 200.0][k]))
                 .collect()
         });
-        let mut pairs = Vec::new();
+        let (mut pairs, mut forces) = (Vec::new(), Vec::new());
         for i in 0..n as u32 {
             for j in i + 1..n as u32 {
                 let touched = rng.gen_bool(0.5);
                 pairs.push(Pair {
                     i,
                     j,
+                    delta: if touched { 1e-6 } else { -1.0 },
                     xi: if touched && rng.gen_bool(0.8) {
                         v3(&mut rng, 2e-5)
                     } else {
                         Vector3::zeros()
                     },
+                });
+                forces.push(PairForce {
                     force: v3(&mut rng, 1.0),
                     n_cross_ft: v3(&mut rng, 1.0),
-                    delta: if touched { 1e-6 } else { -1.0 },
                 });
             }
         }
@@ -1463,19 +1499,24 @@ mod tests {
                     mass: &mass,
                 },
             };
-            let mut scalar = pairs.clone();
-            each_pair::<f64>(&mut scalar, &ctx, None);
-            let mut lanes = pairs.clone();
+            let (mut scalar, mut scalar_f) = (pairs.clone(), forces.clone());
+            each_pair::<f64>(&mut scalar, Some(&mut scalar_f), &ctx, None);
+            let (mut lanes, mut lanes_f) = (pairs.clone(), forces.clone());
             // SAFETY: avx2 and fma were detected above
-            unsafe { each_pair_avx2(&mut lanes, &ctx, None) };
-            let bits = |p: &Pair| {
-                [p.xi, p.force, p.n_cross_ft]
+            unsafe { each_pair_avx2(&mut lanes, Some(&mut lanes_f), &ctx, None) };
+            let bits = |(p, f): (&Pair, &PairForce)| {
+                [p.xi, f.force, f.n_cross_ft]
                     .iter()
                     .flat_map(|v| v.iter().map(|c| c.to_bits()).collect::<Vec<_>>())
                     .chain([p.delta.to_bits()])
                     .collect::<Vec<_>>()
             };
-            for (k, (a, b)) in scalar.iter().zip(&lanes).enumerate() {
+            let scalar_all = scalar.iter().zip(&scalar_f);
+            for (k, (a, b)) in scalar_all
+                .clone()
+                .zip(lanes.iter().zip(&lanes_f))
+                .enumerate()
+            {
                 assert_eq!(bits(a), bits(b), "{model:?}: pair {k} differs: {a:?} {b:?}");
             }
             touching += scalar.iter().filter(|p| p.delta > 0.0).count();
@@ -1483,11 +1524,10 @@ mod tests {
             if let TangentialModel::Mindlin { mu, .. } | TangentialModel::Linear { mu, .. } =
                 tangential
             {
-                sliding += scalar
-                    .iter()
-                    .filter(|p| {
-                        let ft2 = p.n_cross_ft.norm_squared();
-                        let fn2 = p.force.norm_squared() - ft2;
+                sliding += scalar_all
+                    .filter(|(p, f)| {
+                        let ft2 = f.n_cross_ft.norm_squared();
+                        let fn2 = f.force.norm_squared() - ft2;
                         p.delta > 0.0 && (ft2 - mu * mu * fn2).abs() <= 1e-9 * ft2
                     })
                     .count();

@@ -11,19 +11,27 @@ use crate::Result;
 use nalgebra::Vector3;
 use rayon::prelude::*;
 
-/// One listed pair i < j with its contact history and the last force computed on it.
+/// One listed pair i < j with its contact history (40 bytes: the pair loop streams the whole
+/// list every step).
 #[derive(Debug, Clone, Copy)]
 pub struct Pair {
     pub i: u32,
     pub j: u32,
+    /// Overlap (m), <= 0 when apart.
+    pub delta: f64,
     /// Tangential spring displacement (m).
     pub xi: Vector3<f64>,
+}
+
+/// The force a touching pair's contact exerted in the current step, kept for the per-particle
+/// gather when the pair loop runs on several threads (on one thread the loop adds it into both
+/// members at once and nothing is stored).
+#[derive(Debug, Clone, Copy, Default)]
+pub struct PairForce {
     /// Force on i (on j: minus this) (N).
     pub force: Vector3<f64>,
     /// n x F_t (N); the torque on either member is -(its radius) times this.
     pub n_cross_ft: Vector3<f64>,
-    /// Overlap (m), <= 0 when apart.
-    pub delta: f64,
 }
 
 /// Below this many items a loop runs serially (rayon's overhead dominates).
@@ -64,6 +72,9 @@ pub(crate) fn moved_beyond(
 #[derive(Debug, Clone, Default)]
 pub struct NeighbourList {
     pub pairs: Vec<Pair>,
+    /// The step's force of each touching pair (index as `pairs`; entries of pairs that are
+    /// apart are stale), written and read within a step on several threads.
+    pub forces: Vec<PairForce>,
     /// pairs[first_start[i]..first_start[i + 1]] have i as first member.
     pub first_start: Vec<u32>,
     /// second_pairs[second_start[i]..second_start[i + 1]] index the pairs with i second.
@@ -81,6 +92,13 @@ impl NeighbourList {
             skin,
             ..Default::default()
         }
+    }
+
+    /// The pairs' force entries, as many as pairs, moved out for a step's loops to write.
+    pub(crate) fn take_forces(&mut self) -> Vec<PairForce> {
+        let mut forces = std::mem::take(&mut self.forces);
+        forces.resize(self.pairs.len(), PairForce::default());
+        forces
     }
 
     /// The positions of the last build, when it was made for `n` particles (None: a rebuild
@@ -212,10 +230,8 @@ impl NeighbourList {
                 pairs.push(Pair {
                     i: i as u32,
                     j,
-                    xi,
-                    force: Vector3::zeros(),
-                    n_cross_ft: Vector3::zeros(),
                     delta: f64::NEG_INFINITY,
+                    xi,
                 });
             }
         }

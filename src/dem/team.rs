@@ -179,7 +179,9 @@ impl Dem {
 
         // the arrays the loops write (vel and omega in two of them), each read only in loops that
         // do not write it
+        self.nl.forces = self.nl.take_forces();
         let pairs = Shared::of(&mut self.nl.pairs);
+        let pair_forces = Shared::of(&mut self.nl.forces);
         let (pos, vel, omega) = (
             Shared::of(&mut self.p.pos),
             Shared::of(&mut self.p.vel),
@@ -216,7 +218,9 @@ impl Dem {
                     let ctx = dem.pair_ctx();
                     move |k| {
                         let (start, len) = chunk_of(k, pair_chunk, n_pairs);
-                        run_pairs(unsafe { pairs.chunk(start, len) }, &ctx, None);
+                        let (prs, fs) =
+                            unsafe { (pairs.chunk(start, len), pair_forces.chunk(start, len)) };
+                        run_pairs(prs, Some(fs), &ctx, None);
                     }
                 }),
                 GATHER => board.work(no, me, chunks(kind), || {

@@ -38,6 +38,7 @@
 use super::{dem as dem_scene, Builtin, RunOptions};
 use crate::coupled::checkpoint::CoupledState;
 use crate::coupled::{Basesheet, Coupled, CoupledSetup, Overlap, Switch};
+use crate::dem::checkpoint::parse_checkpoint;
 use crate::error::{invalid, Error};
 use crate::io::{vtk, write_atomic, xyz};
 use crate::Result;
@@ -335,7 +336,8 @@ struct Checkpoint {
     state: CoupledState,
 }
 
-const CHECKPOINT_FORMAT: u32 = 1;
+/// Format 2: the neighbour-list pairs keep no forces (those are recomputed every step).
+const CHECKPOINT_FORMAT: u32 = 2;
 
 /// Restores `c` from the checkpoint at `path`: (seconds so far, initial mass, frames written,
 /// porosity rows so far).
@@ -350,14 +352,7 @@ fn read_checkpoint(
     };
     let bytes =
         std::fs::read(path).map_err(|e| file_err(format!("cannot read the checkpoint: {e}")))?;
-    let k: Checkpoint = serde_json::from_slice(&bytes)
-        .map_err(|e| file_err(format!("not a coupled checkpoint: {e}")))?;
-    if k.format != CHECKPOINT_FORMAT {
-        return Err(file_err(format!(
-            "checkpoint format {}: this porelab reads format {CHECKPOINT_FORMAT}",
-            k.format
-        )));
-    }
+    let k: Checkpoint = parse_checkpoint(&bytes, CHECKPOINT_FORMAT, "coupled").map_err(file_err)?;
     if k.scene != fingerprint {
         return Err(file_err(
             "written by a different scene (its text differs): delete it to start afresh, or \

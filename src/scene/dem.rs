@@ -64,7 +64,7 @@
 
 use super::{Builtin, RunOptions};
 use crate::analysis::{pore_size, rdf, rdf::Bed};
-use crate::dem::checkpoint::DemState;
+use crate::dem::checkpoint::{parse_checkpoint, DemState};
 use crate::dem::{
     observe, start, ContactModel, DampingModel, Dem, DemSetup, Drag, Material, NormalModel,
     Particles, TangentialModel, TopWall,
@@ -900,7 +900,8 @@ struct Checkpoint {
     state: DemState,
 }
 
-const CHECKPOINT_FORMAT: u32 = 1;
+/// Format 2: the neighbour-list pairs keep no forces (those are recomputed every step).
+const CHECKPOINT_FORMAT: u32 = 2;
 
 fn write_checkpoint(
     path: &Path,
@@ -936,14 +937,7 @@ fn read_checkpoint(
     };
     let bytes =
         std::fs::read(path).map_err(|e| file_err(format!("cannot read the checkpoint: {e}")))?;
-    let c: Checkpoint = serde_json::from_slice(&bytes)
-        .map_err(|e| file_err(format!("not a DEM checkpoint: {e}")))?;
-    if c.format != CHECKPOINT_FORMAT {
-        return Err(file_err(format!(
-            "checkpoint format {}: this porelab reads format {CHECKPOINT_FORMAT}",
-            c.format
-        )));
-    }
+    let c: Checkpoint = parse_checkpoint(&bytes, CHECKPOINT_FORMAT, "DEM").map_err(file_err)?;
     if c.scene != scene.fingerprint {
         return Err(file_err(
             "written by a different scene (its text differs): delete it to start afresh, or \
