@@ -708,6 +708,9 @@ pub struct Dem {
     /// The one-thread pair loop's per-particle sums of force and n x F_t (zero between steps).
     pair_force_sum: Vec<Vector3<f64>>,
     pair_n_cross_ft_sum: Vec<Vector3<f64>>,
+    /// The team thread whose first claimed chunk panics (tests of the team's failure path).
+    #[cfg(test)]
+    pub(super) fail_team_thread: Option<usize>,
 }
 
 impl Dem {
@@ -893,6 +896,8 @@ impl Dem {
             external: Vec::new(),
             pair_force_sum: vec![Vector3::zeros(); n],
             pair_n_cross_ft_sum: vec![Vector3::zeros(); n],
+            #[cfg(test)]
+            fail_team_thread: None,
             p,
             setup,
         };

@@ -63,6 +63,32 @@ struct Board {
     next: Vec<Counter>,
     /// Chunks of the current loop completed.
     completed: Counter,
+    /// Set when a thread's chunk panicked: the chunk never completes, so the leader stops
+    /// waiting and ends the team, and the scope passes the panic on.
+    failed: AtomicBool,
+    /// The team thread whose first claimed chunk panics (tests of the failure path).
+    #[cfg(test)]
+    fail_thread: Option<usize>,
+}
+
+/// Sets its flag when dropped while the thread unwinds from a panic.
+struct FlagOnPanic<'a>(&'a AtomicBool);
+
+impl Drop for FlagOnPanic<'_> {
+    fn drop(&mut self) {
+        if std::thread::panicking() {
+            self.0.store(true, Ordering::Release);
+        }
+    }
+}
+
+/// Sends the helpers home when the leader leaves the team, by return or by panic.
+struct ExitOnDrop<'a>(&'a Board);
+
+impl Drop for ExitOnDrop<'_> {
+    fn drop(&mut self) {
+        self.0.loop_no.0.store(EXIT, Ordering::Release);
+    }
 }
 
 impl Board {
@@ -71,6 +97,9 @@ impl Board {
             loop_no: Counter(AtomicU64::new(0)),
             next: (0..threads).map(|_| Counter(AtomicU64::new(0))).collect(),
             completed: Counter(AtomicU64::new(0)),
+            failed: AtomicBool::new(false),
+            #[cfg(test)]
+            fail_thread: None,
         }
     }
 
@@ -107,8 +136,13 @@ impl Board {
         let run = chunks.div_ceil(threads);
         let mut f = None;
         let mut make = Some(make);
+        let _watch = FlagOnPanic(&self.failed);
         for t in (me..threads).chain(0..me) {
             while let Some(k) = self.claim(no, t, run, chunks) {
+                #[cfg(test)]
+                if self.fail_thread == Some(me) {
+                    panic!("a failure injected in team thread {me}");
+                }
                 let f = f.get_or_insert_with(|| (make.take().expect("built once"))());
                 f(k);
                 self.completed.0.fetch_add(1, Ordering::Release);
@@ -159,6 +193,8 @@ impl<T> Shared<T> {
 enum Stop {
     Done,
     Rebuild,
+    /// A helper's chunk panicked (the scope passes the panic on before this is seen).
+    Failed,
 }
 
 impl Dem {
@@ -198,7 +234,12 @@ impl Dem {
             Shared::of(&mut self.wall_f),
         );
         let this = Shared(self as *mut Dem);
-        let board = Board::new(threads);
+        #[allow(unused_mut)]
+        let mut board = Board::new(threads);
+        #[cfg(test)]
+        {
+            board.fail_thread = self.fail_team_thread;
+        }
         let moved = AtomicBool::new(false);
         let top_z = AtomicU64::new(self.top_z_m.to_bits());
         let top_v = AtomicU64::new(self.top_v_m_s.to_bits());
@@ -277,12 +318,17 @@ impl Dem {
                 do_loop(seen, me);
             }
         };
-        // the leader: runs loop `no` with the helpers present and waits for its chunks
+        // the leader: runs loop `no` with the helpers present and waits for its chunks; false
+        // when a helper's chunk panicked (it never completes)
         let run_loop = |no: u64| {
             board.publish(no);
             do_loop(no, 0);
             let all = chunks((no - 1) % 3) as u64;
-            spin_until(|| board.completed.0.load(Ordering::Acquire) == all);
+            spin_until(|| {
+                board.completed.0.load(Ordering::Acquire) == all
+                    || board.failed.load(Ordering::Acquire)
+            });
+            !board.failed.load(Ordering::Acquire)
         };
         let (mut steps, mut time_s) = (0, self.time_s);
         let mut totals: Option<WallTotals> = None;
@@ -290,10 +336,14 @@ impl Dem {
             for me in 1..threads {
                 scope.spawn(move |_| helper(me));
             }
+            // the helpers go home however the leader leaves (a panic of its own included), and
+            // the scope then passes on any helper's panic
+            let _exit = ExitOnDrop(board);
             let mut no = 0;
-            let outcome = loop {
-                run_loop(no + 1);
-                run_loop(no + 2);
+            loop {
+                if !(run_loop(no + 1) && run_loop(no + 2)) {
+                    break Ok(Stop::Failed);
+                }
                 // the step's end (as in `Dem::step`)
                 let dem = unsafe { this.get() };
                 let z = f64::from_bits(top_z.load(Ordering::Relaxed));
@@ -308,7 +358,9 @@ impl Dem {
                 }
                 // the next step's first half
                 moved.store(false, Ordering::Relaxed);
-                run_loop(no + 3);
+                if !run_loop(no + 3) {
+                    break Ok(Stop::Failed);
+                }
                 no += 3;
                 match next_top_z(z, v, dt, time_s) {
                     Ok(z_next) => top_z.store(z_next.to_bits(), Ordering::Relaxed),
@@ -317,9 +369,7 @@ impl Dem {
                 if moved.load(Ordering::Relaxed) {
                     break Ok(Stop::Rebuild);
                 }
-            };
-            board.loop_no.0.store(EXIT, Ordering::Release);
-            outcome
+            }
         });
         self.top_z_m = f64::from_bits(top_z.load(Ordering::Relaxed));
         self.top_v_m_s = f64::from_bits(top_v.load(Ordering::Relaxed));
@@ -328,6 +378,43 @@ impl Dem {
         if let Some(t) = &totals {
             self.set_wall_totals(t);
         }
-        Ok((steps, outcome? == Stop::Rebuild))
+        let outcome = outcome?;
+        assert!(outcome != Stop::Failed, "a thread of the DEM team panicked");
+        Ok((steps, outcome == Stop::Rebuild))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use crate::scene::dem::{build, parse_scene};
+    use std::time::Duration;
+
+    /// A panic in a chunk of the leader or of a helper reaches the caller of `run`; the team
+    /// neither hangs nor carries on.
+    #[test]
+    fn a_panic_in_any_team_thread_reaches_the_caller() {
+        for thread in [0, 1] {
+            let (tx, rx) = std::sync::mpsc::channel();
+            std::thread::spawn(move || {
+                let text = include_str!("../scene/builtin/dem-small.toml")
+                    .replace("n = 300", "n = 600")
+                    .replace("porosity = 0.75", "porosity = 0.68");
+                let mut dem = build(&parse_scene(&text, "test").unwrap()).unwrap();
+                dem.fail_team_thread = Some(thread);
+                let pool = rayon::ThreadPoolBuilder::new()
+                    .num_threads(2)
+                    .build()
+                    .unwrap();
+                let run = std::panic::AssertUnwindSafe(|| pool.install(|| dem.run(300)));
+                tx.send(std::panic::catch_unwind(run).is_err()).unwrap();
+            });
+            let panicked = rx
+                .recv_timeout(Duration::from_secs(60))
+                .unwrap_or_else(|_| panic!("the team hangs when thread {thread} panics"));
+            assert!(
+                panicked,
+                "thread {thread}: the run returned instead of panicking"
+            );
+        }
     }
 }
