@@ -11,31 +11,7 @@ use super::neighbour::Pair;
 use crate::error::invalid;
 use crate::Result;
 use nalgebra::Vector3;
-use serde::{de::DeserializeOwned, Deserialize, Serialize};
-
-/// Parses a checkpoint file's JSON, reading its `format` first, so that a file written in
-/// another format is named as such (and not reported as malformed). `kind` names the run.
-pub fn parse_checkpoint<T: DeserializeOwned>(
-    bytes: &[u8],
-    format: u32,
-    kind: &str,
-) -> std::result::Result<T, String> {
-    #[derive(Deserialize)]
-    struct Format {
-        format: u32,
-    }
-    let malformed = |e: serde_json::Error| format!("not a {kind} checkpoint: {e}");
-    let found = serde_json::from_slice::<Format>(bytes)
-        .map_err(malformed)?
-        .format;
-    if found != format {
-        return Err(format!(
-            "checkpoint format {found}: this porelab reads format {format}; delete the \
-             checkpoint to start the run afresh"
-        ));
-    }
-    serde_json::from_slice(bytes).map_err(malformed)
-}
+use serde::{Deserialize, Serialize};
 
 /// Bits of three f64.
 type V3 = [u64; 3];
@@ -254,18 +230,6 @@ impl Dem {
 mod tests {
     use super::*;
     use crate::scene::dem::{build, parse_scene};
-
-    #[test]
-    fn a_checkpoint_of_another_format_is_named_as_such() {
-        let old = br#"{"format": 1, "state": {}}"#;
-        let e = parse_checkpoint::<DemState>(old, 2, "DEM").unwrap_err();
-        assert!(
-            e.starts_with("checkpoint format 1: this porelab reads format 2"),
-            "{e}"
-        );
-        let e = parse_checkpoint::<DemState>(br#"{"state": {}}"#, 2, "DEM").unwrap_err();
-        assert!(e.starts_with("not a DEM checkpoint"), "{e}");
-    }
 
     /// The built-in small bed with 120 spheres at 68 % porosity, thrown at the floor so that
     /// contacts (with tangential springs) form within a few thousand steps.

@@ -234,12 +234,12 @@ impl Dem {
             Shared::of(&mut self.wall_f),
         );
         let this = Shared(self as *mut Dem);
-        #[allow(unused_mut)]
-        let mut board = Board::new(threads);
+        let board = Board::new(threads);
         #[cfg(test)]
-        {
-            board.fail_thread = self.fail_team_thread;
-        }
+        let board = Board {
+            fail_thread: self.fail_team_thread,
+            ..board
+        };
         let moved = AtomicBool::new(false);
         let top_z = AtomicU64::new(self.top_z_m.to_bits());
         let top_v = AtomicU64::new(self.top_v_m_s.to_bits());

@@ -35,10 +35,9 @@
 //! pressure deviation Pa) at the same times, `porosity_profile.csv` (time, z of each layer,
 //! porosity), `summary.json`.
 
-use super::{dem as dem_scene, Builtin, RunOptions};
+use super::{dem as dem_scene, parse_checkpoint, Builtin, RunOptions};
 use crate::coupled::checkpoint::CoupledState;
 use crate::coupled::{Basesheet, Coupled, CoupledSetup, Overlap, Switch};
-use crate::dem::checkpoint::parse_checkpoint;
 use crate::error::{invalid, Error};
 use crate::io::{vtk, write_atomic, xyz};
 use crate::Result;

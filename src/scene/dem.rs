@@ -62,9 +62,10 @@
 //! `profile.csv`, `history.csv`, `rdf.csv`, `pore_sizes.csv`, `summary.json`, and while running
 //! `checkpoint.json`, from which an interrupted run resumes bitwise.
 
+use super::parse_checkpoint;
 use super::{Builtin, RunOptions};
 use crate::analysis::{pore_size, rdf, rdf::Bed};
-use crate::dem::checkpoint::{parse_checkpoint, DemState};
+use crate::dem::checkpoint::DemState;
 use crate::dem::{
     observe, start, ContactModel, DampingModel, Dem, DemSetup, Drag, Material, NormalModel,
     Particles, TangentialModel, TopWall,

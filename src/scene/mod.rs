@@ -157,6 +157,30 @@ pub fn cli_show(name: &str) -> Result<()> {
 /// cost (results do not depend on the count), and thousands of threads stall the machine.
 pub const MAX_THREADS_PER_CORE: usize = 8;
 
+/// Parses a checkpoint file's JSON, reading its `format` first, so that a file written in
+/// another format is named as such (and not reported as malformed). `kind` names the run.
+pub(crate) fn parse_checkpoint<T: serde::de::DeserializeOwned>(
+    bytes: &[u8],
+    format: u32,
+    kind: &str,
+) -> std::result::Result<T, String> {
+    #[derive(serde::Deserialize)]
+    struct Format {
+        format: u32,
+    }
+    let malformed = |e: serde_json::Error| format!("not a {kind} checkpoint: {e}");
+    let found = serde_json::from_slice::<Format>(bytes)
+        .map_err(malformed)?
+        .format;
+    if found != format {
+        return Err(format!(
+            "checkpoint format {found}: this porelab reads format {format}; delete the \
+             checkpoint to start the run afresh"
+        ));
+    }
+    serde_json::from_slice(bytes).map_err(malformed)
+}
+
 /// Refuses a `--threads` of 0 or above [`MAX_THREADS_PER_CORE`] per available core.
 pub fn check_threads(threads: Option<usize>) -> Result<()> {
     let Some(t) = threads else { return Ok(()) };
@@ -237,5 +261,23 @@ pub fn cli_run(
         }
         (Some(_), Some(_)) => invalid("give either a scene file or --builtin NAME, not both"),
         (None, None) => invalid("give a scene file, --builtin NAME, or --list"),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::dem::checkpoint::DemState;
+
+    #[test]
+    fn a_checkpoint_of_another_format_is_named_as_such() {
+        let old = br#"{"format": 1, "state": {}}"#;
+        let e = parse_checkpoint::<DemState>(old, 2, "DEM").unwrap_err();
+        assert!(
+            e.starts_with("checkpoint format 1: this porelab reads format 2"),
+            "{e}"
+        );
+        let e = parse_checkpoint::<DemState>(br#"{"state": {}}"#, 2, "DEM").unwrap_err();
+        assert!(e.starts_with("not a DEM checkpoint"), "{e}");
     }
 }
