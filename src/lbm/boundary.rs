@@ -21,7 +21,7 @@ use super::collision::{equilibrium, relax_cell, Collision};
 use super::forcing::Forcing;
 use super::geometry::{Dims, Geometry};
 use super::lattice::{opposite, Lattice};
-use super::solver::density_momentum;
+use super::solver::{density_momentum, Layout};
 use crate::error::{invalid, Result};
 
 /// A face of the box: the plane `axis` = 0 (`high = false`) or `axis` = n - 1 (`high = true`).
@@ -262,9 +262,14 @@ impl Boundaries {
 
     /// The populations arriving at `p` from `src` (post-collision, layout of the solver), with
     /// the bounce-back links of `geom`: what the kernel pulled for that node.
-    fn pull_cell<L: Lattice>(src: &[f64], geom: &Geometry, p: [usize; 3]) -> L::Pop {
+    fn pull_cell<L: Lattice>(
+        src: &[f64],
+        layout: &Layout,
+        geom: &Geometry,
+        p: [usize; 3],
+    ) -> L::Pop {
         let d = geom.dims;
-        let idx = |c: [usize; 3], q: usize| ((c[2] * L::Q + q) * d.ny + c[1]) * d.nx + c[0];
+        let idx = |c: [usize; 3], q: usize| layout.index(c[2], q, c[1], c[0]);
         let mut pop = L::Pop::default();
         for (q, v) in pop.as_mut().iter_mut().enumerate() {
             let c = L::C[q];
@@ -281,11 +286,12 @@ impl Boundaries {
 
     fn pulled<L: Lattice, F: Forcing>(
         src: &[f64],
+        layout: &Layout,
         geom: &Geometry,
         force: &F,
         p: [usize; 3],
     ) -> Pulled<L> {
-        let pop = Self::pull_cell::<L>(src, geom, p);
+        let pop = Self::pull_cell::<L>(src, layout, geom, p);
         let (rho, j) = density_momentum::<L>(&pop);
         let s = force.state(geom.dims.cell(p[0], p[1], p[2]), rho, j);
         Pulled {
@@ -304,6 +310,7 @@ impl Boundaries {
         &mut self,
         src: &[f64],
         dst: &mut [f64],
+        layout: &Layout,
         geom: &Geometry,
         coll: &C,
         force: &F,
@@ -313,11 +320,11 @@ impl Boundaries {
         let mut out = vec![0.0; L::Q];
         for plane in &mut self.planes {
             for (k, node) in plane.nodes.iter().enumerate() {
-                let one = Self::pulled::<L, F>(src, geom, force, node.inner1);
+                let one = Self::pulled::<L, F>(src, layout, geom, force, node.inner1);
                 let (rho_b, u_b) = match &plane.condition {
                     Condition::Velocity(v) => (one.rho, v[k]),
                     Condition::Density(rho) => {
-                        let two = Self::pulled::<L, F>(src, geom, force, node.inner2);
+                        let two = Self::pulled::<L, F>(src, layout, geom, force, node.inner2);
                         let u = [0, 1, 2].map(|a| 2.0 * one.u[a] - two.u[a]);
                         (*rho, u)
                     }
@@ -332,7 +339,7 @@ impl Boundaries {
                 relax_cell::<L, C, F>(coll, rho_b, &s, &pre, &mut out);
                 let p = d.coords(node.cell);
                 for (q, v) in out.iter().enumerate() {
-                    dst[((p[2] * L::Q + q) * d.ny + p[1]) * d.nx + p[0]] = *v;
+                    dst[layout.index(p[2], q, p[1], p[0])] = *v;
                 }
             }
         }

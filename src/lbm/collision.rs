@@ -170,15 +170,14 @@ fn add_c_term<const N: usize>(s: &mut [f64; N], first: &mut bool, c: i32, v: &[f
     *first = false;
 }
 
-/// Relaxes a block of `N` cells: pulled populations `f`, state `s`, post-collision
-/// populations into `out`, with the source term when `FORCED`. Every loop runs over the cells
+/// Relaxes a block of `N` cells in place: pulled populations `f` become post-collision ones,
+/// state `s`, with the source term when `FORCED`. Every loop runs over the cells
 /// innermost with no branch inside, so each becomes vector instructions.
 #[inline(always)]
 pub fn relax_block<L: Lattice, C: Collision, const FORCED: bool, const N: usize>(
     coll: &C,
     s: &BlockState<N>,
-    f: &Block<N>,
-    out: &mut Block<N>,
+    f: &mut Block<N>,
 ) {
     let wp = coll.omega_plus();
     let wm = coll.omega_minus();
@@ -186,13 +185,13 @@ pub fn relax_block<L: Lattice, C: Collision, const FORCED: bool, const N: usize>
     let sm = 1.0 - 0.5 * wm;
     // rest population: even part only
     let w0 = L::W[0];
-    for l in 0..N {
+    for (l, f0) in f[0].iter_mut().enumerate() {
         let wr = w0 * s.rho[l];
-        let mut d = -wp * (f[0][l] - wr * (1.0 - 1.5 * s.uu[l]));
+        let mut d = -wp * (*f0 - wr * (1.0 - 1.5 * s.uu[l]));
         if FORCED {
             d += sp * wr * (-3.0 * s.ua[l]);
         }
-        out[0][l] = f[0][l] + d;
+        *f0 += d;
     }
     each_pair!(L, q, {
         let w = L::W[q];
@@ -202,21 +201,21 @@ pub fn relax_block<L: Lattice, C: Collision, const FORCED: bool, const N: usize>
         } else {
             [0.0; N]
         };
-        let (fq, fo) = (&f[q], &f[q + 1]);
         for l in 0..N {
+            let (fq, fo) = (f[q][l], f[q + 1][l]);
             let wr = w * s.rho[l];
             let ep = wr * (1.0 + 4.5 * cu[l] * cu[l] * s.inv_eps[l] - 1.5 * s.uu[l]);
             let em = wr * 3.0 * cu[l];
-            let fp = 0.5 * (fq[l] + fo[l]);
-            let fm = 0.5 * (fq[l] - fo[l]);
+            let fp = 0.5 * (fq + fo);
+            let fm = 0.5 * (fq - fo);
             let mut dp = -wp * (fp - ep);
             let mut dm = -wm * (fm - em);
             if FORCED {
                 dp += sp * wr * (9.0 * cu[l] * ca[l] * s.inv_eps[l] - 3.0 * s.ua[l]);
                 dm += sm * wr * 3.0 * ca[l];
             }
-            out[q][l] = fq[l] + dp + dm;
-            out[q + 1][l] = fo[l] + dp - dm;
+            f[q][l] = fq + dp + dm;
+            f[q + 1][l] = fo + dp - dm;
         }
     });
 }
@@ -236,13 +235,12 @@ pub fn relax_cell<L: Lattice, C: Collision, F: Forcing>(
     for (fq, p) in f.iter_mut().zip(&pre[..L::Q]) {
         fq[0] = *p;
     }
-    let mut o: Block<1> = [[0.0]; QMAX];
     if F::ACTIVE {
-        relax_block::<L, C, true, 1>(coll, &st, &f, &mut o);
+        relax_block::<L, C, true, 1>(coll, &st, &mut f);
     } else {
-        relax_block::<L, C, false, 1>(coll, &st, &f, &mut o);
+        relax_block::<L, C, false, 1>(coll, &st, &mut f);
     }
-    for (v, oq) in out[..L::Q].iter_mut().zip(&o) {
+    for (v, oq) in out[..L::Q].iter_mut().zip(&f) {
         *v = oq[0];
     }
 }

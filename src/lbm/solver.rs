@@ -3,15 +3,15 @@
 //! per-cell branch on the choice.
 //!
 //! Storage is a structure of arrays in z-planes: population q of cell (x, y, z) is at
-//! `((z Q + q) ny + y) nx + x`, so each plane (all q) is one contiguous chunk that one rayon
-//! task writes. A step walks every row's fluid cells in blocks of [`LANES`] cells: it pulls
-//! the Q upstream populations of the block (one contiguous load per q, with one wrapped lane
-//! at the row's ends; a gather for the cells of short runs between solids), overwrites the
-//! bounce-back links (f_q(x) = f*_opp(q)(x) + delta; halfway bounce-back, seed 002 ref. 12 and
-//! Ladd 1994), takes the moments, collides and stores, all in registers, every q written out
-//! by [`each_q!`] so the whole block is straight-line vector code. Every cell's update reads
-//! only the previous array, so the result is the same at any thread count; sums (mass, mean
-//! velocity) are taken per plane and added in plane order.
+//! `((z Q + q) ny + y) nx + x` ([`Layout`]), so each plane (all q) is one contiguous chunk
+//! that one rayon task writes. A step walks every row's fluid cells in blocks of [`LANES`]
+//! cells: it pulls the Q upstream populations of the block (one contiguous load per q, with
+//! one wrapped lane at the row's ends; a gather for the cells of short runs between solids),
+//! overwrites the bounce-back links (f_q(x) = f*_opp(q)(x) + delta; halfway bounce-back, seed
+//! 002 ref. 12 and Ladd 1994), takes the moments, collides in place and stores, every q
+//! written out by [`each_q!`] so the whole block is straight-line vector code. Every cell's
+//! update reads only the previous array, so the result is the same at any thread count; sums
+//! (mass, mean velocity) are taken per plane and added in plane order.
 
 use super::boundary::Boundaries;
 use super::collision::{equilibrium, relax_block, Block, BlockState, Collision, LANES};
@@ -49,12 +49,14 @@ impl Record {
 }
 
 /// Where one row's populations come from: the start in the source array of the upstream
-/// row of each population, the row's own start (population 0), its first cell index and y.
+/// row of each population, the row's own start (population 0), its first cell index and y,
+/// and the arrays' layout.
 struct RowCtx {
     up: [usize; QMAX],
     here: usize,
     cell0: usize,
     y: usize,
+    layout: Layout,
 }
 
 /// What every block of a row needs: source array, extent, collision, forcing, the row's
@@ -101,6 +103,45 @@ impl std::ops::DerefMut for Populations {
     }
 }
 
+/// Where population q of cell (x, y, z) lives in the population arrays:
+/// `z z_stride + q q_stride + y nx + x` with q_stride = ny nx and z_stride = Q ny nx, the one
+/// place the kernel, the boundaries and the sums take the index from. (Padding each q-subplane
+/// to an odd number of cache lines, so that at power-of-two sizes the 2Q rows of a block fall
+/// in different cache sets, was measured and gave no speed-up.)
+#[derive(Debug, Clone, Copy)]
+pub struct Layout {
+    pub nx: usize,
+    pub ny: usize,
+    pub nz: usize,
+    pub q: usize,
+    pub q_stride: usize,
+    pub z_stride: usize,
+}
+
+impl Layout {
+    pub fn new(d: &Dims, q: usize) -> Layout {
+        let q_stride = d.ny * d.nx;
+        Layout {
+            nx: d.nx,
+            ny: d.ny,
+            nz: d.nz,
+            q,
+            q_stride,
+            z_stride: q * q_stride,
+        }
+    }
+
+    /// Values in one population array.
+    pub fn values(&self) -> usize {
+        self.nz * self.z_stride
+    }
+
+    #[inline(always)]
+    pub fn index(&self, z: usize, q: usize, y: usize, x: usize) -> usize {
+        z * self.z_stride + q * self.q_stride + y * self.nx + x
+    }
+}
+
 /// Bytes a solver of `cells` cells with `q` populations allocates (two population arrays,
 /// mask, and `extra_per_cell` bytes of forcing fields).
 pub fn bytes_needed(cells: usize, q: usize, extra_per_cell: usize) -> u128 {
@@ -143,6 +184,8 @@ pub struct Solver<L: Lattice, C: Collision, F: Forcing> {
     f: Populations,
     /// Scratch for the next step.
     g: Populations,
+    /// Where each population lives in `f` and `g`.
+    layout: Layout,
     /// Velocity and density planes (non-equilibrium extrapolation), applied after the kernel.
     boundaries: Boundaries,
     steps: u64,
@@ -155,13 +198,14 @@ impl<L: Lattice, C: Collision, F: Forcing> Solver<L, C, F> {
     pub fn new(geometry: Geometry, collision: C, forcing: F) -> Result<Self> {
         let dims = geometry.dims;
         check_memory(dims, L::Q, 0)?;
-        let n = dims.cells() * L::Q;
+        let layout = Layout::new(&dims, L::Q);
         let mut s = Solver {
             geometry,
             collision,
             forcing,
-            f: Populations::zeros(n),
-            g: Populations::zeros(n),
+            f: Populations::zeros(layout.values()),
+            g: Populations::zeros(layout.values()),
+            layout,
             boundaries: Boundaries::default(),
             steps: 0,
             _l: PhantomData,
@@ -199,7 +243,7 @@ impl<L: Lattice, C: Collision, F: Forcing> Solver<L, C, F> {
 
     #[inline(always)]
     fn index(d: &Dims, z: usize, q: usize, y: usize, x: usize) -> usize {
-        ((z * L::Q + q) * d.ny + y) * d.nx + x
+        Layout::new(d, L::Q).index(z, q, y, x)
     }
 
     /// Sets every fluid cell to the equilibrium of `state(cell) = (rho, u)` (porosity from the
@@ -259,20 +303,17 @@ impl<L: Lattice, C: Collision, F: Forcing> Solver<L, C, F> {
     /// l: cell x = xs[l]), with the bounce-back links of those cells applied. `CONTIG`: the
     /// cells are xs[0] + l in a row longer than a block, so each population is one contiguous
     /// load, plus one wrapped lane for a block at either end of the row.
-    /// `up[q]`: the start of the upstream row of population q in `src`; `links`: the row's
-    /// links from the first one at or after xs[0].
-    #[allow(clippy::too_many_arguments)]
+    /// `rowc.up[q]`: the start of the upstream row of population q in `src`; `links`: the
+    /// row's links from the first one at or after xs[0].
     #[inline(always)]
     fn gather<const CONTIG: bool>(
         src: &[f64],
-        d: &Dims,
-        up: &[usize; QMAX],
+        rowc: &RowCtx,
         links: &[Link],
-        here: usize,
         xs: &[usize; LANES],
         f: &mut Block<LANES>,
     ) -> usize {
-        let nx = d.nx;
+        let (up, here, nx) = (&rowc.up, rowc.here, rowc.layout.nx);
         each_q!(L, q, {
             let cx = L::C[q][0];
             let row = &src[up[q]..up[q] + nx];
@@ -310,7 +351,7 @@ impl<L: Lattice, C: Collision, F: Forcing> Solver<L, C, F> {
             }
             used += 1;
             let q = l.q as usize;
-            let v = src[here + opposite(q) * d.ny * nx + x] + l.delta;
+            let v = src[here + opposite(q) * rowc.layout.q_stride + x] + l.delta;
             if CONTIG {
                 f[q][x - xs[0]] = v;
             } else {
@@ -377,27 +418,26 @@ impl<L: Lattice, C: Collision, F: Forcing> Solver<L, C, F> {
         links: &[Link],
         xs: &[usize; LANES],
         n: usize,
+        f: &mut Block<LANES>,
         out: &mut [f64],
         rec: &mut Option<PlaneRecord>,
     ) -> usize {
-        let mut f: Block<LANES> = [[0.0; LANES]; QMAX];
-        let used = Self::gather::<CONTIG>(src, d, &rowc.up, links, rowc.here, xs, &mut f);
+        let used = Self::gather::<CONTIG>(src, rowc, links, xs, f);
         let mut cells = [0; LANES];
         for l in 0..LANES {
             cells[l] = rowc.cell0 + xs[l];
         }
         let mut st = BlockState::<LANES>::default();
-        Self::block_state(force, &f, cells, CONTIG, &mut st);
-        let mut o: Block<LANES> = [[0.0; LANES]; QMAX];
+        Self::block_state(force, f, cells, CONTIG, &mut st);
         if F::ACTIVE {
-            relax_block::<L, C, true, LANES>(coll, &st, &f, &mut o);
+            relax_block::<L, C, true, LANES>(coll, &st, f);
         } else {
-            relax_block::<L, C, false, LANES>(coll, &st, &f, &mut o);
+            relax_block::<L, C, false, LANES>(coll, &st, f);
         }
-        let plane_q = d.ny * d.nx;
+        let plane_q = rowc.layout.q_stride;
         let row0 = rowc.y * d.nx;
         each_q!(L, q, {
-            let oq = &o[q];
+            let oq = &f[q];
             let orow = &mut out[q * plane_q + row0..q * plane_q + row0 + d.nx];
             if CONTIG {
                 orow[xs[0]..xs[0] + LANES].copy_from_slice(oq);
@@ -426,6 +466,7 @@ impl<L: Lattice, C: Collision, F: Forcing> Solver<L, C, F> {
         (src, d, coll, force, rowc, links): RowArgs<C, F>,
         pending: &mut [usize; LANES],
         np: usize,
+        f: &mut Block<LANES>,
         out: &mut [f64],
         rec: &mut Option<PlaneRecord>,
     ) {
@@ -442,6 +483,7 @@ impl<L: Lattice, C: Collision, F: Forcing> Solver<L, C, F> {
             &links[first..],
             pending,
             np,
+            f,
             out,
             rec,
         );
@@ -465,18 +507,22 @@ impl<L: Lattice, C: Collision, F: Forcing> Solver<L, C, F> {
     ) {
         let d = geom.dims;
         let nx = d.nx;
+        let layout = Layout::new(&d, L::Q);
+        // the block's populations: pulled, then relaxed in place, then stored
+        let mut f: Block<LANES> = [[0.0; LANES]; QMAX];
         for y in 0..d.ny {
             let r = z * d.ny + y;
             let mut rowc = RowCtx {
                 up: [0; QMAX],
-                here: Self::index(&d, z, 0, y, 0),
+                here: layout.index(z, 0, y, 0),
                 cell0: r * nx,
                 y,
+                layout,
             };
             each_q!(L, q, {
                 let c = L::C[q];
                 let (ys, zs) = (upstream(y, c[1], d.ny), upstream(z, c[2], d.nz));
-                rowc.up[q] = Self::index(&d, zs, q, ys, 0);
+                rowc.up[q] = layout.index(zs, q, ys, 0);
             });
             let links = geom.links(r);
             let row = (src, &d, coll, force, &rowc, links);
@@ -501,6 +547,7 @@ impl<L: Lattice, C: Collision, F: Forcing> Solver<L, C, F> {
                             &links[li..],
                             &xs,
                             LANES,
+                            &mut f,
                             out,
                             rec,
                         );
@@ -510,14 +557,14 @@ impl<L: Lattice, C: Collision, F: Forcing> Solver<L, C, F> {
                         np += 1;
                         x += 1;
                         if np == LANES {
-                            Self::gathered(row, &mut pending, np, out, rec);
+                            Self::gathered(row, &mut pending, np, &mut f, out, rec);
                             np = 0;
                         }
                     }
                 }
             }
             if np > 0 {
-                Self::gathered(row, &mut pending, np, out, rec);
+                Self::gathered(row, &mut pending, np, &mut f, out, rec);
             }
         }
     }
@@ -579,7 +626,7 @@ impl<L: Lattice, C: Collision, F: Forcing> Solver<L, C, F> {
 
     fn step_inner(&mut self, rec: Option<&mut Record>) {
         let d = self.dims();
-        let plane = L::Q * d.nx * d.ny;
+        let plane = self.layout.z_stride;
         let nxy = d.nx * d.ny;
         #[cfg(target_arch = "x86_64")]
         let avx2 = is_x86_feature_detected!("avx2") && is_x86_feature_detected!("fma");
@@ -617,7 +664,7 @@ impl<L: Lattice, C: Collision, F: Forcing> Solver<L, C, F> {
             });
         if !self.boundaries.is_empty() {
             self.boundaries
-                .apply::<L, C, F>(&self.f, &mut self.g, geom, coll, force);
+                .apply::<L, C, F>(&self.f, &mut self.g, &self.layout, geom, coll, force);
         }
         std::mem::swap(&mut self.f, &mut self.g);
         self.steps += 1;
@@ -627,7 +674,7 @@ impl<L: Lattice, C: Collision, F: Forcing> Solver<L, C, F> {
     /// units), added plane by plane in order.
     pub fn momentum(&self) -> [f64; 3] {
         let d = self.dims();
-        let plane = L::Q * d.nx * d.ny;
+        let plane = self.layout.z_stride;
         let sums: Vec<[f64; 3]> = self
             .f
             .par_chunks(plane)
@@ -637,7 +684,7 @@ impl<L: Lattice, C: Collision, F: Forcing> Solver<L, C, F> {
                 for y in 0..d.ny {
                     for &(x0, x1) in self.geometry.runs(z * d.ny + y) {
                         for q in 0..L::Q {
-                            let base = (q * d.ny + y) * d.nx;
+                            let base = self.layout.index(0, q, y, 0);
                             let f: f64 = pl[base + x0 as usize..base + x1 as usize].iter().sum();
                             for (k, sk) in s.iter_mut().enumerate() {
                                 *sk += L::C[q][k] as f64 * f;
@@ -713,7 +760,7 @@ impl<L: Lattice, C: Collision, F: Forcing> Solver<L, C, F> {
     /// collision, streaming and resting bounce-back walls).
     pub fn mass(&self) -> f64 {
         let d = self.dims();
-        let plane = L::Q * d.nx * d.ny;
+        let plane = self.layout.z_stride;
         let sums: Vec<f64> = self
             .f
             .par_chunks(plane)
@@ -723,7 +770,7 @@ impl<L: Lattice, C: Collision, F: Forcing> Solver<L, C, F> {
                 for y in 0..d.ny {
                     for &(x0, x1) in self.geometry.runs(z * d.ny + y) {
                         for q in 0..L::Q {
-                            let base = (q * d.ny + y) * d.nx;
+                            let base = self.layout.index(0, q, y, 0);
                             s += pl[base + x0 as usize..base + x1 as usize]
                                 .iter()
                                 .sum::<f64>();
@@ -835,7 +882,7 @@ mod kernel_tests {
                         let st = s.forcing.state(d.cell(x, y, z), rho, j);
                         relax_cell::<L, C, F>(&s.collision, rho, &st, &pre, &mut post);
                         for q in 0..L::Q {
-                            out[Solver::<L, C, F>::index(&d, z, q, y, x)] = post[q];
+                            out[s.layout.index(z, q, y, x)] = post[q];
                         }
                     }
                 }
