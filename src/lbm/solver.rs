@@ -111,9 +111,7 @@ impl std::ops::DerefMut for Populations {
 #[derive(Debug, Clone, Copy)]
 pub struct Layout {
     pub nx: usize,
-    pub ny: usize,
     pub nz: usize,
-    pub q: usize,
     pub q_stride: usize,
     pub z_stride: usize,
 }
@@ -123,9 +121,7 @@ impl Layout {
         let q_stride = d.ny * d.nx;
         Layout {
             nx: d.nx,
-            ny: d.ny,
             nz: d.nz,
-            q,
             q_stride,
             z_stride: q * q_stride,
         }
