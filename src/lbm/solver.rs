@@ -237,15 +237,10 @@ impl<L: Lattice, C: Collision, F: Forcing> Solver<L, C, F> {
         self.steps
     }
 
-    #[inline(always)]
-    fn index(d: &Dims, z: usize, q: usize, y: usize, x: usize) -> usize {
-        Layout::new(d, L::Q).index(z, q, y, x)
-    }
-
     /// Sets every fluid cell to the equilibrium of `state(cell) = (rho, u)` (porosity from the
     /// forcing); solid cells hold zeros.
     pub fn init(&mut self, state: impl Fn(usize) -> (f64, [f64; 3])) {
-        let d = self.dims();
+        let (d, layout) = (self.dims(), self.layout);
         for z in 0..d.nz {
             for y in 0..d.ny {
                 for x in 0..d.nx {
@@ -258,7 +253,7 @@ impl<L: Lattice, C: Collision, F: Forcing> Solver<L, C, F> {
                         equilibrium::<L>(rho, u, inv_eps)
                     };
                     for (q, v) in feq.as_ref().iter().enumerate() {
-                        self.f[Self::index(&d, z, q, y, x)] = *v;
+                        self.f[layout.index(z, q, y, x)] = *v;
                     }
                 }
             }
@@ -270,12 +265,12 @@ impl<L: Lattice, C: Collision, F: Forcing> Solver<L, C, F> {
     #[inline(always)]
     fn pull_row(src: &[f64], geom: &Geometry, z: usize, y: usize, buf: &mut [f64]) {
         let d = geom.dims;
-        let nx = d.nx;
+        let (nx, layout) = (d.nx, Layout::new(&d, L::Q));
         for q in 0..L::Q {
             let c = L::C[q];
             let ys = (y + d.ny - (c[1].rem_euclid(d.ny as i32) as usize)) % d.ny;
             let zs = (z + d.nz - (c[2].rem_euclid(d.nz as i32) as usize)) % d.nz;
-            let start = Self::index(&d, zs, q, ys, 0);
+            let start = layout.index(zs, q, ys, 0);
             let row = &src[start..start + nx];
             let out = &mut buf[q * nx..(q + 1) * nx];
             if nx == 1 || c[0] == 0 {
@@ -291,7 +286,7 @@ impl<L: Lattice, C: Collision, F: Forcing> Solver<L, C, F> {
         let r = z * d.ny + y;
         for l in geom.links(r) {
             let (x, q) = (l.x as usize, l.q as usize);
-            buf[q * nx + x] = src[Self::index(&d, z, opposite(q), y, x)] + l.delta;
+            buf[q * nx + x] = src[layout.index(z, opposite(q), y, x)] + l.delta;
         }
     }
 
