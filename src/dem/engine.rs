@@ -220,11 +220,15 @@ fn pair_forces<T: Lane>(
         }
     }
     if let Some(fs) = forces {
-        for (l, pf) in fs.iter_mut().enumerate() {
-            if T::mask_lane(touching, l) {
-                pf.force = f.lane(l);
-                pf.n_cross_ft = n_cross_ft.lane(l);
-            }
+        // the pairs the sums take (delta > 0); one that is apart adds +0 to the gather's
+        // sums, which leaves them bitwise as they are (a sum that starts at +0 is never -0),
+        // so the gather need not read the pairs
+        for (l, (pf, pr)) in fs.iter_mut().zip(prs.iter()).enumerate() {
+            (pf.force, pf.n_cross_ft) = if pr.delta > 0.0 {
+                (f.lane(l), n_cross_ft.lane(l))
+            } else {
+                (Vector3::zeros(), Vector3::zeros())
+            };
         }
     }
     if let Some(s) = sums {
@@ -390,22 +394,17 @@ fn gather(c: &GatherCtx, start: usize, mut out: GatherOut) {
         } else {
             let second = nl.second_start[i] as usize..nl.second_start[i + 1] as usize;
             for &k in &nl.second_pairs[second] {
-                if nl.pairs[k as usize].delta > 0.0 {
-                    let pf = &nl.forces[k as usize];
-                    f -= pf.force;
-                    nxft += pf.n_cross_ft;
-                }
+                let pf = &nl.forces[k as usize];
+                f -= pf.force;
+                nxft += pf.n_cross_ft;
             }
-            for k in nl.first_start[i] as usize..nl.first_start[i + 1] as usize {
-                if nl.pairs[k].delta > 0.0 {
-                    let pf = &nl.forces[k];
-                    f += pf.force;
-                    nxft += pf.n_cross_ft;
-                }
+            for pf in &nl.forces[nl.first_start[i] as usize..nl.first_start[i + 1] as usize] {
+                f += pf.force;
+                nxft += pf.n_cross_ft;
             }
         }
         let r = rad[i];
-        *wf = Vector3::zeros();
+        let mut wall_sum: Option<Vector3<f64>> = None;
         // walls: spheres of infinite radius and mass (R* = R, m* = m)
         for (k, (dist, nz, wall_v)) in [(pos[i].z, 1.0, 0.0), (top_z - pos[i].z, -1.0, top_v)]
             .into_iter()
@@ -413,11 +412,10 @@ fn gather(c: &GatherCtx, start: usize, mut out: GatherOut) {
         {
             let delta = r - dist;
             if delta <= 0.0 {
-                wxi[k] = Vector3::zeros();
-                wfz[k] = 0.0;
-                if k == 1 {
-                    wfz[2] = 0.0;
-                }
+                clear(wxi[k].as_mut_slice());
+                // the top wall's slot and its elastic force
+                let fz = if k == 1 { 1..3 } else { 0..1 };
+                clear(&mut wfz[fz]);
                 continue;
             }
             if k == 1 {
@@ -444,9 +442,13 @@ fn gather(c: &GatherCtx, start: usize, mut out: GatherOut) {
             };
             let (fw, ft) = model.force(&c, &pw, &mut wxi[k]);
             f += fw;
-            *wf += fw;
+            *wall_sum.get_or_insert_with(Vector3::zeros) += fw;
             nxft += n.cross(&ft);
             wfz[k] = fw.z;
+        }
+        match wall_sum {
+            Some(sum) => *wf = sum,
+            None => clear(wf.as_mut_slice()),
         }
         f += g * mass[i];
         if let Some(e) = external.get(i) {
@@ -463,6 +465,15 @@ fn gather(c: &GatherCtx, start: usize, mut out: GatherOut) {
                 *om += *t_out * (k.inv_inertia[i] * h);
             }
         }
+    }
+}
+
+/// Sets `xs` to +0 where it is not already, writing nothing when it is (the walls' arrays of
+/// particles away from the walls: their cache lines stay clean, and are never written back).
+#[inline(always)]
+fn clear(xs: &mut [f64]) {
+    if xs.iter().any(|x| x.to_bits() != 0) {
+        xs.fill(0.0);
     }
 }
 

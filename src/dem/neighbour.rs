@@ -23,9 +23,9 @@ pub struct Pair {
     pub xi: Vector3<f64>,
 }
 
-/// The force a touching pair's contact exerted in the current step, kept for the per-particle
-/// gather when the pair loop runs on several threads (on one thread the loop adds it into both
-/// members at once and nothing is stored).
+/// The force a pair's contact exerted in the current step (zero when apart), kept for the
+/// per-particle gather when the pair loop runs on several threads (on one thread the loop adds
+/// it into both members at once and nothing is stored).
 #[derive(Debug, Clone, Copy, Default)]
 pub struct PairForce {
     /// Force on i (on j: minus this) (N).
@@ -72,8 +72,8 @@ pub(crate) fn moved_beyond(
 #[derive(Debug, Clone, Default)]
 pub struct NeighbourList {
     pub pairs: Vec<Pair>,
-    /// The step's force of each touching pair (index as `pairs`; entries of pairs that are
-    /// apart are stale), written and read within a step on several threads.
+    /// The step's force of each pair (index as `pairs`; zero for pairs that are apart),
+    /// written and read within a step on several threads.
     pub forces: Vec<PairForce>,
     /// pairs[first_start[i]..first_start[i + 1]] have i as first member.
     pub first_start: Vec<u32>,
