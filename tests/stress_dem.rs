@@ -6,7 +6,7 @@
 use nalgebra::Vector3;
 use porelab::dem::{
     start::random_dispersion, ContactModel, DampingModel, Dem, DemSetup, Material, NormalModel,
-    Particles, TangentialModel, TopWall,
+    Particles, TangentialModel, TopWall, WallLedger,
 };
 use rand::{Rng, SeedableRng};
 
@@ -102,7 +102,8 @@ fn size_ratio_ten_runs_clean() {
 #[test]
 fn same_result_at_any_thread_count() {
     // one thread steps one loop at a time; two and three run the steps as a team between
-    // list rebuilds, entered afresh at every call of `run`; a pressure wall as well
+    // list rebuilds, entered afresh at every call of `run`; a pressure wall as well, and the
+    // walls' impulse summed step by step
     let run = |threads: usize, pressure: bool, pieces: u64| {
         let (mut s, mut p) = bed(1e7, vec![2e-4; 3000], 5);
         // random velocities up to 0.2 m/s, so that spheres collide and the list is rebuilt
@@ -126,9 +127,15 @@ fn same_result_at_any_thread_count() {
             .unwrap();
         pool.install(|| {
             let mut dem = Dem::new(s, p, 1.0).unwrap();
+            dem.wall_ledger = Some(WallLedger {
+                impulse_ns: Vector3::zeros(),
+                magnitude_ns: 0.0,
+            });
             for _ in 0..pieces {
                 dem.run(2400 / pieces).unwrap();
             }
+            let ledger = dem.wall_ledger.unwrap();
+            assert!(ledger.magnitude_ns > 0.0, "the walls are hit: {ledger:?}");
             assert!(
                 dem.nl.builds > 2,
                 "the run rebuilds its list: {}",
@@ -141,6 +148,8 @@ fn same_result_at_any_thread_count() {
                 dem.top_z_m.to_bits(),
                 dem.top_force_n.to_bits(),
                 dem.steps,
+                ledger.impulse_ns.map(f64::to_bits),
+                ledger.magnitude_ns.to_bits(),
             )
         })
     };

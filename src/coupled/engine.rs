@@ -27,7 +27,7 @@
 
 use super::drag::{cell_coefficients, Switch};
 use super::porosity::{sphere_cells, Overlap};
-use crate::dem::Dem;
+use crate::dem::{Dem, WallLedger};
 use crate::error::{invalid, Result};
 use crate::lbm::units::{Units, MACH_MAX};
 use crate::lbm::{Bgk, Dims, Geometry, Porous, Record, Solver, D3Q15};
@@ -669,17 +669,16 @@ impl Coupled {
         } else {
             self.dem.set_external_forces(&ext)?;
             let before = self.dem.p.pos.clone();
-            // velocity Verlet kicks with the mean of the forces at both ends of a step
-            let h = 0.5 * self.dem.dt_s;
-            let mut w_prev = self.dem.wall_force_n;
-            for _ in 0..self.setup.dem_steps {
-                self.dem.step()?;
-                let w = self.dem.wall_force_n;
-                j_walls += (w_prev + w) * h;
-                wall_scale += (w_prev.norm() + w.norm()) * h;
-                w_prev = w;
-            }
-            self.dem.check_finite()?;
+            // the walls' impulse, step by step, continues the sums (on two threads or more,
+            // `run` steps a large bed as one team of threads)
+            self.dem.wall_ledger = Some(WallLedger {
+                impulse_ns: j_walls,
+                magnitude_ns: wall_scale,
+            });
+            let ran = self.dem.run(self.setup.dem_steps);
+            let ledger = self.dem.wall_ledger.take().expect("set above");
+            ran?;
+            (j_walls, wall_scale) = (ledger.impulse_ns, ledger.magnitude_ns);
             let (lx, ly) = (self.dem.setup.lx_m, self.dem.setup.ly_m);
             let mut worst: f64 = 0.0;
             for (a, b) in before.iter().zip(&self.dem.p.pos) {

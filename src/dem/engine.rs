@@ -601,12 +601,32 @@ pub(super) struct WallTotals {
     top_force_n: f64,
     top_stiffness_n_per_m: f64,
     pub(super) top_elastic_force_n: f64,
-    wall_force_n: Vector3<f64>,
+    pub(super) wall_force_n: Vector3<f64>,
 }
 
 impl WallTotals {
     pub(super) fn top_stiffness(&self) -> f64 {
         self.top_stiffness_n_per_m
+    }
+}
+
+/// The walls' impulse on the particles over the steps run since it was set, by the trapezoidal
+/// rule on the total wall force at both ends of each step (velocity Verlet kicks with the mean
+/// of the two), and the same sum of the force's magnitude (the scale of a momentum balance).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct WallLedger {
+    /// N s.
+    pub impulse_ns: Vector3<f64>,
+    /// N s.
+    pub magnitude_ns: f64,
+}
+
+impl WallLedger {
+    /// Adds a step of `dt_s` from wall force `before_n` to `after_n`.
+    pub(super) fn add(&mut self, before_n: Vector3<f64>, after_n: Vector3<f64>, dt_s: f64) {
+        let h = 0.5 * dt_s;
+        self.impulse_ns += (before_n + after_n) * h;
+        self.magnitude_ns += (before_n.norm() + after_n.norm()) * h;
     }
 }
 
@@ -695,6 +715,9 @@ pub struct Dem {
     pub top_elastic_force_n: f64,
     /// Total force of both walls on the particles (N, normal and tangential), last step.
     pub wall_force_n: Vector3<f64>,
+    /// When set, the walls' impulse on the particles is added to it every step (for a caller
+    /// that runs several steps at once and balances momentum over them).
+    pub wall_ledger: Option<WallLedger>,
     pub nl: NeighbourList,
     pub(super) force: Vec<Vector3<f64>>,
     pub(super) torque: Vec<Vector3<f64>>,
@@ -902,6 +925,7 @@ impl Dem {
             top_stiffness_n_per_m: 0.0,
             top_elastic_force_n: 0.0,
             wall_force_n: Vector3::zeros(),
+            wall_ledger: None,
             active,
             neighbour_seconds: 0.0,
             external: Vec::new(),
@@ -1039,7 +1063,11 @@ impl Dem {
             self.rebuild()?;
         }
         // the forces at the new positions, and the second half kick
+        let wall_before = self.wall_force_n;
         self.compute_forces(true);
+        if let Some(l) = &mut self.wall_ledger {
+            l.add(wall_before, self.wall_force_n, self.dt_s);
+        }
         self.top_v_m_s = self.top_speed(self.top_elastic_force_n, self.top_stiffness_n_per_m);
         self.time_s += self.dt_s;
         self.steps += 1;

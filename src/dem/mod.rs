@@ -29,5 +29,5 @@ pub mod observe;
 pub mod start;
 mod team;
 
-pub use engine::{ActiveTerms, Dem, DemSetup, Drag, Particles, TopWall};
+pub use engine::{ActiveTerms, Dem, DemSetup, Drag, Particles, TopWall, WallLedger};
 pub use model::{ContactModel, DampingModel, Material, NormalModel, PairMaterial, TangentialModel};

@@ -332,6 +332,7 @@ impl Dem {
         };
         let (mut steps, mut time_s) = (0, self.time_s);
         let mut totals: Option<WallTotals> = None;
+        let (mut ledger, mut wall_before) = (self.wall_ledger, self.wall_force_n);
         let outcome = rayon::in_place_scope(|scope| {
             for me in 1..threads {
                 scope.spawn(move |_| helper(me));
@@ -348,6 +349,10 @@ impl Dem {
                 let dem = unsafe { this.get() };
                 let z = f64::from_bits(top_z.load(Ordering::Relaxed));
                 let t = dem.wall_totals(z);
+                if let Some(l) = &mut ledger {
+                    l.add(wall_before, t.wall_force_n, dt);
+                }
+                wall_before = t.wall_force_n;
                 let v = dem.top_speed(t.top_elastic_force_n, t.top_stiffness());
                 top_v.store(v.to_bits(), Ordering::Relaxed);
                 totals = Some(t);
@@ -375,6 +380,7 @@ impl Dem {
         self.top_v_m_s = f64::from_bits(top_v.load(Ordering::Relaxed));
         self.time_s = time_s;
         self.steps += steps;
+        self.wall_ledger = ledger;
         if let Some(t) = &totals {
             self.set_wall_totals(t);
         }
