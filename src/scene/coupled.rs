@@ -35,7 +35,7 @@
 //! pressure deviation Pa) at the same times, `porosity_profile.csv` (time, z of each layer,
 //! porosity), `summary.json`.
 
-use super::{dem as dem_scene, parse_checkpoint, Builtin, RunOptions};
+use super::{dem as dem_scene, on_threads, parse_checkpoint, Builtin, RunOptions};
 use crate::coupled::checkpoint::CoupledState;
 use crate::coupled::{Basesheet, Coupled, CoupledSetup, Overlap, Switch};
 use crate::error::{invalid, Error};
@@ -454,7 +454,7 @@ pub(crate) fn run_scene_limited(
         let bytes = serde_json::to_vec(&k).map_err(|e| Error::InvalidInput(e.to_string()))?;
         write_atomic(&ckpt_path, &bytes)
     };
-    let mut body = || -> Result<bool> {
+    let body = || -> Result<bool> {
         if c.steps == 0 {
             c.update_porosity()?;
             frame(&c, out, frames)?;
@@ -496,14 +496,7 @@ pub(crate) fn run_scene_limited(
         })?;
         Ok(interrupted)
     };
-    let interrupted = match opts.threads {
-        Some(t) => rayon::ThreadPoolBuilder::new()
-            .num_threads(t)
-            .build()
-            .map_err(|e| Error::InvalidInput(format!("--threads {t}: {e}")))?
-            .install(body)?,
-        None => body()?,
-    };
+    let interrupted = on_threads(opts.threads, body)?;
     bar.finish_and_clear();
     if interrupted {
         // the checkpoint holds the state reached

@@ -63,7 +63,7 @@
 //! `checkpoint.json`, from which an interrupted run resumes bitwise.
 
 use super::parse_checkpoint;
-use super::{Builtin, RunOptions};
+use super::{on_threads, Builtin, RunOptions};
 use crate::analysis::{pore_size, rdf, rdf::Bed};
 use crate::dem::checkpoint::DemState;
 use crate::dem::{
@@ -1047,7 +1047,7 @@ fn run_scene_limited(
     let area = scene.setup.lx_m * scene.setup.ly_m;
     let t0 = Instant::now();
     let mut last_checkpoint = Instant::now();
-    let mut run_it = || -> Result<Option<String>> {
+    let run_it = || -> Result<Option<String>> {
         run_checks(&scene, &mut dem, &mut progress, max_checks, |d, ke, pr| {
             let z: Vec<f64> = d.p.pos.iter().map(|p| p.z).collect();
             let ov = d.max_overlap_ratio();
@@ -1083,14 +1083,7 @@ fn run_scene_limited(
             Ok(())
         })
     };
-    let stop = match opts.threads {
-        Some(t) => rayon::ThreadPoolBuilder::new()
-            .num_threads(t)
-            .build()
-            .map_err(|e| Error::InvalidInput(format!("--threads {t}: {e}")))?
-            .install(run_it)?,
-        None => run_it()?,
-    };
+    let stop = on_threads(opts.threads, run_it)?;
     bar.finish_and_clear();
     let seconds = base_seconds + t0.elapsed().as_secs_f64();
     let Some(stop) = stop else {

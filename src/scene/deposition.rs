@@ -1,7 +1,7 @@
 //! Deposition scenes (`kind = "deposition"`): the Monte-Carlo coating-layer model of seed 000.
 //! Schema in README ("Deposition scenes"); every table rejects unknown keys by name.
 
-use super::{Builtin, RunOptions};
+use super::{on_threads, Builtin, RunOptions};
 use crate::deposition::energy::EnergyTerms;
 use crate::deposition::engine::{deposit, DepositionOutcome, DepositionParams};
 use crate::deposition::film::{build, Colour, FilmOptions};
@@ -784,16 +784,7 @@ fn mean_se(v: &[f64]) -> (Option<f64>, Option<f64>) {
 
 pub fn run_scene(text: &str, origin: &str, out: &Path, opts: &RunOptions) -> Result<()> {
     let scene = parse_scene(text, origin)?;
-    match opts.threads {
-        None => run_parsed(&scene, origin, out, opts),
-        Some(0) => invalid("--threads 0: need at least one thread"),
-        Some(t) if t > 1024 => invalid(format!("--threads {t}: at most 1024")),
-        Some(t) => rayon::ThreadPoolBuilder::new()
-            .num_threads(t)
-            .build()
-            .map_err(|e| Error::InvalidInput(format!("--threads {t}: {e}")))?
-            .install(|| run_parsed(&scene, origin, out, opts)),
-    }
+    on_threads(opts.threads, || run_parsed(&scene, origin, out, opts))
 }
 
 fn run_parsed(scene: &DepositionScene, origin: &str, out: &Path, opts: &RunOptions) -> Result<()> {

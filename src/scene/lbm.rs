@@ -40,7 +40,7 @@
 //! `profile.csv` for channels (y_m, u_m_s, u_exact_m_s where a closed form exists) and
 //! `summary.json` (tau, Mach, Re, steps, residual; permeability for the sphere array).
 
-use super::{Builtin, RunOptions};
+use super::{on_threads, Builtin, RunOptions};
 use crate::error::{invalid, Error, Result};
 use crate::io::plot::CsvPlot;
 use crate::io::vtk::{write_image_data, CellField};
@@ -436,21 +436,16 @@ pub fn run_scene(text: &str, origin: &str, out: &Path, opts: &RunOptions) -> Res
         tol: sc.tol,
         max_steps: sc.max_steps,
     };
-    let _ = opts;
     let tau = sc.tau;
-    let o = dispatch(
-        lat,
-        coll,
-        tau,
-        SceneRun {
-            scene: sc.clone(),
-            driven,
-            g,
-            wall_u,
-            porous,
-            ctl,
-        },
-    )?;
+    let run = SceneRun {
+        scene: sc.clone(),
+        driven,
+        g,
+        wall_u,
+        porous,
+        ctl,
+    };
+    let o = on_threads(opts.threads, || dispatch(lat, coll, tau, run))?;
     let st = &o.steady;
     println!(
         "  steady after {} steps (residual {:.2e}{}); measured: {}",

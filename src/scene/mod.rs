@@ -195,6 +195,23 @@ pub fn check_threads(threads: Option<usize>) -> Result<()> {
     Ok(())
 }
 
+/// Runs `f` on a pool of `threads` worker threads (None: the global pool, one per core), once
+/// [`check_threads`] accepts the count; results do not depend on it.
+pub(crate) fn on_threads<T: Send>(
+    threads: Option<usize>,
+    f: impl FnOnce() -> Result<T> + Send,
+) -> Result<T> {
+    check_threads(threads)?;
+    match threads {
+        None => f(),
+        Some(t) => rayon::ThreadPoolBuilder::new()
+            .num_threads(t)
+            .build()
+            .map_err(|e| crate::Error::InvalidInput(format!("--threads {t}: {e}")))?
+            .install(f),
+    }
+}
+
 /// Memory this machine can give a run, in bytes: `MemAvailable` of /proc/meminfo (None where
 /// that cannot be read, e.g. off Linux).
 pub fn available_memory_bytes() -> Option<f64> {

@@ -3,10 +3,10 @@
 
 use super::outputs::{describe_particles, write_outputs};
 use super::schema::{parse_scene, PackingScene};
-use crate::error::{invalid, Error};
+use crate::error::Error;
 use crate::io::write_atomic;
 use crate::packing::{self, Container, McmState, Packing, Scheme, StepOutcome, StepRecord};
-use crate::scene::RunOptions;
+use crate::scene::{on_threads, RunOptions};
 use crate::Result;
 use nalgebra::{Quaternion, UnitQuaternion, Vector3};
 use serde::{Deserialize, Serialize};
@@ -17,15 +17,9 @@ use std::time::Instant;
 /// `--threads` sets the worker threads of the parallel analysis (the MCM moves themselves are
 /// sequential); results do not depend on it.
 pub fn run_scene(text: &str, origin: &str, out: &Path, opts: &RunOptions) -> Result<()> {
-    match opts.threads {
-        None => run_scene_limited(text, origin, out, opts, None),
-        Some(0) => invalid("--threads 0: need at least one thread"),
-        Some(t) => rayon::ThreadPoolBuilder::new()
-            .num_threads(t)
-            .build()
-            .map_err(|e| Error::InvalidInput(format!("--threads {t}: {e}")))?
-            .install(|| run_scene_limited(text, origin, out, opts, None)),
-    }
+    on_threads(opts.threads, || {
+        run_scene_limited(text, origin, out, opts, None)
+    })
 }
 
 /// Runs (or resumes) a scene; with `max_new_steps` it stops after that many compression
