@@ -413,7 +413,7 @@ fn gather(c: &GatherCtx, start: usize, mut out: GatherOut) {
             let delta = r - dist;
             if delta <= 0.0 {
                 clear(wxi[k].as_mut_slice());
-                // the top wall's slot and its elastic force
+                // the wall's force slot, and the top wall's contact stiffness
                 let fz = if k == 1 { 1..3 } else { 0..1 };
                 clear(&mut wfz[fz]);
                 continue;
