@@ -686,6 +686,7 @@ pub fn run_scene(text: &str, origin: &str, out: &Path, opts: &RunOptions) -> Res
     });
     // Finished runs are kept under out/runs/: a killed ensemble resumes where it stopped.
     let store = super::run_store::RunStore::new(out, text);
+    store.check_folder()?;
     let results = match scene.experiment {
         ExperimentKind::Capture => run_capture(&scene, &combos, &exps, out, opts, &store)?,
         ExperimentKind::Cascade => run_cascades(&scene, &exps, out, opts, &store)?,

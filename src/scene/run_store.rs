@@ -81,6 +81,26 @@ impl RunStore {
         crate::io::write_atomic(&self.path(tag), &text)
     }
 
+    /// Refuses a folder that holds a run of another scene text, naming the first such file in
+    /// name order. Checked before the runs start: the runs load their files in parallel, and
+    /// the file an error names would otherwise depend on which worker read first.
+    pub fn check_folder(&self) -> Result<()> {
+        let Ok(entries) = std::fs::read_dir(&self.dir) else {
+            // no folder: nothing stored yet (a folder that cannot be read fails at each load)
+            return Ok(());
+        };
+        let mut tags: Vec<String> = entries
+            .filter_map(|e| e.ok()?.file_name().into_string().ok())
+            .filter(|name| !name.starts_with('.'))
+            .filter_map(|name| name.strip_suffix(".json").map(str::to_string))
+            .collect();
+        tags.sort();
+        for tag in tags {
+            self.load::<serde::de::IgnoredAny>(&tag)?;
+        }
+        Ok(())
+    }
+
     /// The stored result of run `tag`, or `compute()`'s, stored before it is returned. The
     /// flag is true when the run was loaded.
     pub fn load_or_run<T: Serialize + DeserializeOwned>(
@@ -119,6 +139,14 @@ mod tests {
         let e = b.load::<Vec<f64>>("p0-r1").unwrap_err().to_string();
         assert!(
             e.contains("different scene") && e.contains("p0-r1.json"),
+            "{e}"
+        );
+        // the folder check names the first foreign file in name order
+        a.save("p0-r0", &vec![2.0f64]).unwrap();
+        a.check_folder().unwrap();
+        let e = b.check_folder().unwrap_err().to_string();
+        assert!(
+            e.contains("different scene") && e.contains("p0-r0.json"),
             "{e}"
         );
         let _ = std::fs::remove_dir_all(&out);
