@@ -295,7 +295,10 @@ impl<L: Lattice, C: Collision, F: Forcing> Solver<L, C, F> {
     /// cells are xs[0] + l in a row longer than a block, so each population is one contiguous
     /// load, plus one wrapped lane for a block at either end of the row.
     /// `rowc.up[q]`: the start of the upstream row of population q in `src`; `links`: the
-    /// row's links from the first one at or after xs[0].
+    /// row's links from the first one at or after xs[0]; `bounce`: scratch for the links'
+    /// values. In a contiguous block every index into `f` is a constant of the unrolled code
+    /// (the links go in through per-population lane masks), so the block can live in
+    /// registers; a gathered block takes the links' values straight in.
     #[inline(always)]
     fn gather<const CONTIG: bool>(
         src: &[f64],
@@ -303,6 +306,7 @@ impl<L: Lattice, C: Collision, F: Forcing> Solver<L, C, F> {
         links: &[Link],
         xs: &[usize; LANES],
         f: &mut Block<LANES>,
+        bounce: &mut Block<LANES>,
     ) -> usize {
         let (up, here, nx) = (&rowc.up, rowc.here, rowc.layout.nx);
         each_q!(L, q, {
@@ -332,9 +336,11 @@ impl<L: Lattice, C: Collision, F: Forcing> Solver<L, C, F> {
                 }
             }
         });
-        // halfway bounce-back (links sorted by x): f_q(x) = f*_opp(q)(x) + delta
+        // halfway bounce-back (links sorted by x): f_q(x) = f*_opp(q)(x) + delta, the values
+        // set aside in `bounce` and the lanes they replace marked in `mask`
         let last = xs[LANES - 1];
         let mut used = 0;
+        let mut mask = [0u32; QMAX];
         for l in links {
             let x = l.x as usize;
             if x > last {
@@ -344,14 +350,27 @@ impl<L: Lattice, C: Collision, F: Forcing> Solver<L, C, F> {
             let q = l.q as usize;
             let v = src[here + opposite(q) * rowc.layout.q_stride + x] + l.delta;
             if CONTIG {
-                f[q][x - xs[0]] = v;
+                bounce[q][x - xs[0]] = v;
+                mask[q] |= 1 << (x - xs[0]);
             } else {
+                // a gathered block lives in memory anyway: the value goes straight in
                 for (fl, &xl) in f[q].iter_mut().zip(xs) {
                     if xl == x {
                         *fl = v;
                     }
                 }
             }
+        }
+        if CONTIG && used > 0 {
+            each_q!(L, q, {
+                if mask[q] != 0 {
+                    for l in 0..LANES {
+                        if mask[q] & (1 << l) != 0 {
+                            f[q][l] = bounce[q][l];
+                        }
+                    }
+                }
+            });
         }
         used
     }
@@ -409,21 +428,23 @@ impl<L: Lattice, C: Collision, F: Forcing> Solver<L, C, F> {
         links: &[Link],
         xs: &[usize; LANES],
         n: usize,
-        f: &mut Block<LANES>,
+        bounce: &mut Block<LANES>,
         out: &mut [f64],
         rec: &mut Option<PlaneRecord>,
     ) -> usize {
-        let used = Self::gather::<CONTIG>(src, rowc, links, xs, f);
+        // the block's populations: pulled, then relaxed in place, then stored
+        let mut f: Block<LANES> = [[0.0; LANES]; QMAX];
+        let used = Self::gather::<CONTIG>(src, rowc, links, xs, &mut f, bounce);
         let mut cells = [0; LANES];
         for l in 0..LANES {
             cells[l] = rowc.cell0 + xs[l];
         }
         let mut st = BlockState::<LANES>::default();
-        Self::block_state(force, f, cells, CONTIG, &mut st);
+        Self::block_state(force, &f, cells, CONTIG, &mut st);
         if F::ACTIVE {
-            relax_block::<L, C, true, LANES>(coll, &st, f);
+            relax_block::<L, C, true, LANES>(coll, &st, &mut f);
         } else {
-            relax_block::<L, C, false, LANES>(coll, &st, f);
+            relax_block::<L, C, false, LANES>(coll, &st, &mut f);
         }
         let plane_q = rowc.layout.q_stride;
         let row0 = rowc.y * d.nx;
@@ -457,7 +478,7 @@ impl<L: Lattice, C: Collision, F: Forcing> Solver<L, C, F> {
         (src, d, coll, force, rowc, links): RowArgs<C, F>,
         pending: &mut [usize; LANES],
         np: usize,
-        f: &mut Block<LANES>,
+        bounce: &mut Block<LANES>,
         out: &mut [f64],
         rec: &mut Option<PlaneRecord>,
     ) {
@@ -474,7 +495,7 @@ impl<L: Lattice, C: Collision, F: Forcing> Solver<L, C, F> {
             &links[first..],
             pending,
             np,
-            f,
+            bounce,
             out,
             rec,
         );
@@ -499,8 +520,8 @@ impl<L: Lattice, C: Collision, F: Forcing> Solver<L, C, F> {
         let d = geom.dims;
         let nx = d.nx;
         let layout = Layout::new(&d, L::Q);
-        // the block's populations: pulled, then relaxed in place, then stored
-        let mut f: Block<LANES> = [[0.0; LANES]; QMAX];
+        // the bounce-back values of a block's links
+        let mut bounce: Block<LANES> = [[0.0; LANES]; QMAX];
         for y in 0..d.ny {
             let r = z * d.ny + y;
             let mut rowc = RowCtx {
@@ -538,7 +559,7 @@ impl<L: Lattice, C: Collision, F: Forcing> Solver<L, C, F> {
                             &links[li..],
                             &xs,
                             LANES,
-                            &mut f,
+                            &mut bounce,
                             out,
                             rec,
                         );
@@ -548,14 +569,14 @@ impl<L: Lattice, C: Collision, F: Forcing> Solver<L, C, F> {
                         np += 1;
                         x += 1;
                         if np == LANES {
-                            Self::gathered(row, &mut pending, np, &mut f, out, rec);
+                            Self::gathered(row, &mut pending, np, &mut bounce, out, rec);
                             np = 0;
                         }
                     }
                 }
             }
             if np > 0 {
-                Self::gathered(row, &mut pending, np, &mut f, out, rec);
+                Self::gathered(row, &mut pending, np, &mut bounce, out, rec);
             }
         }
     }
