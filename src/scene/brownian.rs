@@ -1140,6 +1140,8 @@ mod tests {
                      n_top = 3\nn_side = 3\nregion_thickness_m = 20e-6\n\
                      [hydrodynamics]\nmobility = \"free-draining\"\n";
         let base = std::env::temp_dir().join(format!("porelab-resume-{}", std::process::id()));
+        // a folder left by an earlier process of the same id would be resumed from
+        std::fs::remove_dir_all(&base).ok();
         let opts = RunOptions {
             quiet: true,
             ..Default::default()
