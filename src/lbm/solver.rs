@@ -428,23 +428,26 @@ impl<L: Lattice, C: Collision, F: Forcing> Solver<L, C, F> {
         links: &[Link],
         xs: &[usize; LANES],
         n: usize,
-        bounce: &mut Block<LANES>,
+        (scratch, bounce): (&mut Block<LANES>, &mut Block<LANES>),
         out: &mut [f64],
         rec: &mut Option<PlaneRecord>,
     ) -> usize {
-        // the block's populations: pulled, then relaxed in place, then stored
-        let mut f: Block<LANES> = [[0.0; LANES]; QMAX];
-        let used = Self::gather::<CONTIG>(src, rowc, links, xs, &mut f, bounce);
+        // the block's populations: pulled, then relaxed in place, then stored; a contiguous
+        // block's in a local the compiler keeps in registers, a gathered one's in the plane's
+        // scratch (a local would be zeroed for every block)
+        let mut local: Block<LANES> = [[0.0; LANES]; QMAX];
+        let f = if CONTIG { &mut local } else { scratch };
+        let used = Self::gather::<CONTIG>(src, rowc, links, xs, f, bounce);
         let mut cells = [0; LANES];
         for l in 0..LANES {
             cells[l] = rowc.cell0 + xs[l];
         }
         let mut st = BlockState::<LANES>::default();
-        Self::block_state(force, &f, cells, CONTIG, &mut st);
+        Self::block_state(force, f, cells, CONTIG, &mut st);
         if F::ACTIVE {
-            relax_block::<L, C, true, LANES>(coll, &st, &mut f);
+            relax_block::<L, C, true, LANES>(coll, &st, f);
         } else {
-            relax_block::<L, C, false, LANES>(coll, &st, &mut f);
+            relax_block::<L, C, false, LANES>(coll, &st, f);
         }
         let plane_q = rowc.layout.q_stride;
         let row0 = rowc.y * d.nx;
@@ -478,7 +481,7 @@ impl<L: Lattice, C: Collision, F: Forcing> Solver<L, C, F> {
         (src, d, coll, force, rowc, links): RowArgs<C, F>,
         pending: &mut [usize; LANES],
         np: usize,
-        bounce: &mut Block<LANES>,
+        blocks: (&mut Block<LANES>, &mut Block<LANES>),
         out: &mut [f64],
         rec: &mut Option<PlaneRecord>,
     ) {
@@ -495,7 +498,7 @@ impl<L: Lattice, C: Collision, F: Forcing> Solver<L, C, F> {
             &links[first..],
             pending,
             np,
-            bounce,
+            blocks,
             out,
             rec,
         );
@@ -520,7 +523,8 @@ impl<L: Lattice, C: Collision, F: Forcing> Solver<L, C, F> {
         let d = geom.dims;
         let nx = d.nx;
         let layout = Layout::new(&d, L::Q);
-        // the bounce-back values of a block's links
+        // a gathered block's populations, and the bounce-back values of a block's links
+        let mut scratch: Block<LANES> = [[0.0; LANES]; QMAX];
         let mut bounce: Block<LANES> = [[0.0; LANES]; QMAX];
         for y in 0..d.ny {
             let r = z * d.ny + y;
@@ -559,7 +563,7 @@ impl<L: Lattice, C: Collision, F: Forcing> Solver<L, C, F> {
                             &links[li..],
                             &xs,
                             LANES,
-                            &mut bounce,
+                            (&mut scratch, &mut bounce),
                             out,
                             rec,
                         );
@@ -569,14 +573,21 @@ impl<L: Lattice, C: Collision, F: Forcing> Solver<L, C, F> {
                         np += 1;
                         x += 1;
                         if np == LANES {
-                            Self::gathered(row, &mut pending, np, &mut bounce, out, rec);
+                            Self::gathered(
+                                row,
+                                &mut pending,
+                                np,
+                                (&mut scratch, &mut bounce),
+                                out,
+                                rec,
+                            );
                             np = 0;
                         }
                     }
                 }
             }
             if np > 0 {
-                Self::gathered(row, &mut pending, np, &mut bounce, out, rec);
+                Self::gathered(row, &mut pending, np, (&mut scratch, &mut bounce), out, rec);
             }
         }
     }
