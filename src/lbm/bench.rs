@@ -4,7 +4,10 @@
 //! the peer lbmpy (benches/peer_lbmpy.py) run in the same measurement when python finds it.
 //! The pore-resolving measurement runs the plain kernel on a random solid mask (solid fraction
 //! 0.6) and counts fluid cells only; its "fraction of the limit" uses the same bytes per
-//! update, so it says how much of the bandwidth the sparse fluid gets.
+//! update, so it says how much of the bandwidth the sparse fluid gets. The limit counts
+//! 3 x 8 Q bytes per update (the write-allocate read included, as the triad counts it); where
+//! the kernel stores non-temporally it moves 2 x 8 Q, and the run also reports the fraction of
+//! that higher limit.
 
 use super::choice::{dispatch, CollisionKind, Job, LatticeKind};
 use super::geometry::{Dims, Geometry};
@@ -35,6 +38,10 @@ pub struct BenchArgs {
     /// Skip the lbmpy peer.
     #[arg(long)]
     pub no_peer: bool,
+    /// Output stores of the kernel: auto (non-temporal when the two population arrays exceed
+    /// the last-level cache), normal, or streaming (non-temporal; AVX-512 only).
+    #[arg(long, default_value = "auto")]
+    pub stores: String,
     /// Rounds per configuration, lbmpy and each porelab kernel taking turns in every round;
     /// each figure is the best of the rounds (as the triad's), so that a round slowed by other
     /// work on a shared machine does not count against either code.
@@ -126,11 +133,16 @@ struct Measure {
     n: usize,
     mode: Mode,
     seconds: f64,
+    stores: Option<bool>,
 }
 
+/// MLUPS and whether the kernel stored non-temporally.
+type Timing = (f64, bool);
+
 impl Job for Measure {
-    type Out = Result<f64>;
-    fn run<L: Lattice, C: Collision>(self, coll: C) -> Result<f64> {
+    type Out = Result<Timing>;
+    fn run<L: Lattice, C: Collision>(self, coll: C) -> Result<Timing> {
+        let stores = self.stores;
         let d = Dims::new(self.n, self.n, self.n)?;
         let g = [1e-6, 0.0, 0.0];
         if let Mode::Pores { solid_fraction } = self.mode {
@@ -139,6 +151,7 @@ impl Job for Measure {
             return time_steps(
                 Solver::<L, C, BodyForce>::new(geom, coll, BodyForce { g })?,
                 self.seconds,
+                stores,
             );
         }
         let geom = Geometry::open::<L>(d);
@@ -149,11 +162,16 @@ impl Job for Measure {
                 p.set(c, 0.4 + 0.5 * ((c % 13) as f64 / 13.0), 1e-2)
                     .map_err(crate::Error::InvalidInput)?;
             }
-            time_steps(Solver::<L, C, Porous>::new(geom, coll, p)?, self.seconds)
+            time_steps(
+                Solver::<L, C, Porous>::new(geom, coll, p)?,
+                self.seconds,
+                stores,
+            )
         } else {
             time_steps(
                 Solver::<L, C, BodyForce>::new(geom, coll, BodyForce { g })?,
                 self.seconds,
+                stores,
             )
         }
     }
@@ -162,7 +180,10 @@ impl Job for Measure {
 fn time_steps<L: Lattice, C: Collision, F: super::Forcing>(
     mut s: Solver<L, C, F>,
     seconds: f64,
-) -> Result<f64> {
+    stores: Option<bool>,
+) -> Result<Timing> {
+    s.set_streaming_stores(stores);
+    let streaming = s.streaming_stores() && crate::lbm::simd::has_avx512();
     s.step(); // warm-up
     let t = Instant::now();
     let mut steps = 0u64;
@@ -171,23 +192,39 @@ fn time_steps<L: Lattice, C: Collision, F: super::Forcing>(
         steps += 1;
     }
     let dt = t.elapsed().as_secs_f64();
-    Ok(s.geometry.fluid_cells() as f64 * steps as f64 / dt / 1e6)
+    Ok((
+        s.geometry.fluid_cells() as f64 * steps as f64 / dt / 1e6,
+        streaming,
+    ))
 }
 
-/// MLUPS (fluid cells updated) of one configuration on `threads` threads.
+/// MLUPS (fluid cells updated) of one configuration on `threads` threads, and whether the
+/// kernel stored non-temporally (`stores`: None for the solver's default).
 pub fn mlups(
     lat: LatticeKind,
     coll: CollisionKind,
     mode: Mode,
-    n: usize,
-    threads: usize,
+    (n, threads): (usize, usize),
     seconds: f64,
-) -> Result<f64> {
+    stores: Option<bool>,
+) -> Result<Timing> {
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(threads)
         .build()
         .map_err(|e| crate::Error::InvalidInput(format!("thread pool: {e}")))?;
-    pool.install(|| dispatch(lat, coll, 1.0, Measure { n, mode, seconds }))
+    pool.install(|| {
+        dispatch(
+            lat,
+            coll,
+            1.0,
+            Measure {
+                n,
+                mode,
+                seconds,
+                stores,
+            },
+        )
+    })
 }
 
 /// lbmpy's MLUPS for (lattice, collision, n, threads), run by benches/peer_lbmpy.py; None with
@@ -257,11 +294,17 @@ pub fn run(args: &BenchArgs) -> Result<()> {
             _ => invalid(format!("--modes {s}: must be plain, porous or pores")),
         })
         .collect::<Result<Vec<_>>>()?;
+    let stores = match args.stores.to_ascii_lowercase().as_str() {
+        "auto" => None,
+        "normal" => Some(false),
+        "streaming" => Some(true),
+        s => return invalid(format!("--stores {s}: must be auto, normal or streaming")),
+    };
     if lattices.is_empty() || collisions.is_empty() || modes.is_empty() {
         return invalid("bench lbm: --lattices, --collisions and --modes need at least one value");
     }
     let mut csv = String::from(
-        "lattice,collision,forcing,n,threads,mlups,bandwidth_limit_mlups,fraction_of_limit,peer_lbmpy_mlups,ratio_to_peer\n",
+        "lattice,collision,forcing,n,threads,mlups,bandwidth_limit_mlups,fraction_of_limit,nontemporal_stores,fraction_of_nontemporal_limit,peer_lbmpy_mlups,ratio_to_peer\n",
     );
     for &th in &args.threads {
         let bw = triad_gb_per_s(th)?;
@@ -278,27 +321,35 @@ pub fn run(args: &BenchArgs) -> Result<()> {
                     } else {
                         Ok(0.0)
                     };
-                    let mut best = vec![0.0f64; modes.len()];
+                    let mut best = vec![(0.0f64, false); modes.len()];
                     for _ in 0..args.rounds {
                         if let Ok(p) = peer {
                             peer = peer_mlups(lat, coll, n, th, args.seconds).map(|q| q.max(p));
                         }
                         for (b, &mode) in best.iter_mut().zip(&modes) {
-                            *b = b.max(mlups(lat, coll, mode, n, th, args.seconds)?);
+                            let t = mlups(lat, coll, mode, (n, th), args.seconds, stores)?;
+                            *b = (b.0.max(t.0), t.1);
                         }
                     }
-                    for (&mode, &m) in modes.iter().zip(&best) {
+                    // non-temporal stores skip the write-allocate read: 2 x 8 Q bytes a cell
+                    let nt_limit = limit * 1.5;
+                    for (&mode, &(m, nt)) in modes.iter().zip(&best) {
                         let plain = mode == Mode::Plain;
                         let (pm, ratio) = match (&peer, plain) {
                             (Ok(p), true) => (format!("{p:.2}"), format!("{:.3}", m / p)),
                             _ => (String::new(), String::new()),
                         };
                         println!(
-                            "{} {} {:<8} {n:>3}^3 {th} thr: {m:7.2} MLUPS, {:5.1} % of the {limit:.1} MLUPS limit{}",
+                            "{} {} {:<8} {n:>3}^3 {th} thr: {m:7.2} MLUPS, {:5.1} % of the {limit:.1} MLUPS limit{}{}",
                             lat.name(),
                             coll.name(),
                             mode.name(),
                             100.0 * m / limit,
+                            if nt {
+                                format!(" (non-temporal stores: {:.1} % of their {nt_limit:.1})", 100.0 * m / nt_limit)
+                            } else {
+                                String::new()
+                            },
                             match (&peer, plain) {
                                 (Ok(p), true) => format!(", lbmpy {p:.2} MLUPS (ratio {:.2})", m / p),
                                 (Err(e), true) => format!(", lbmpy not measured: {}", e.lines().last().unwrap_or("")),
@@ -306,7 +357,7 @@ pub fn run(args: &BenchArgs) -> Result<()> {
                             }
                         );
                         csv += &format!(
-                            "{},{},{},{n},{th},{m:.3},{limit:.2},{:.4},{pm},{ratio}\n",
+                            "{},{},{},{n},{th},{m:.3},{limit:.2},{:.4},{nt},{:.4},{pm},{ratio}\n",
                             lat.name(),
                             coll.name(),
                             match mode {
@@ -315,7 +366,8 @@ pub fn run(args: &BenchArgs) -> Result<()> {
                                 Mode::Pores { solid_fraction } =>
                                     format!("guo-solid-{solid_fraction}"),
                             },
-                            m / limit
+                            m / limit,
+                            if nt { m / nt_limit } else { m / limit }
                         );
                     }
                 }

@@ -10,6 +10,7 @@
 
 use super::forcing::{CellState, Forcing};
 use super::lattice::{each_pair, each_q, Lattice, QMAX};
+use super::simd::{v3, Real};
 
 /// A collision operator: its two rates (even, odd).
 pub trait Collision: Copy + Send + Sync {
@@ -80,148 +81,141 @@ impl Collision for Trt {
     }
 }
 
-/// Lanes of the kernel's blocks: one AVX-512 register of f64 (two AVX2 ones).
-pub const LANES: usize = 8;
-
 /// Populations of a block of `N` cells, population-major: row q holds f_q of every cell (a
 /// lattice uses its first Q rows).
 pub type Block<const N: usize> = [[f64; N]; QMAX];
 
-/// The macroscopic state of a block of `N` cells that the collision needs (one entry per cell).
-#[derive(Debug, Clone, Copy)]
-pub struct BlockState<const N: usize> {
-    pub rho: [f64; N],
-    pub u: [[f64; N]; 3],
-    pub a: [[f64; N]; 3],
-    pub inv_eps: [f64; N],
-    /// u.u / eps and u.a / eps, shared by every direction.
-    pub uu: [f64; N],
-    pub ua: [f64; N],
+/// Pairs (q, opp q) of the velocity sets here: (QMAX - 1) / 2.
+pub const PMAX: usize = (QMAX - 1) / 2;
+
+/// The pulled populations of a block (or of one cell), as the collision and the moments use
+/// them: the rest population and, for each pair p (q = 2p + 1 and its opposite q + 1), the sum
+/// s = f_q + f_opp and the difference d = f_q - f_opp.
+#[derive(Clone, Copy)]
+pub struct Pairs<R> {
+    pub f0: R,
+    pub s: [R; PMAX],
+    pub d: [R; PMAX],
 }
 
-impl<const N: usize> Default for BlockState<N> {
-    fn default() -> Self {
-        BlockState {
-            rho: [0.0; N],
-            u: [[0.0; N]; 3],
-            a: [[0.0; N]; 3],
-            inv_eps: [0.0; N],
-            uu: [0.0; N],
-            ua: [0.0; N],
-        }
-    }
-}
-
-impl<const N: usize> BlockState<N> {
-    /// Entry `l`: density `rho` and the forcing's state `s` (velocity, acceleration, 1/eps),
-    /// with the shared products u.u / eps and u.a / eps (the latter makes the source term of
-    /// Guo & Zhao eq. 14 massless).
+impl<R: Real> Pairs<R> {
+    /// The pair sums and differences of the populations `f` (Q of them).
     #[inline(always)]
-    pub fn set(&mut self, l: usize, rho: f64, s: &CellState) {
-        self.rho[l] = rho;
-        for k in 0..3 {
-            self.u[k][l] = s.u[k];
-            self.a[k][l] = s.a[k];
-        }
-        self.inv_eps[l] = s.inv_eps;
-        self.uu[l] = (s.u[0] * s.u[0] + s.u[1] * s.u[1] + s.u[2] * s.u[2]) * s.inv_eps;
-        self.ua[l] = (s.u[0] * s.a[0] + s.u[1] * s.a[1] + s.u[2] * s.a[2]) * s.inv_eps;
+    pub fn of<L: Lattice>(f: &[R; QMAX]) -> Pairs<R> {
+        let zero = R::splat(0.0);
+        let mut p = Pairs {
+            f0: f[0],
+            s: [zero; PMAX],
+            d: [zero; PMAX],
+        };
+        each_pair!(L, q, {
+            p.s[q / 2] = f[q] + f[q + 1];
+            p.d[q / 2] = f[q] - f[q + 1];
+        });
+        p
+    }
+
+    /// Density and momentum (seed 002 eq. 6-7): rho = f_0 + sum over pairs of s, and
+    /// j = sum f c = sum over pairs of c_q d (c_opp = -c_q), pairs in order, zero terms skipped.
+    #[inline(always)]
+    pub fn moments<L: Lattice>(&self) -> (R, [R; 3]) {
+        let mut rho = self.f0;
+        each_pair!(L, q, {
+            rho = rho + self.s[q / 2];
+        });
+        let j = v3!(k => {
+            let mut jk: Option<R> = None;
+            each_pair!(L, q, {
+                let d = self.d[q / 2];
+                jk = match (L::C[q][k], jk) {
+                    (0, _) => jk,
+                    (1, None) => Some(d),
+                    (_, None) => Some(-d),
+                    (1, Some(v)) => Some(v + d),
+                    (_, Some(v)) => Some(v - d),
+                };
+            });
+            jk.unwrap_or(R::splat(0.0))
+        });
+        (rho, j)
     }
 }
 
-/// c . v for every cell of a block, with the lattice's integer c (components 0, +-1): only the
-/// nonzero terms are added, in the order x, y, z, so the sum is the one of the full dot
-/// product to the last bit (up to the sign of a zero) at a third of the operations. Written
-/// without a loop over the components so that, with c a constant of the unrolled kernel,
-/// every test on it folds away.
+/// c . v with the lattice's integer c (components 0, +-1): only the nonzero terms, in the
+/// order x, y, z (the sign flips are exact). With c a constant of the unrolled kernel every
+/// test on it folds away.
 #[inline(always)]
-pub fn dot_c<const N: usize>(c: [i32; 3], v: &[[f64; N]; 3]) -> [f64; N] {
-    let mut s = [0.0; N];
-    let mut first = true;
-    add_c_term(&mut s, &mut first, c[0], &v[0]);
-    add_c_term(&mut s, &mut first, c[1], &v[1]);
-    add_c_term(&mut s, &mut first, c[2], &v[2]);
-    s
-}
-
-/// s += c v for c in {0, 1, -1} (s = c v for the first nonzero term): the sign flip is exact.
-#[inline(always)]
-fn add_c_term<const N: usize>(s: &mut [f64; N], first: &mut bool, c: i32, v: &[f64; N]) {
-    debug_assert!((-1..=1).contains(&c));
-    match (c, *first) {
-        (0, _) => return,
-        (1, true) => *s = *v,
-        (_, true) => {
-            for l in 0..N {
-                s[l] = -v[l];
-            }
-        }
-        (1, false) => {
-            for l in 0..N {
-                s[l] += v[l];
-            }
-        }
-        (_, false) => {
-            for l in 0..N {
-                s[l] -= v[l];
-            }
-        }
+pub fn dot_c<R: Real>(c: [i32; 3], v: &[R; 3]) -> R {
+    let mut s: Option<R> = None;
+    for k in 0..3 {
+        s = match (c[k], s) {
+            (0, _) => s,
+            (1, None) => Some(v[k]),
+            (_, None) => Some(-v[k]),
+            (1, Some(t)) => Some(t + v[k]),
+            (_, Some(t)) => Some(t - v[k]),
+        };
     }
-    *first = false;
+    s.unwrap_or(R::splat(0.0))
 }
 
-/// Relaxes a block of `N` cells in place: pulled populations `f` become post-collision ones,
-/// state `s`, with the source term when `FORCED`. Every loop runs over the cells
-/// innermost with no branch inside, so each becomes vector instructions.
+/// Relaxes a block of cells (or one cell: `R = f64`) of density `rho` and forcing state `s`,
+/// pulled populations `p`, into the post-collision populations `out`, with the source term
+/// when `FORCED`.
+///
+/// With e+ and e- of the module doc, f+ = s/2 and f- = d/2 of a pair, the post-collision
+/// populations are f_q = P + M and f_opp = P - M, where
+/// P = f+ + omega+ (e+ - f+) + (1 - omega+/2) S+ = (1 - omega+) s/2 + w (E0 + cu (cu X + ca Y)),
+/// M = f- + omega- (e- - f-) + (1 - omega-/2) S- = (1 - omega-) d/2 + w (cu R + ca S),
+/// with cu = c.u, ca = c.a, the per-cell E0 = rho (omega+ (1 - 3/2 u.u/eps) - 3 (1 - omega+/2)
+/// u.a/eps), X = 9/2 omega+ rho/eps, Y = 9 (1 - omega+/2) rho/eps, R = 3 omega- rho and
+/// S = 3 (1 - omega-/2) rho; the rest population becomes (1 - omega+) f_0 + w_0 E0.
 #[inline(always)]
-pub fn relax_block<L: Lattice, C: Collision, const FORCED: bool, const N: usize>(
+pub fn relax<L: Lattice, C: Collision, R: Real, const FORCED: bool>(
     coll: &C,
-    s: &BlockState<N>,
-    f: &mut Block<N>,
+    rho: R,
+    s: &CellState<R>,
+    p: &Pairs<R>,
+    out: &mut [R; QMAX],
 ) {
     let wp = coll.omega_plus();
     let wm = coll.omega_minus();
     let sp = 1.0 - 0.5 * wp;
     let sm = 1.0 - 0.5 * wm;
-    // rest population: even part only
-    let w0 = L::W[0];
-    for (l, f0) in f[0].iter_mut().enumerate() {
-        let wr = w0 * s.rho[l];
-        let mut d = -wp * (*f0 - wr * (1.0 - 1.5 * s.uu[l]));
-        if FORCED {
-            d += sp * wr * (-3.0 * s.ua[l]);
-        }
-        *f0 += d;
+    let u = &s.u;
+    let uu = u[2].mul_add(u[2], u[1].mul_add(u[1], u[0] * u[0])) * s.inv_eps;
+    let mut e0 = uu.mul_add(R::splat(-1.5 * wp), R::splat(wp));
+    if FORCED {
+        let a = &s.a;
+        let ua = u[2].mul_add(a[2], u[1].mul_add(a[1], u[0] * a[0])) * s.inv_eps;
+        e0 = ua.mul_add(R::splat(-3.0 * sp), e0);
     }
+    let e0 = rho * e0;
+    let rie = rho * s.inv_eps;
+    let x = rie * R::splat(4.5 * wp);
+    let y = rie * R::splat(9.0 * sp);
+    let r = rho * R::splat(3.0 * wm);
+    let sa = rho * R::splat(3.0 * sm);
+    let (hp, hm) = (R::splat(0.5 * (1.0 - wp)), R::splat(0.5 * (1.0 - wm)));
+    out[0] = p.f0.mul_add(R::splat(1.0 - wp), e0 * R::splat(L::W[0]));
     each_pair!(L, q, {
-        let w = L::W[q];
-        let cu = dot_c(L::C[q], &s.u);
-        let ca = if FORCED {
-            dot_c(L::C[q], &s.a)
-        } else {
-            [0.0; N]
-        };
-        for l in 0..N {
-            let (fq, fo) = (f[q][l], f[q + 1][l]);
-            let wr = w * s.rho[l];
-            let ep = wr * (1.0 + 4.5 * cu[l] * cu[l] * s.inv_eps[l] - 1.5 * s.uu[l]);
-            let em = wr * 3.0 * cu[l];
-            let fp = 0.5 * (fq + fo);
-            let fm = 0.5 * (fq - fo);
-            let mut dp = -wp * (fp - ep);
-            let mut dm = -wm * (fm - em);
-            if FORCED {
-                dp += sp * wr * (9.0 * cu[l] * ca[l] * s.inv_eps[l] - 3.0 * s.ua[l]);
-                dm += sm * wr * 3.0 * ca[l];
-            }
-            f[q][l] = fq + dp + dm;
-            f[q + 1][l] = fo + dp - dm;
+        let w = R::splat(L::W[q]);
+        let cu = dot_c(L::C[q], u);
+        let (mut t, mut tm) = (cu * x, cu * r);
+        if FORCED {
+            let ca = dot_c(L::C[q], &s.a);
+            t = ca.mul_add(y, t);
+            tm = ca.mul_add(sa, tm);
         }
+        let even = cu.mul_add(t, e0).mul_add(w, p.s[q / 2] * hp);
+        let odd = tm.mul_add(w, p.d[q / 2] * hm);
+        out[q] = even + odd;
+        out[q + 1] = even - odd;
     });
 }
 
 /// Relaxes one cell of density `rho` and forcing state `s`: pulled populations `pre` (Q of
-/// them) into `out` (a boundary node's update).
+/// them) into `out` (a boundary node's update, and the kernel's reference).
 pub fn relax_cell<L: Lattice, C: Collision, F: Forcing>(
     coll: &C,
     rho: f64,
@@ -229,20 +223,16 @@ pub fn relax_cell<L: Lattice, C: Collision, F: Forcing>(
     pre: &[f64],
     out: &mut [f64],
 ) {
-    let mut st = BlockState::<1>::default();
-    st.set(0, rho, s);
-    let mut f: Block<1> = [[0.0]; QMAX];
-    for (fq, p) in f.iter_mut().zip(&pre[..L::Q]) {
-        fq[0] = *p;
-    }
+    let mut f = [0.0; QMAX];
+    f[..L::Q].copy_from_slice(&pre[..L::Q]);
+    let p = Pairs::of::<L>(&f);
+    let mut post = [0.0; QMAX];
     if F::ACTIVE {
-        relax_block::<L, C, true, 1>(coll, &st, &mut f);
+        relax::<L, C, f64, true>(coll, rho, s, &p, &mut post);
     } else {
-        relax_block::<L, C, false, 1>(coll, &st, &mut f);
+        relax::<L, C, f64, false>(coll, rho, s, &p, &mut post);
     }
-    for (v, oq) in out[..L::Q].iter_mut().zip(&f) {
-        *v = oq[0];
-    }
+    out[..L::Q].copy_from_slice(&post[..L::Q]);
 }
 
 /// The equilibrium populations of (rho, u) in a fluid of porosity 1 / inv_eps.

@@ -7,27 +7,18 @@
 //! a = -(eps nu / K) u - (eps F_eps / sqrt K) |u| u + eps G (seed 002 eq. 10).
 //! `ACTIVE = false` lets the compiler drop the source term of an unforced fluid.
 
-use super::collision::BlockState;
+use super::simd::{v3, Cells, Real};
 
-/// What the forcing sees of a block of cells: lane l is cell `cells[l]` with density `rho[l]`
-/// and momentum `j[k][l]` (lattice units).
-pub struct BlockMoments<const N: usize> {
-    pub cells: [usize; N],
-    /// Whether cells[l] = cells[0] + l for every lane.
-    pub contiguous: bool,
-    pub rho: [f64; N],
-    pub j: [[f64; N]; 3],
-}
-
-/// The state of one cell that the collision needs.
+/// The state of a cell (or of a block of cells, one per lane of `R`) that the collision
+/// needs.
 #[derive(Debug, Clone, Copy)]
-pub struct CellState {
+pub struct CellState<R = f64> {
     /// Fluid velocity (lattice units).
-    pub u: [f64; 3],
+    pub u: [R; 3],
     /// Acceleration in the source term (lattice units).
-    pub a: [f64; 3],
+    pub a: [R; 3],
     /// 1 / porosity (1 for a clear fluid).
-    pub inv_eps: f64,
+    pub inv_eps: R,
 }
 
 /// A forcing scheme: the velocity of a cell from its density and momentum.
@@ -35,21 +26,18 @@ pub trait Forcing: Send + Sync {
     /// False when the source term is identically zero.
     const ACTIVE: bool;
     const NAME: &'static str;
-    fn state(&self, cell: usize, rho: f64, j: [f64; 3]) -> CellState;
+    /// The states of the cells `cells` (one per lane of `R`) of density `rho` and momentum `j`
+    /// (lattice units). Written once for a cell and for a block, so both give the same bits.
+    fn states<R: Real>(&self, cells: Cells, rho: R, j: [R; 3]) -> CellState<R>;
+    /// The state of one cell.
+    #[inline(always)]
+    fn state(&self, cell: usize, rho: f64, j: [f64; 3]) -> CellState {
+        let idx = [cell];
+        self.states::<f64>(Cells::one(&idx), rho, j)
+    }
     /// The state of a cell whose velocity `u` is prescribed (a boundary node): the source
     /// term's acceleration at that velocity.
     fn state_at_velocity(&self, cell: usize, rho: f64, u: [f64; 3]) -> CellState;
-    /// The states of a block of cells written into `st`. Lane by lane through
-    /// [`Forcing::state`] by default; a forcing may override it with lane-parallel arithmetic
-    /// of the same operations in the same order, so that the bits do not change.
-    #[inline(always)]
-    fn block_states<const N: usize>(&self, m: &BlockMoments<N>, st: &mut BlockState<N>) {
-        let (cells, rho, j) = (&m.cells, &m.rho, &m.j);
-        for l in 0..N {
-            let s = self.state(cells[l], rho[l], [j[0][l], j[1][l], j[2][l]]);
-            st.set(l, rho[l], &s);
-        }
-    }
 }
 
 /// No force: u = j / rho.
@@ -60,12 +48,12 @@ impl Forcing for Unforced {
     const ACTIVE: bool = false;
     const NAME: &'static str = "none";
     #[inline(always)]
-    fn state(&self, _cell: usize, rho: f64, j: [f64; 3]) -> CellState {
-        let r = 1.0 / rho;
+    fn states<R: Real>(&self, _cells: Cells, rho: R, j: [R; 3]) -> CellState<R> {
+        let r = R::splat(1.0) / rho;
         CellState {
-            u: [j[0] * r, j[1] * r, j[2] * r],
-            a: [0.0; 3],
-            inv_eps: 1.0,
+            u: v3!(k => j[k] * r),
+            a: [R::splat(0.0); 3],
+            inv_eps: R::splat(1.0),
         }
     }
     #[inline(always)]
@@ -87,18 +75,15 @@ pub struct BodyForce {
 impl Forcing for BodyForce {
     const ACTIVE: bool = true;
     const NAME: &'static str = "Guo body force";
+    /// Guo, Zheng & Shi: u = j / rho + g / 2.
     #[inline(always)]
-    fn state(&self, _cell: usize, rho: f64, j: [f64; 3]) -> CellState {
-        let r = 1.0 / rho;
+    fn states<R: Real>(&self, _cells: Cells, rho: R, j: [R; 3]) -> CellState<R> {
+        let r = R::splat(1.0) / rho;
         let g = self.g;
         CellState {
-            u: [
-                j[0] * r + 0.5 * g[0],
-                j[1] * r + 0.5 * g[1],
-                j[2] * r + 0.5 * g[2],
-            ],
-            a: g,
-            inv_eps: 1.0,
+            u: v3!(k => j[k].mul_add(r, R::splat(0.5 * g[k]))),
+            a: v3!(k => R::splat(g[k])),
+            inv_eps: R::splat(1.0),
         }
     }
     #[inline(always)]
@@ -107,24 +92,6 @@ impl Forcing for BodyForce {
             u,
             a: self.g,
             inv_eps: 1.0,
-        }
-    }
-    /// [`Forcing::state`] and [`BlockState::set`] lane-parallel, the same operations in the
-    /// same order (the lane-by-lane default compiles to shuffles across lanes).
-    #[inline(always)]
-    fn block_states<const N: usize>(&self, m: &BlockMoments<N>, st: &mut BlockState<N>) {
-        let (rho, j, g) = (&m.rho, &m.j, self.g);
-        for l in 0..N {
-            let r = 1.0 / rho[l];
-            let u = [0, 1, 2].map(|k| j[k][l] * r + 0.5 * g[k]);
-            st.rho[l] = rho[l];
-            for k in 0..3 {
-                st.u[k][l] = u[k];
-                st.a[k][l] = g[k];
-            }
-            st.inv_eps[l] = 1.0;
-            st.uu[l] = (u[0] * u[0] + u[1] * u[1] + u[2] * u[2]) * 1.0;
-            st.ua[l] = (u[0] * g[0] + u[1] * g[1] + u[2] * g[2]) * 1.0;
         }
     }
 }
@@ -264,91 +231,44 @@ impl Porous {
 impl Forcing for Porous {
     const ACTIVE: bool = true;
     const NAME: &'static str = "Guo-Zhao porous medium";
+    /// Guo & Zhao eq. 20-22 for u - w: v = j/rho + eps G/2, c0 = (1 + eps nu/(2K))/2,
+    /// c1 = eps F_eps/(2 sqrt K), u - w = (v - w) / (c0 + sqrt(c0^2 + c1 |v - w|)); then seed
+    /// 002 eq. 10 on the relative velocity: a = -(eps nu/K + eps F_eps/sqrt K |u - w|) (u - w)
+    /// + eps G. The matrix velocity is read only where some cell has one.
     #[inline(always)]
-    fn state(&self, cell: usize, rho: f64, j: [f64; 3]) -> CellState {
-        let eps = self.eps[cell];
-        let lin = self.lin[cell];
-        let quad = self.quad[cell];
-        let r = 1.0 / rho;
+    fn states<R: Real>(&self, cells: Cells, rho: R, j: [R; 3]) -> CellState<R> {
+        let eps = R::field(&self.eps, cells);
+        let lin = R::field(&self.lin, cells);
+        let quad = R::field(&self.quad, cells);
         let g = self.g;
-        let w = self.w[cell];
-        // Guo & Zhao eq. 20-22 for u - w: v = j/rho + eps G/2, c0 = (1 + eps nu/(2K))/2,
-        // c1 = eps F_eps/(2 sqrt K), u - w = (v - w) / (c0 + sqrt(c0^2 + c1 |v - w|)).
-        let v = [
-            j[0] * r + 0.5 * eps * g[0] - w[0],
-            j[1] * r + 0.5 * eps * g[1] - w[1],
-            j[2] * r + 0.5 * eps * g[2] - w[2],
-        ];
-        let c0 = 0.5 * (1.0 + 0.5 * lin);
-        let c1 = 0.5 * quad;
-        let vn = (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
-        let s = 1.0 / (c0 + (c0 * c0 + c1 * vn).sqrt());
-        let rel = [v[0] * s, v[1] * s, v[2] * s];
-        let un = vn * s;
-        // Seed 002 eq. 10 on the relative velocity: F = -(eps nu/K + eps F_eps/sqrt K |u - w|)
-        // (u - w) + eps G.
-        let drag = lin + quad * un;
-        CellState {
-            u: [rel[0] + w[0], rel[1] + w[1], rel[2] + w[2]],
-            a: [
-                eps * g[0] - drag * rel[0],
-                eps * g[1] - drag * rel[1],
-                eps * g[2] - drag * rel[2],
-            ],
-            inv_eps: 1.0 / eps,
-        }
-    }
-    /// [`Porous::state`] for a block, one operation at a time over the lanes (so that the
-    /// square roots and divisions run as vector instructions), each lane's operations those
-    /// of `state` and `BlockState::set` in the same order: the same bits. The fields of a
-    /// block of consecutive cells are read as slices, and the matrix velocity only where a
-    /// cell has one (w = +0 changes no bit: x - 0 = x, and u = rel + 0 is still added).
-    #[inline(always)]
-    fn block_states<const N: usize>(&self, m: &BlockMoments<N>, st: &mut BlockState<N>) {
-        let (cells, rho, j) = (&m.cells, &m.rho, &m.j);
-        let g = self.g;
-        let (mut eps, mut lin, mut quad) = ([0.0; N], [0.0; N], [0.0; N]);
-        let mut w = [[0.0; N]; 3];
-        let c0 = cells[0];
-        if m.contiguous {
-            eps.copy_from_slice(&self.eps[c0..c0 + N]);
-            lin.copy_from_slice(&self.lin[c0..c0 + N]);
-            quad.copy_from_slice(&self.quad[c0..c0 + N]);
-        } else {
-            for l in 0..N {
-                let c = cells[l];
-                eps[l] = self.eps[c];
-                lin[l] = self.lin[c];
-                quad[l] = self.quad[c];
-            }
-        }
+        let r = R::splat(1.0) / rho;
+        let half_eps = eps * R::splat(0.5);
+        let mut v = v3!(k => j[k].mul_add(r, half_eps * R::splat(g[k])));
+        let mut w = [R::splat(0.0); 3];
         if self.moving {
-            for l in 0..N {
-                for k in 0..3 {
-                    w[k][l] = self.w[cells[l]][k];
+            w = v3!(k => {
+                let mut wk = [0.0; super::simd::LANES];
+                for (wl, &c) in wk.iter_mut().zip(cells.idx) {
+                    *wl = self.w[c][k];
                 }
-            }
+                R::load(&wk)
+            });
+            v = v3!(k => v[k] - w[k]);
         }
-        for l in 0..N {
-            let r = 1.0 / rho[l];
-            let v = [0, 1, 2].map(|k| j[k][l] * r + 0.5 * eps[l] * g[k] - w[k][l]);
-            let c0 = 0.5 * (1.0 + 0.5 * lin[l]);
-            let c1 = 0.5 * quad[l];
-            let vn = (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
-            let s = 1.0 / (c0 + (c0 * c0 + c1 * vn).sqrt());
-            let rel = [v[0] * s, v[1] * s, v[2] * s];
-            let drag = lin[l] + quad[l] * (vn * s);
-            let u = [0, 1, 2].map(|k| rel[k] + w[k][l]);
-            let a = [0, 1, 2].map(|k| eps[l] * g[k] - drag * rel[k]);
-            let inv_eps = 1.0 / eps[l];
-            st.rho[l] = rho[l];
-            for k in 0..3 {
-                st.u[k][l] = u[k];
-                st.a[k][l] = a[k];
-            }
-            st.inv_eps[l] = inv_eps;
-            st.uu[l] = (u[0] * u[0] + u[1] * u[1] + u[2] * u[2]) * inv_eps;
-            st.ua[l] = (u[0] * a[0] + u[1] * a[1] + u[2] * a[2]) * inv_eps;
+        let c0 = lin.mul_add(R::splat(0.25), R::splat(0.5));
+        let c1 = quad * R::splat(0.5);
+        let vn = v[2].mul_add(v[2], v[1].mul_add(v[1], v[0] * v[0])).sqrt();
+        let s = R::splat(1.0) / (c0 + c0.mul_add(c0, c1 * vn).sqrt());
+        let rel = v3!(k => v[k] * s);
+        let drag = quad.mul_add(vn * s, lin);
+        let mut u = rel;
+        if self.moving {
+            u = v3!(k => rel[k] + w[k]);
+        }
+        CellState {
+            u,
+            a: v3!(k => (-drag).mul_add(rel[k], eps * R::splat(g[k]))),
+            inv_eps: R::splat(1.0) / eps,
         }
     }
     /// Seed 002 eq. 10 at the prescribed velocity u (relative to the matrix velocity w).
@@ -372,13 +292,13 @@ mod tests {
     use rand::{Rng, SeedableRng};
     use rand_chacha::ChaCha8Rng;
 
-    /// The block form of the Guo–Zhao state gives the bits of the cell-by-cell form, on
-    /// random porosities, coefficients, matrix velocities (a medium with and one without),
-    /// densities and momenta, for scattered cells (the loads are gathers) and for runs of
-    /// consecutive cells (slice loads).
+    /// The Guo–Zhao state of a block (the portable eight-lane type) gives the bits of the
+    /// cell-by-cell state, on random porosities, coefficients, matrix velocities (a medium
+    /// with and one without), densities and momenta, for scattered cells (gathered loads) and
+    /// for runs of consecutive cells (slice loads).
     #[test]
     fn porous_block_states_equal_cell_states_bitwise() {
-        const N: usize = 8;
+        use crate::lbm::simd::{VArr, LANES as N};
         let mut rng = ChaCha8Rng::seed_from_u64(7);
         let cells_total = 64;
         let mut fixed = Porous::clear(cells_total, 0.1, [1e-5, -2e-6, 3e-7], true);
@@ -394,19 +314,10 @@ mod tests {
             moving.set_matrix_velocity(c, w).unwrap();
         }
         assert!(moving.moving && !fixed.moving);
-        let bits = |b: &BlockState<N>| {
-            let mut v: Vec<u64> = b.rho.iter().map(|x| x.to_bits()).collect();
-            for k in 0..3 {
-                v.extend(b.u[k].iter().chain(&b.a[k]).map(|x| x.to_bits()));
-            }
-            v.extend(
-                b.inv_eps
-                    .iter()
-                    .chain(&b.uu)
-                    .chain(&b.ua)
-                    .map(|x| x.to_bits()),
-            );
-            v
+        let lanes = |v: VArr| {
+            let mut out = [0.0; N];
+            v.store(&mut out);
+            out.map(f64::to_bits)
         };
         for _ in 0..200 {
             let scattered = [0; N].map(|_| rng.gen_range(0..cells_total));
@@ -416,20 +327,22 @@ mod tests {
             let j = [0; 3].map(|_| [0; N].map(|_| rng.gen_range(-0.1..0.1)));
             for medium in [&fixed, &moving] {
                 for (cells, contiguous) in [(scattered, false), (run, true)] {
-                    let m = BlockMoments {
-                        cells,
-                        contiguous,
-                        rho,
-                        j,
-                    };
-                    let mut block = BlockState::<N>::default();
-                    medium.block_states(&m, &mut block);
-                    let mut each = BlockState::<N>::default();
+                    let block = medium.states(
+                        Cells {
+                            idx: &cells,
+                            contiguous,
+                        },
+                        VArr::load(&rho),
+                        j.map(|jk| VArr::load(&jk)),
+                    );
                     for l in 0..N {
                         let s = medium.state(cells[l], rho[l], [j[0][l], j[1][l], j[2][l]]);
-                        each.set(l, rho[l], &s);
+                        for k in 0..3 {
+                            assert_eq!(lanes(block.u[k])[l], s.u[k].to_bits());
+                            assert_eq!(lanes(block.a[k])[l], s.a[k].to_bits());
+                        }
+                        assert_eq!(lanes(block.inv_eps)[l], s.inv_eps.to_bits());
                     }
-                    assert_eq!(bits(&block), bits(&each));
                 }
             }
         }

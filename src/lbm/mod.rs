@@ -17,6 +17,7 @@ pub mod geometry;
 pub mod lattice;
 pub mod pore;
 pub mod problems;
+pub mod simd;
 pub mod solver;
 
 pub use collision::{Bgk, Collision, Trt};

@@ -14,10 +14,13 @@
 //! (mass, mean velocity) are taken per plane and added in plane order.
 
 use super::boundary::Boundaries;
-use super::collision::{equilibrium, relax_block, Block, BlockState, Collision, LANES};
-use super::forcing::{BlockMoments, Forcing};
+use super::collision::{equilibrium, relax, Block, Collision, Pairs};
+use super::forcing::Forcing;
 use super::geometry::{Dims, Geometry, Link};
 use super::lattice::{each_q, opposite, Lattice, QMAX};
+use super::simd::{Cells, Real, VArr, LANES};
+#[cfg(target_arch = "x86_64")]
+use super::simd::{V256x2, V512};
 use crate::error::{invalid, Result};
 use rayon::prelude::*;
 use std::marker::PhantomData;
@@ -57,6 +60,8 @@ struct RowCtx {
     cell0: usize,
     y: usize,
     layout: Layout,
+    /// Whether a contiguous block's output bypasses the caches.
+    stream: bool,
 }
 
 /// What every block of a row needs: source array, extent, collision, forcing, the row's
@@ -185,6 +190,9 @@ pub struct Solver<L: Lattice, C: Collision, F: Forcing> {
     /// Velocity and density planes (non-equilibrium extrapolation), applied after the kernel.
     boundaries: Boundaries,
     steps: u64,
+    /// Whether contiguous blocks are stored non-temporally; None: when the two population
+    /// arrays exceed the last-level cache ([`Solver::streaming_stores`]).
+    stream_stores: Option<bool>,
     _l: PhantomData<L>,
 }
 
@@ -204,6 +212,7 @@ impl<L: Lattice, C: Collision, F: Forcing> Solver<L, C, F> {
             layout,
             boundaries: Boundaries::default(),
             steps: 0,
+            stream_stores: None,
             _l: PhantomData,
         };
         s.init(|_| (1.0, [0.0; 3]));
@@ -227,6 +236,21 @@ impl<L: Lattice, C: Collision, F: Forcing> Solver<L, C, F> {
 
     pub fn boundaries(&self) -> &Boundaries {
         &self.boundaries
+    }
+
+    /// Whether the kernel writes whole cache lines of its output non-temporally (past the
+    /// caches, so that a line is not read before it is overwritten: 2 x 8 Q bytes per cell
+    /// update instead of 3 x 8 Q). By default it does when the two population arrays exceed
+    /// the last-level cache (read from Linux's sysfs; 32 MiB where unknown). Only the AVX-512
+    /// path has such stores; the results are the same bits either way.
+    pub fn streaming_stores(&self) -> bool {
+        self.stream_stores
+            .unwrap_or_else(|| 2 * 8 * self.layout.values() as u64 > last_level_cache_bytes())
+    }
+
+    /// Sets [`Solver::streaming_stores`] (None: the default rule).
+    pub fn set_streaming_stores(&mut self, on: Option<bool>) {
+        self.stream_stores = on;
     }
 
     pub fn dims(&self) -> Dims {
@@ -290,43 +314,45 @@ impl<L: Lattice, C: Collision, F: Forcing> Solver<L, C, F> {
         }
     }
 
-    /// Pulls the populations arriving at the cells `xs` of row (y, z) into the block `f` (lane
-    /// l: cell x = xs[l]), with the bounce-back links of those cells applied. `CONTIG`: the
-    /// cells are xs[0] + l in a row longer than a block, so each population is one contiguous
-    /// load, plus one wrapped lane for a block at either end of the row.
+    /// Pulls the populations arriving at the cells `xs` of row (y, z), lane l: cell
+    /// x = xs[l], with the bounce-back links of those cells applied. `CONTIG`: the cells are
+    /// xs[0] + l in a row longer than a block, so each population is one contiguous load
+    /// (straight into a register), plus one wrapped lane for a block at either end of the
+    /// row; otherwise the lanes are gathered through the plane's `scratch` block.
     /// `rowc.up[q]`: the start of the upstream row of population q in `src`; `links`: the
-    /// row's links from the first one at or after xs[0]; `bounce`: scratch for the links'
-    /// values. In a contiguous block every index into `f` is a constant of the unrolled code
-    /// (the links go in through per-population lane masks), so the block can live in
-    /// registers; a gathered block takes the links' values straight in.
+    /// row's links from the first one at or after xs[0]. Returns the populations and the
+    /// number of links used.
     #[inline(always)]
-    fn gather<const CONTIG: bool>(
+    fn gather<const CONTIG: bool, R: Real>(
         src: &[f64],
         rowc: &RowCtx,
         links: &[Link],
         xs: &[usize; LANES],
-        f: &mut Block<LANES>,
-        bounce: &mut Block<LANES>,
-    ) -> usize {
+        scratch: &mut Block<LANES>,
+    ) -> ([R; QMAX], usize) {
         let (up, here, nx) = (&rowc.up, rowc.here, rowc.layout.nx);
+        let mut f = [R::splat(0.0); QMAX];
         each_q!(L, q, {
             let cx = L::C[q][0];
             let row = &src[up[q]..up[q] + nx];
             if CONTIG {
                 // periodic in x: only a block at either end of the row has one lane whose
                 // upstream cell wraps round (cx = 1 at x = 0, cx = -1 at x = nx - 1)
-                if cx == 1 && xs[0] == 0 {
-                    f[q][1..].copy_from_slice(&row[..LANES - 1]);
-                    f[q][0] = row[nx - 1];
+                f[q] = if cx == 1 && xs[0] == 0 {
+                    let mut v = [0.0; LANES];
+                    v[1..].copy_from_slice(&row[..LANES - 1]);
+                    v[0] = row[nx - 1];
+                    R::load(&v)
                 } else if cx == -1 && xs[0] + LANES == nx {
-                    f[q][..LANES - 1].copy_from_slice(&row[nx - LANES + 1..]);
-                    f[q][LANES - 1] = row[0];
+                    let mut v = [0.0; LANES];
+                    v[..LANES - 1].copy_from_slice(&row[nx - LANES + 1..]);
+                    v[LANES - 1] = row[0];
+                    R::load(&v)
                 } else {
-                    let x0 = (xs[0] as isize - cx as isize) as usize;
-                    f[q].copy_from_slice(&row[x0..x0 + LANES]);
-                }
+                    R::load(&row[(xs[0] as isize - cx as isize) as usize..])
+                };
             } else {
-                for (fl, &x) in f[q].iter_mut().zip(xs) {
+                for (fl, &x) in scratch[q].iter_mut().zip(xs) {
                     let xu = match cx {
                         1 if x == 0 => nx - 1,
                         -1 if x + 1 == nx => 0,
@@ -336,11 +362,16 @@ impl<L: Lattice, C: Collision, F: Forcing> Solver<L, C, F> {
                 }
             }
         });
-        // halfway bounce-back (links sorted by x): f_q(x) = f*_opp(q)(x) + delta, the values
-        // set aside in `bounce` and the lanes they replace marked in `mask`
+        // halfway bounce-back (links sorted by x): f_q(x) = f*_opp(q)(x) + delta, into the
+        // scratch block, each population marked in `mask` taken from there
         let last = xs[LANES - 1];
         let mut used = 0;
-        let mut mask = [0u32; QMAX];
+        let mut mask = [false; QMAX];
+        if CONTIG && links.first().is_some_and(|l| l.x as usize <= last) {
+            each_q!(L, q, {
+                f[q].store(&mut scratch[q]);
+            });
+        }
         for l in links {
             let x = l.x as usize;
             if x > last {
@@ -349,125 +380,81 @@ impl<L: Lattice, C: Collision, F: Forcing> Solver<L, C, F> {
             used += 1;
             let q = l.q as usize;
             let v = src[here + opposite(q) * rowc.layout.q_stride + x] + l.delta;
-            if CONTIG {
-                bounce[q][x - xs[0]] = v;
-                mask[q] |= 1 << (x - xs[0]);
-            } else {
-                // a gathered block lives in memory anyway: the value goes straight in
-                for (fl, &xl) in f[q].iter_mut().zip(xs) {
-                    if xl == x {
-                        *fl = v;
-                    }
+            mask[q] = true;
+            for (fl, &xl) in scratch[q].iter_mut().zip(xs) {
+                if xl == x {
+                    *fl = v;
                 }
             }
         }
-        if CONTIG && used > 0 {
-            each_q!(L, q, {
-                if mask[q] != 0 {
-                    for l in 0..LANES {
-                        if mask[q] & (1 << l) != 0 {
-                            f[q][l] = bounce[q][l];
-                        }
-                    }
-                }
-            });
-        }
-        used
-    }
-
-    /// Density, momentum and the forcing's state of the block `f` (cells `cells[l]`,
-    /// consecutive when `contiguous`).
-    #[inline(always)]
-    fn block_state(
-        force: &F,
-        f: &Block<LANES>,
-        cells: [usize; LANES],
-        contiguous: bool,
-        st: &mut BlockState<LANES>,
-    ) {
-        // seed 002 eq. 6-7: rho = sum f, j = sum f c (zero terms skipped, order kept)
-        let mut m = BlockMoments {
-            cells,
-            contiguous,
-            rho: [0.0; LANES],
-            j: [[0.0; LANES]; 3],
-        };
-        let (rho, j) = (&mut m.rho, &mut m.j);
         each_q!(L, q, {
-            for l in 0..LANES {
-                rho[l] += f[q][l];
-            }
-            for (k, jk) in j.iter_mut().enumerate() {
-                match L::C[q][k] {
-                    0 => {}
-                    1 => {
-                        for l in 0..LANES {
-                            jk[l] += f[q][l];
-                        }
-                    }
-                    _ => {
-                        for l in 0..LANES {
-                            jk[l] -= f[q][l];
-                        }
-                    }
-                }
+            if !CONTIG || mask[q] {
+                f[q] = R::load(&scratch[q]);
             }
         });
-        force.block_states(&m, st);
+        (f, used)
     }
 
-    /// Pull, bounce back, collide and store one block (see [`Self::gather`]).
+    /// Pull, bounce back, collide and store one block (see [`Self::gather`]): the moments
+    /// over the pairs, the forcing's state and the collision, each written once for a cell
+    /// and a block ([`Pairs`], [`Forcing::states`], [`relax`]).
     #[allow(clippy::too_many_arguments)]
     #[inline(always)]
-    fn block<const CONTIG: bool>(
-        src: &[f64],
-        d: &Dims,
-        coll: &C,
-        force: &F,
-        rowc: &RowCtx,
-        links: &[Link],
+    fn block<const CONTIG: bool, R: Real>(
+        (src, d, coll, force, rowc, links): RowArgs<C, F>,
         xs: &[usize; LANES],
         n: usize,
-        (scratch, bounce): (&mut Block<LANES>, &mut Block<LANES>),
+        scratch: &mut Block<LANES>,
         out: &mut [f64],
         rec: &mut Option<PlaneRecord>,
     ) -> usize {
-        // the block's populations: pulled, then relaxed in place, then stored; a contiguous
-        // block's in a local the compiler keeps in registers, a gathered one's in the plane's
-        // scratch (a local would be zeroed for every block)
-        let mut local: Block<LANES> = [[0.0; LANES]; QMAX];
-        let f = if CONTIG { &mut local } else { scratch };
-        let used = Self::gather::<CONTIG>(src, rowc, links, xs, f, bounce);
-        let mut cells = [0; LANES];
-        for l in 0..LANES {
-            cells[l] = rowc.cell0 + xs[l];
-        }
-        let mut st = BlockState::<LANES>::default();
-        Self::block_state(force, f, cells, CONTIG, &mut st);
+        let (f, used) = Self::gather::<CONTIG, R>(src, rowc, links, xs, scratch);
+        let cells: [usize; LANES] = std::array::from_fn(|l| rowc.cell0 + xs[l]);
+        let p = Pairs::of::<L>(&f);
+        let (rho, j) = p.moments::<L>();
+        let st = force.states(
+            Cells {
+                idx: &cells,
+                contiguous: CONTIG,
+            },
+            rho,
+            j,
+        );
+        let mut post = [R::splat(0.0); QMAX];
         if F::ACTIVE {
-            relax_block::<L, C, true, LANES>(coll, &st, f);
+            relax::<L, C, R, true>(coll, rho, &st, &p, &mut post);
         } else {
-            relax_block::<L, C, false, LANES>(coll, &st, f);
+            relax::<L, C, R, false>(coll, rho, &st, &p, &mut post);
         }
         let plane_q = rowc.layout.q_stride;
         let row0 = rowc.y * d.nx;
         each_q!(L, q, {
-            let oq = &f[q];
             let orow = &mut out[q * plane_q + row0..q * plane_q + row0 + d.nx];
-            if CONTIG {
-                orow[xs[0]..xs[0] + LANES].copy_from_slice(oq);
+            if CONTIG && rowc.stream {
+                post[q].store_stream(&mut orow[xs[0]..]);
+            } else if CONTIG {
+                post[q].store(&mut orow[xs[0]..]);
             } else {
+                let mut v = [0.0; LANES];
+                post[q].store(&mut v);
                 for l in 0..n {
-                    orow[xs[l]] = oq[l];
+                    orow[xs[l]] = v[l];
                 }
             }
         });
-        if let Some((rho, u, a)) = rec {
+        if let Some((rho_out, u_out, a_out)) = rec {
+            let mut r = [0.0; LANES];
+            let (mut u, mut a) = ([[0.0; LANES]; 3], [[0.0; LANES]; 3]);
+            rho.store(&mut r);
+            for k in 0..3 {
+                st.u[k].store(&mut u[k]);
+                st.a[k].store(&mut a[k]);
+            }
             for l in 0..n {
                 let k = row0 + xs[l];
-                rho[k] = st.rho[l];
-                u[k] = [st.u[0][l], st.u[1][l], st.u[2][l]];
-                a[k] = [st.a[0][l], st.a[1][l], st.a[2][l]];
+                rho_out[k] = r[l];
+                u_out[k] = [u[0][l], u[1][l], u[2][l]];
+                a_out[k] = [a[0][l], a[1][l], a[2][l]];
             }
         }
         used
@@ -475,13 +462,12 @@ impl<L: Lattice, C: Collision, F: Forcing> Solver<L, C, F> {
 
     /// The block of the `np` cells `pending` (increasing x, not contiguous), padded with
     /// copies of the last so that every lane holds a real cell.
-    #[allow(clippy::too_many_arguments)]
     #[inline(always)]
-    fn gathered(
+    fn gathered<R: Real>(
         (src, d, coll, force, rowc, links): RowArgs<C, F>,
         pending: &mut [usize; LANES],
         np: usize,
-        blocks: (&mut Block<LANES>, &mut Block<LANES>),
+        scratch: &mut Block<LANES>,
         out: &mut [f64],
         rec: &mut Option<PlaneRecord>,
     ) {
@@ -489,16 +475,11 @@ impl<L: Lattice, C: Collision, F: Forcing> Solver<L, C, F> {
             pending[l] = pending[np - 1];
         }
         let first = links.partition_point(|k| (k.x as usize) < pending[0]);
-        Self::block::<false>(
-            src,
-            d,
-            coll,
-            force,
-            rowc,
-            &links[first..],
+        Self::block::<false, R>(
+            (src, d, coll, force, rowc, &links[first..]),
             pending,
             np,
-            blocks,
+            scratch,
             out,
             rec,
         );
@@ -509,23 +490,21 @@ impl<L: Lattice, C: Collision, F: Forcing> Solver<L, C, F> {
     /// contiguous block (a fluid row of nx = 8 k cells is k blocks that start on cache lines);
     /// the rest (short runs between solids, run tails) are packed into gathered blocks, so a
     /// mostly solid row costs its fluid cells only.
-    #[allow(clippy::too_many_arguments)]
     #[inline(always)]
-    fn plane_body(
+    fn plane_body<R: Real>(
         src: &[f64],
         geom: &Geometry,
         coll: &C,
         force: &F,
-        z: usize,
+        (z, stream): (usize, bool),
         out: &mut [f64],
         rec: &mut Option<PlaneRecord>,
     ) {
         let d = geom.dims;
         let nx = d.nx;
         let layout = Layout::new(&d, L::Q);
-        // a gathered block's populations, and the bounce-back values of a block's links
+        // a gathered block's populations, and a contiguous block's with bounce-back links
         let mut scratch: Block<LANES> = [[0.0; LANES]; QMAX];
-        let mut bounce: Block<LANES> = [[0.0; LANES]; QMAX];
         for y in 0..d.ny {
             let r = z * d.ny + y;
             let mut rowc = RowCtx {
@@ -534,6 +513,7 @@ impl<L: Lattice, C: Collision, F: Forcing> Solver<L, C, F> {
                 cell0: r * nx,
                 y,
                 layout,
+                stream,
             };
             each_q!(L, q, {
                 let c = L::C[q];
@@ -554,16 +534,11 @@ impl<L: Lattice, C: Collision, F: Forcing> Solver<L, C, F> {
                         while li < links.len() && (links[li].x as usize) < x {
                             li += 1;
                         }
-                        li += Self::block::<true>(
-                            src,
-                            &d,
-                            coll,
-                            force,
-                            &rowc,
-                            &links[li..],
+                        li += Self::block::<true, R>(
+                            (src, &d, coll, force, &rowc, &links[li..]),
                             &xs,
                             LANES,
-                            (&mut scratch, &mut bounce),
+                            &mut scratch,
                             out,
                             rec,
                         );
@@ -573,26 +548,23 @@ impl<L: Lattice, C: Collision, F: Forcing> Solver<L, C, F> {
                         np += 1;
                         x += 1;
                         if np == LANES {
-                            Self::gathered(
-                                row,
-                                &mut pending,
-                                np,
-                                (&mut scratch, &mut bounce),
-                                out,
-                                rec,
-                            );
+                            Self::gathered::<R>(row, &mut pending, np, &mut scratch, out, rec);
                             np = 0;
                         }
                     }
                 }
             }
             if np > 0 {
-                Self::gathered(row, &mut pending, np, (&mut scratch, &mut bounce), out, rec);
+                Self::gathered::<R>(row, &mut pending, np, &mut scratch, out, rec);
             }
+        }
+        if stream {
+            R::fence();
         }
     }
 
-    /// [`Self::plane_body`] compiled for AVX2 + FMA (chosen at run time where the CPU has them).
+    /// [`Self::plane_body`] compiled for AVX2 + FMA (chosen at run time where the CPU has them),
+    /// a block in two AVX2 registers per population.
     ///
     /// # Safety
     /// The caller must have checked that the CPU supports avx2 and fma.
@@ -603,11 +575,11 @@ impl<L: Lattice, C: Collision, F: Forcing> Solver<L, C, F> {
         geom: &Geometry,
         coll: &C,
         force: &F,
-        z: usize,
+        (z, stream): (usize, bool),
         out: &mut [f64],
         rec: &mut Option<PlaneRecord>,
     ) {
-        Self::plane_body(src, geom, coll, force, z, out, rec)
+        Self::plane_body::<V256x2>(src, geom, coll, force, (z, stream), out, rec)
     }
 
     /// [`Self::plane_body`] compiled for AVX-512 (one block of [`LANES`] cells per register).
@@ -621,11 +593,11 @@ impl<L: Lattice, C: Collision, F: Forcing> Solver<L, C, F> {
         geom: &Geometry,
         coll: &C,
         force: &F,
-        z: usize,
+        (z, stream): (usize, bool),
         out: &mut [f64],
         rec: &mut Option<PlaneRecord>,
     ) {
-        Self::plane_body(src, geom, coll, force, z, out, rec)
+        Self::plane_body::<V512>(src, geom, coll, force, (z, stream), out, rec)
     }
 
     /// One time step: stream, bounce back, collide.
@@ -656,6 +628,7 @@ impl<L: Lattice, C: Collision, F: Forcing> Solver<L, C, F> {
         #[cfg(target_arch = "x86_64")]
         let avx512 = avx2 && is_x86_feature_detected!("avx512f");
         let (src, geom, coll, force) = (&self.f, &self.geometry, &self.collision, &self.forcing);
+        let stream = self.streaming_stores();
         let mut planes: Vec<Option<PlaneRecord>> = match rec {
             Some(r) => r
                 .rho
@@ -674,16 +647,16 @@ impl<L: Lattice, C: Collision, F: Forcing> Solver<L, C, F> {
                 #[cfg(target_arch = "x86_64")]
                 if avx512 {
                     // SAFETY: avx512f, avx2 and fma were detected above.
-                    unsafe { Self::plane_avx512(src, geom, coll, force, z, out, rec) };
+                    unsafe { Self::plane_avx512(src, geom, coll, force, (z, stream), out, rec) };
                     return;
                 }
                 #[cfg(target_arch = "x86_64")]
                 if avx2 {
                     // SAFETY: avx2 and fma were detected above.
-                    unsafe { Self::plane_avx2(src, geom, coll, force, z, out, rec) };
+                    unsafe { Self::plane_avx2(src, geom, coll, force, (z, stream), out, rec) };
                     return;
                 }
-                Self::plane_body(src, geom, coll, force, z, out, rec)
+                Self::plane_body::<VArr>(src, geom, coll, force, (z, stream), out, rec)
             });
         if !self.boundaries.is_empty() {
             self.boundaries
@@ -829,6 +802,30 @@ impl<L: Lattice, C: Collision, F: Forcing> Solver<L, C, F> {
 }
 
 /// The periodic upstream coordinate v - c of v in 0..n, for c in {-1, 0, 1}.
+/// Bytes of the largest CPU cache (Linux sysfs, cpu 0), 32 MiB where it cannot be read.
+fn last_level_cache_bytes() -> u64 {
+    static BYTES: std::sync::OnceLock<u64> = std::sync::OnceLock::new();
+    *BYTES.get_or_init(|| {
+        let dir = std::path::Path::new("/sys/devices/system/cpu/cpu0/cache");
+        let size = |e: std::fs::DirEntry| -> Option<u64> {
+            let s = std::fs::read_to_string(e.path().join("size")).ok()?;
+            let s = s.trim();
+            let (num, mult) = match s.strip_suffix('K') {
+                Some(n) => (n, 1 << 10),
+                None => match s.strip_suffix('M') {
+                    Some(n) => (n, 1 << 20),
+                    None => (s, 1),
+                },
+            };
+            num.parse::<u64>().ok().map(|n| n * mult)
+        };
+        std::fs::read_dir(dir)
+            .ok()
+            .and_then(|d| d.flatten().filter_map(size).max())
+            .unwrap_or(32 << 20)
+    })
+}
+
 #[inline(always)]
 fn upstream(v: usize, c: i32, n: usize) -> usize {
     match c {
@@ -878,8 +875,8 @@ mod kernel_tests {
     use rand_chacha::ChaCha8Rng;
 
     /// One step cell by cell, the plainest form of the kernel's arithmetic: the pulled
-    /// populations of [`Solver::pull_row`], the moments (zero terms skipped, as the blocks),
-    /// the forcing's `state` and [`relax_cell`]; no blocks, no vector loads.
+    /// populations of [`Solver::pull_row`], the moments over the pairs, the forcing's `state`
+    /// and [`relax_cell`], all on one f64 at a time; no blocks, no vector loads.
     fn reference_step<L: Lattice, C: Collision, F: Forcing>(s: &Solver<L, C, F>) -> Vec<f64> {
         let d = s.dims();
         let mut out = vec![0.0; d.cells() * L::Q];
@@ -890,18 +887,11 @@ mod kernel_tests {
                 Solver::<L, C, F>::pull_row(&s.f, &s.geometry, z, y, &mut buf);
                 for &(x0, x1) in s.geometry.runs(z * d.ny + y) {
                     for x in x0 as usize..x1 as usize {
-                        let pre: Vec<f64> = (0..L::Q).map(|q| buf[q * d.nx + x]).collect();
-                        let (mut rho, mut j) = (0.0, [0.0; 3]);
-                        for (q, &f) in pre.iter().enumerate() {
-                            rho += f;
-                            for (k, jk) in j.iter_mut().enumerate() {
-                                match L::C[q][k] {
-                                    0 => {}
-                                    1 => *jk += f,
-                                    _ => *jk -= f,
-                                }
-                            }
+                        let mut pre = [0.0; QMAX];
+                        for (q, p) in pre.iter_mut().enumerate().take(L::Q) {
+                            *p = buf[q * d.nx + x];
                         }
+                        let (rho, j) = Pairs::of::<L>(&pre).moments::<L>();
                         let st = s.forcing.state(d.cell(x, y, z), rho, j);
                         relax_cell::<L, C, F>(&s.collision, rho, &st, &pre, &mut post);
                         for q in 0..L::Q {
@@ -926,6 +916,8 @@ mod kernel_tests {
         s.init(|c| (rho[c], u[c]));
         for step in 0..3 {
             let want = reference_step(&s);
+            // the non-temporal stores on every other step
+            s.set_streaming_stores(Some(step % 2 == 0));
             s.step();
             let got = s.populations();
             let bad = got
@@ -1007,7 +999,7 @@ mod kernel_tests {
     }
 
     /// The block kernel (contiguous blocks with wrapped end lanes, gathered blocks, aligned
-    /// storage, the Guo–Zhao block state with and without a moving matrix) changes no bit
+    /// storage, ordinary and non-temporal stores, the Guo–Zhao block state with and without a moving matrix) changes no bit
     /// of the cell-by-cell arithmetic, on both lattices, both collisions, open and
     /// porous-solid geometries, whichever vector path the CPU takes.
     #[test]
