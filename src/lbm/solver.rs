@@ -366,32 +366,41 @@ impl<L: Lattice, C: Collision, F: Forcing> Solver<L, C, F> {
         // scratch block, each population marked in `mask` taken from there
         let last = xs[LANES - 1];
         let mut used = 0;
-        let mut mask = [false; QMAX];
-        if CONTIG && links.first().is_some_and(|l| l.x as usize <= last) {
-            each_q!(L, q, {
-                f[q].store(&mut scratch[q]);
-            });
-        }
-        for l in links {
-            let x = l.x as usize;
-            if x > last {
-                break;
+        if links.first().is_some_and(|l| l.x as usize <= last) {
+            let mut mask = [false; QMAX];
+            if CONTIG {
+                each_q!(L, q, {
+                    f[q].store(&mut scratch[q]);
+                });
             }
-            used += 1;
-            let q = l.q as usize;
-            let v = src[here + opposite(q) * rowc.layout.q_stride + x] + l.delta;
-            mask[q] = true;
-            for (fl, &xl) in scratch[q].iter_mut().zip(xs) {
-                if xl == x {
-                    *fl = v;
+            for l in links {
+                let x = l.x as usize;
+                if x > last {
+                    break;
+                }
+                used += 1;
+                let q = l.q as usize;
+                let v = src[here + opposite(q) * rowc.layout.q_stride + x] + l.delta;
+                mask[q] = true;
+                for (fl, &xl) in scratch[q].iter_mut().zip(xs) {
+                    if xl == x {
+                        *fl = v;
+                    }
                 }
             }
-        }
-        each_q!(L, q, {
-            if !CONTIG || mask[q] {
-                f[q] = R::load(&scratch[q]);
+            if CONTIG {
+                each_q!(L, q, {
+                    if mask[q] {
+                        f[q] = R::load(&scratch[q]);
+                    }
+                });
             }
-        });
+        }
+        if !CONTIG {
+            each_q!(L, q, {
+                f[q] = R::load(&scratch[q]);
+            });
+        }
         (f, used)
     }
 
