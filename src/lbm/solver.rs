@@ -349,7 +349,18 @@ impl<L: Lattice, C: Collision, F: Forcing> Solver<L, C, F> {
                     v[LANES - 1] = row[0];
                     R::load(&v)
                 } else {
-                    R::load(&row[(xs[0] as isize - cx as isize) as usize..])
+                    let x0 = (xs[0] as isize - cx as isize) as usize;
+                    #[cfg(target_arch = "x86_64")]
+                    if rowc.stream {
+                        // SAFETY: a prefetch reads nothing and cannot fault; the address
+                        // is only computed (wrapping), never dereferenced.
+                        unsafe {
+                            std::arch::x86_64::_mm_prefetch::<{ std::arch::x86_64::_MM_HINT_T0 }>(
+                                row.as_ptr().wrapping_add(x0 + PREFETCH_AHEAD) as *const i8,
+                            )
+                        };
+                    }
+                    R::load(&row[x0..])
                 };
             } else {
                 for (fl, &x) in scratch[q].iter_mut().zip(xs) {
@@ -811,6 +822,10 @@ impl<L: Lattice, C: Collision, F: Forcing> Solver<L, C, F> {
 }
 
 /// The periodic upstream coordinate v - c of v in 0..n, for c in {-1, 0, 1}.
+/// How far ahead (values) a contiguous block prefetches each upstream row when the arrays
+/// exceed the caches: past the row's end this is the next row of the same population.
+const PREFETCH_AHEAD: usize = 96;
+
 /// Bytes of the largest CPU cache (Linux sysfs, cpu 0), 32 MiB where it cannot be read.
 fn last_level_cache_bytes() -> u64 {
     static BYTES: std::sync::OnceLock<u64> = std::sync::OnceLock::new();
