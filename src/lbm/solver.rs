@@ -60,7 +60,8 @@ struct RowCtx {
     cell0: usize,
     y: usize,
     layout: Layout,
-    /// Whether a contiguous block's output bypasses the caches.
+    /// Whether the arrays exceed the caches: a contiguous block's output then bypasses them
+    /// (non-temporal stores) and its upstream rows are prefetched.
     stream: bool,
 }
 
