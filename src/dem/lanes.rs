@@ -5,18 +5,12 @@
 //! branches become per-lane selects, so a contact's force has the same bits whichever way it
 //! was evaluated.
 
+use crate::special::arith::Arith;
 use nalgebra::Vector3;
-use std::ops::{Add, BitAnd, Div, Mul, Neg, Not, Sub};
+use std::ops::{BitAnd, Not};
 
 /// One value per contact.
-pub trait Lane:
-    Copy
-    + Add<Output = Self>
-    + Sub<Output = Self>
-    + Mul<Output = Self>
-    + Div<Output = Self>
-    + Neg<Output = Self>
-{
+pub trait Lane: Arith {
     /// Contacts per value.
     const LANES: usize;
     /// One condition per contact.

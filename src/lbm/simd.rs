@@ -11,6 +11,7 @@
 //! anywhere else, `V512` and `V256x2` would need the CPU features that the caller must have
 //! checked.
 
+use crate::special::arith::Arith;
 use std::ops::{Add, Div, Mul, Neg, Sub};
 
 /// `v3!(k => expr)`: the array of `expr` at k = 0, 1, 2, written out without a closure (the
@@ -71,14 +72,7 @@ impl<'a> Cells<'a> {
 }
 
 /// A number of the kernel: `LANES` cells at once.
-pub trait Real:
-    Copy
-    + Add<Output = Self>
-    + Sub<Output = Self>
-    + Mul<Output = Self>
-    + Div<Output = Self>
-    + Neg<Output = Self>
-{
+pub trait Real: Arith {
     const LANES: usize;
     fn splat(v: f64) -> Self;
     /// self * a + b, rounded once.

@@ -37,6 +37,7 @@
 //! Terms are added until a bound on the tail (|q_n| <= q_0 a^n,
 //! |d^k (P_n / r^(n+1))| <= (n+1)...(n+k) / r^(n+k+1)) is below 1e-18 of the dipole scale.
 
+use crate::special::arith::Arith;
 use crate::special::double_double::hypot_dd;
 use crate::special::quadrature::integrate;
 use crate::Result;
@@ -58,14 +59,7 @@ pub const MULTIPOLE_MIN: f64 = 4.0;
 // ---------------------------------------------------------------------------------------------
 // Numbers: f64 and first-order dual numbers in (rho, z).
 
-trait Num:
-    Copy
-    + Add<Output = Self>
-    + Sub<Output = Self>
-    + Mul<Output = Self>
-    + Div<Output = Self>
-    + Neg<Output = Self>
-{
+trait Num: Arith {
     fn cst(x: f64) -> Self;
     fn sqrt(self) -> Self;
     fn v(self) -> f64;

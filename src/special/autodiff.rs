@@ -3,18 +3,11 @@
 //! Kernels written generically over [`Real`] run on `f64` for values and on [`Dual`] for exact
 //! derivatives (to rounding) without finite differences; `Dual<Dual<f64, 3>, 1>` nests.
 
+use super::arith::Arith;
 use std::ops::{Add, Div, Mul, Neg, Sub};
 
 /// The scalar operations the field kernels need.
-pub trait Real:
-    Copy
-    + Add<Output = Self>
-    + Sub<Output = Self>
-    + Mul<Output = Self>
-    + Div<Output = Self>
-    + Neg<Output = Self>
-    + std::fmt::Debug
-{
+pub trait Real: Arith + std::fmt::Debug {
     fn cst(v: f64) -> Self;
     /// The plain value (derivative parts dropped), for branch decisions.
     fn val(&self) -> f64;

@@ -2,6 +2,7 @@
 //! and nowhere else), automatic differentiation, quadrature rules used by the oracles, and a
 //! small dense linear solve.
 
+pub mod arith;
 pub mod autodiff;
 pub mod bulirsch;
 pub mod double_double;
