@@ -126,14 +126,7 @@ impl<R: Real> Pairs<R> {
         let j = v3!(k => {
             let mut jk: Option<R> = None;
             each_pair!(L, q, {
-                let d = self.d[q / 2];
-                jk = match (L::C[q][k], jk) {
-                    (0, _) => jk,
-                    (1, None) => Some(d),
-                    (_, None) => Some(-d),
-                    (1, Some(v)) => Some(v + d),
-                    (_, Some(v)) => Some(v - d),
-                };
+                jk = add_signed(jk, L::C[q][k], self.d[q / 2]);
             });
             jk.unwrap_or(R::splat(0.0))
         });
@@ -148,15 +141,22 @@ impl<R: Real> Pairs<R> {
 pub fn dot_c<R: Real>(c: [i32; 3], v: &[R; 3]) -> R {
     let mut s: Option<R> = None;
     for k in 0..3 {
-        s = match (c[k], s) {
-            (0, _) => s,
-            (1, None) => Some(v[k]),
-            (_, None) => Some(-v[k]),
-            (1, Some(t)) => Some(t + v[k]),
-            (_, Some(t)) => Some(t - v[k]),
-        };
+        s = add_signed(s, c[k], v[k]);
     }
     s.unwrap_or(R::splat(0.0))
+}
+
+/// acc + c v for c in {0, 1, -1}: c v alone for the first nonzero term (None so far), no
+/// operation for c = 0; the sign flip is exact.
+#[inline(always)]
+fn add_signed<R: Real>(acc: Option<R>, c: i32, v: R) -> Option<R> {
+    match (c, acc) {
+        (0, _) => acc,
+        (1, None) => Some(v),
+        (_, None) => Some(-v),
+        (1, Some(t)) => Some(t + v),
+        (_, Some(t)) => Some(t - v),
+    }
 }
 
 /// Relaxes a block of cells (or one cell: `R = f64`) of density `rho` and forcing state `s`,
