@@ -8,6 +8,7 @@
 //! `ACTIVE = false` lets the compiler drop the source term of an unforced fluid.
 
 use super::simd::{v3, Cells, Real};
+use super::solver::vec_on_huge_pages;
 
 /// The state of a cell (or of a block of cells, one per lane of `R`) that the collision
 /// needs.
@@ -142,10 +143,10 @@ impl Porous {
             g,
             nu,
             forchheimer,
-            eps: vec![1.0; cells],
-            lin: vec![0.0; cells],
-            quad: vec![0.0; cells],
-            w: vec![[0.0; 3]; cells],
+            eps: vec_on_huge_pages(cells, 1.0),
+            lin: vec_on_huge_pages(cells, 0.0),
+            quad: vec_on_huge_pages(cells, 0.0),
+            w: vec_on_huge_pages(cells, [0.0; 3]),
             moving: false,
         }
     }
