@@ -253,7 +253,10 @@ impl Outcome {
             rows: Vec::new(),
             oracle: case.spec.as_ref().ok().map(|s| s.oracle),
             policy: case.spec.as_ref().ok().map(|s| s.tolerance()),
-            deviation: case.spec.as_ref().ok().and_then(|s| s.deviation.clone()),
+            // a documented deviation says how far the case's numbers miss; a case that gave
+            // no numbers (broken case.toml, missing reference, runner error or panic, no rows)
+            // fails whatever its case.toml documents
+            deviation: None,
         }
     }
 
@@ -675,10 +678,10 @@ mod tests {
         match id {
             "901" => Some(runner_table),
             "902" => Some(runner_nan),
-            "903" => Some(runner_err),
+            "903" | "911" => Some(runner_err),
             "904" => Some(runner_panic),
             "905" => Some(runner_empty),
-            "906" | "907" => Some(runner_table),
+            "906" | "907" | "912" => Some(runner_table),
             _ => None,
         }
     }
@@ -709,12 +712,19 @@ mod tests {
             &format!("{}colour = \"red\"\n", toml("909", "fast")),
             None,
         );
+        let documented = |id| format!("{}deviation = \"a documented miss\"\n", toml(id, "fast"));
+        r.case("911-deviation-err", &documented("911"), Some("x,y\n1,1\n"));
+        r.case(
+            "912-deviation-miss",
+            &documented("912"),
+            Some("x,y\n1,1\n2,4.5\n"),
+        );
         std::fs::create_dir_all(r.0.join("validation/910-no-toml")).unwrap();
         std::fs::create_dir_all(r.0.join("validation/notes")).unwrap();
 
         let cases = discover(&r.0).unwrap();
         let names: Vec<&str> = cases.iter().map(|c| c.folder.as_str()).collect();
-        assert_eq!(names.len(), 9, "{names:?}");
+        assert_eq!(names.len(), 11, "{names:?}");
         assert_eq!(
             cases.iter().find(|c| c.id == "906").unwrap().tier(),
             Tier::Slow
@@ -750,6 +760,13 @@ mod tests {
         assert!(m.contains("no runner"), "{m}");
         let m = run(&r, "909-bad-key").message.unwrap();
         assert!(m.contains("colour") && m.contains("case.toml"), "{m}");
+        // a documented deviation covers numbers that miss, not a run that gave none
+        let o = run(&r, "911-deviation-err");
+        assert_eq!(o.verdict(), Verdict::Fail, "{:?}", o.message);
+        assert!(o.fails_run());
+        let o = run(&r, "912-deviation-miss");
+        assert_eq!(o.verdict(), Verdict::Deviation, "{:?}", o.message);
+        assert!(!o.fails_run());
     }
 
     #[test]
