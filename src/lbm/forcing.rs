@@ -7,8 +7,8 @@
 //! a = -(eps nu / K) u - (eps F_eps / sqrt K) |u| u + eps G (seed 002 eq. 10).
 //! `ACTIVE = false` lets the compiler drop the source term of an unforced fluid.
 
+use super::memory::vec_on_huge_pages;
 use super::simd::{v3, Cells, Real};
-use super::solver::vec_on_huge_pages;
 
 /// The state of a cell (or of a block of cells, one per lane of `R`) that the collision
 /// needs.

@@ -15,6 +15,7 @@ pub mod collision;
 pub mod forcing;
 pub mod geometry;
 pub mod lattice;
+pub mod memory;
 pub mod pore;
 pub mod problems;
 pub mod simd;

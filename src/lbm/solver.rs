@@ -18,6 +18,7 @@ use super::collision::{equilibrium, relax, Block, Collision, Pairs};
 use super::forcing::Forcing;
 use super::geometry::{Dims, Geometry, Link};
 use super::lattice::{each_q, opposite, Lattice, QMAX};
+use super::memory::{last_level_cache_bytes, vec_on_huge_pages};
 use super::simd::{Cells, Real, VArr, LANES};
 #[cfg(target_arch = "x86_64")]
 use super::simd::{V256x2, V512};
@@ -91,30 +92,6 @@ impl Populations {
             len,
         }
     }
-}
-
-/// `vec![value; n]`, backed by transparent huge pages where the system grants them only on
-/// request (Linux `madvise` mode): the kernel pulls 15-19 upstream rows and writes as many,
-/// each crossing a 4 KiB page every 512 values, and with 2 MiB pages those crossings stop
-/// costing a page walk each. Advice only: a refusal, or another system, leaves ordinary pages.
-pub(super) fn vec_on_huge_pages<T: Clone>(n: usize, value: T) -> Vec<T> {
-    let mut v: Vec<T> = Vec::with_capacity(n);
-    let bytes = n * std::mem::size_of::<T>();
-    #[cfg(target_os = "linux")]
-    if bytes >= 2 << 20 {
-        const PAGE: usize = 4096;
-        let ptr = v.as_mut_ptr() as usize;
-        let (start, end) = (ptr.next_multiple_of(PAGE), (ptr + bytes) / PAGE * PAGE);
-        // SAFETY: madvise only changes how the kernel backs the range, which lies inside this
-        // allocation (not yet written); it reads and writes no memory.
-        unsafe {
-            libc::madvise(start as *mut libc::c_void, end - start, libc::MADV_HUGEPAGE);
-        }
-    }
-    #[cfg(not(target_os = "linux"))]
-    let _ = bytes;
-    v.resize(n, value);
-    v
 }
 
 impl std::ops::Deref for Populations {
@@ -849,30 +826,6 @@ impl<L: Lattice, C: Collision, F: Forcing> Solver<L, C, F> {
 /// How far ahead (values) a contiguous block prefetches each upstream row when the arrays
 /// exceed the caches: past the row's end this is the next row of the same population.
 const PREFETCH_AHEAD: usize = 32;
-
-/// Bytes of the largest CPU cache (Linux sysfs, cpu 0), 32 MiB where it cannot be read.
-fn last_level_cache_bytes() -> u64 {
-    static BYTES: std::sync::OnceLock<u64> = std::sync::OnceLock::new();
-    *BYTES.get_or_init(|| {
-        let dir = std::path::Path::new("/sys/devices/system/cpu/cpu0/cache");
-        let size = |e: std::fs::DirEntry| -> Option<u64> {
-            let s = std::fs::read_to_string(e.path().join("size")).ok()?;
-            let s = s.trim();
-            let (num, mult) = match s.strip_suffix('K') {
-                Some(n) => (n, 1 << 10),
-                None => match s.strip_suffix('M') {
-                    Some(n) => (n, 1 << 20),
-                    None => (s, 1),
-                },
-            };
-            num.parse::<u64>().ok().map(|n| n * mult)
-        };
-        std::fs::read_dir(dir)
-            .ok()
-            .and_then(|d| d.flatten().filter_map(size).max())
-            .unwrap_or(32 << 20)
-    })
-}
 
 /// The periodic upstream coordinate v - c of v in 0..n, for c in {-1, 0, 1}.
 #[inline(always)]

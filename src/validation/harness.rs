@@ -234,7 +234,8 @@ pub struct Outcome {
     /// The case's oracle and tolerance (None when its case.toml is broken).
     pub oracle: Option<Oracle>,
     pub policy: Option<Tolerance>,
-    /// The documented reason when the case is a known deviation.
+    /// The documented reason when the case is a known deviation (None when the run gave no
+    /// rows: a documented deviation covers numbers that miss, not a run that gave none).
     pub deviation: Option<String>,
 }
 

@@ -1,0 +1,51 @@
+//! Where the kernel's arrays sit in the memory system: the size of the last-level cache (which
+//! decides the non-temporal stores and the prefetch) and huge-page backing for the population
+//! arrays and the per-cell fields.
+
+/// Bytes of the largest CPU cache (Linux sysfs, cpu 0), 32 MiB where it cannot be read.
+pub fn last_level_cache_bytes() -> u64 {
+    static BYTES: std::sync::OnceLock<u64> = std::sync::OnceLock::new();
+    *BYTES.get_or_init(|| {
+        let dir = std::path::Path::new("/sys/devices/system/cpu/cpu0/cache");
+        let size = |e: std::fs::DirEntry| -> Option<u64> {
+            let s = std::fs::read_to_string(e.path().join("size")).ok()?;
+            let s = s.trim();
+            let (num, mult) = match s.strip_suffix('K') {
+                Some(n) => (n, 1 << 10),
+                None => match s.strip_suffix('M') {
+                    Some(n) => (n, 1 << 20),
+                    None => (s, 1),
+                },
+            };
+            num.parse::<u64>().ok().map(|n| n * mult)
+        };
+        std::fs::read_dir(dir)
+            .ok()
+            .and_then(|d| d.flatten().filter_map(size).max())
+            .unwrap_or(32 << 20)
+    })
+}
+
+/// `vec![value; n]`, backed by transparent huge pages where the system grants them only on
+/// request (Linux `madvise` mode): the kernel pulls 15-19 upstream rows and writes as many,
+/// each crossing a 4 KiB page every 512 values, and with 2 MiB pages those crossings stop
+/// costing a page walk each. Advice only: a refusal, or another system, leaves ordinary pages.
+pub fn vec_on_huge_pages<T: Clone>(n: usize, value: T) -> Vec<T> {
+    let mut v: Vec<T> = Vec::with_capacity(n);
+    let bytes = n * std::mem::size_of::<T>();
+    #[cfg(target_os = "linux")]
+    if bytes >= 2 << 20 {
+        const PAGE: usize = 4096;
+        let ptr = v.as_mut_ptr() as usize;
+        let (start, end) = (ptr.next_multiple_of(PAGE), (ptr + bytes) / PAGE * PAGE);
+        // SAFETY: madvise only changes how the kernel backs the range, which lies inside this
+        // allocation (not yet written); it reads and writes no memory.
+        unsafe {
+            libc::madvise(start as *mut libc::c_void, end - start, libc::MADV_HUGEPAGE);
+        }
+    }
+    #[cfg(not(target_os = "linux"))]
+    let _ = bytes;
+    v.resize(n, value);
+    v
+}
