@@ -45,6 +45,10 @@ fn vtk_fields_read_by_meshio() {
     s.run(20);
     let f = s.fields();
     let solid: Vec<f64> = mask.iter().map(|&b| if b { 1.0 } else { 0.0 }).collect();
+    // a porosity field that differs from cell to cell, as the Guo-Zhao scenes write
+    let porosity: Vec<f64> = (0..d.cells())
+        .map(|i| 0.3 + 0.7 * (i % 7) as f64 / 6.0)
+        .collect();
     let dir = std::env::temp_dir().join(format!("porelab-vtk-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
     let path = dir.join("fields.vtk");
@@ -57,6 +61,7 @@ fn vtk_fields_read_by_meshio() {
         &[
             CellField::Vector("velocity", &f.u),
             CellField::Scalar("density", &f.rho),
+            CellField::Scalar("porosity", &porosity),
             CellField::Scalar("solid", &solid),
         ],
     )
@@ -65,8 +70,8 @@ fn vtk_fields_read_by_meshio() {
         m = meshio.read(sys.argv[1])\n\
         n = sum(len(c.data) for c in m.cells)\n\
         print('cells', n, 'points', len(m.points))\n\
-        u = m.cell_data['velocity'][0]; r = m.cell_data['density'][0].ravel(); s = m.cell_data['solid'][0].ravel()\n\
-        for i in range(n):\n    print(repr(float(u[i][0])), repr(float(u[i][1])), repr(float(u[i][2])), repr(float(r[i])), repr(float(s[i])))\n";
+        u = m.cell_data['velocity'][0]; r = m.cell_data['density'][0].ravel(); s = m.cell_data['solid'][0].ravel(); e = m.cell_data['porosity'][0].ravel()\n\
+        for i in range(n):\n    print(repr(float(u[i][0])), repr(float(u[i][1])), repr(float(u[i][2])), repr(float(r[i])), repr(float(s[i])), repr(float(e[i])))\n";
     let out = Command::new("python3")
         .args(["-c", script, path.to_str().unwrap()])
         .output()
@@ -93,6 +98,7 @@ fn vtk_fields_read_by_meshio() {
         assert_eq!(v[..3], f.u[i], "velocity of cell {i}");
         assert_eq!(v[3], f.rho[i], "density of cell {i}");
         assert_eq!(v[4], solid[i], "solid of cell {i}");
+        assert_eq!(v[5], porosity[i], "porosity of cell {i}");
         if v[4] == 0.0 && v[0] > 0.0 {
             fluid_moving += 1;
         }

@@ -181,9 +181,93 @@ impl Geometry {
     pub fn link_count(&self) -> usize {
         self.links.len()
     }
+    /// Whether a fluid cluster joined along the links of lattice `L` wraps round the periodic
+    /// box along `axis`: a path of fluid cells from a cell to one of its own images one period
+    /// away. Without one, a body force along `axis` drives no steady flow (permeability 0),
+    /// however much fluid the mask holds. Each cluster is searched once, its cells labelled
+    /// with their unwrapped coordinate along `axis`; reaching a labelled cell with another
+    /// coordinate closes a wrapping path.
+    pub fn percolates<L: Lattice>(&self, axis: usize) -> bool {
+        let d = self.dims;
+        const UNSEEN: i32 = i32::MIN;
+        let mut unwrapped = vec![UNSEEN; d.cells()];
+        let mut stack = Vec::new();
+        for start in 0..d.cells() {
+            if self.solid[start] || unwrapped[start] != UNSEEN {
+                continue;
+            }
+            unwrapped[start] = d.coords(start)[axis] as i32;
+            stack.push(start);
+            while let Some(c) = stack.pop() {
+                let p = d.coords(c);
+                let here = unwrapped[c];
+                for cq in L::C.iter().skip(1) {
+                    let n = d.shifted(p, *cq);
+                    let nc = d.cell(n[0], n[1], n[2]);
+                    if self.solid[nc] {
+                        continue;
+                    }
+                    let there = here + cq[axis];
+                    if unwrapped[nc] == UNSEEN {
+                        unwrapped[nc] = there;
+                        stack.push(nc);
+                    } else if unwrapped[nc] != there {
+                        return true;
+                    }
+                }
+            }
+        }
+        false
+    }
+
     /// The opposite of link direction q (re-exported for the kernel).
     #[inline(always)]
     pub fn opp(q: usize) -> usize {
         opposite(q)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::lbm::{D3Q15, D3Q19};
+
+    /// Open boxes and tubes wrap; a solid plane across x blocks x only; a closed spherical
+    /// shell's inside and outside are pockets that do not wrap; the same shell with a hole
+    /// joined to a tube along x wraps again.
+    #[test]
+    fn percolation_along_an_axis() {
+        let d = Dims::new(8, 6, 5).unwrap();
+        let open = Geometry::open::<D3Q19>(d);
+        assert!((0..3).all(|a| open.percolates::<D3Q19>(a)));
+        let wall = |x: usize| {
+            (0..d.cells())
+                .map(|c| d.coords(c)[0] == x)
+                .collect::<Vec<_>>()
+        };
+        let g = Geometry::new::<D3Q15>(d, wall(3), |_| [0.0; 3]).unwrap();
+        assert!(!g.percolates::<D3Q15>(0));
+        assert!(g.percolates::<D3Q15>(1) && g.percolates::<D3Q15>(2));
+        // a 1-cell-long box along x wraps onto itself
+        let thin = Dims::new(1, 4, 4).unwrap();
+        assert!(Geometry::open::<D3Q19>(thin).percolates::<D3Q19>(0));
+        // solid everywhere except an enclosed cavity (a pocket) and its own wrapped images
+        let n = 9;
+        let d = Dims::new(n, n, n).unwrap();
+        let pocket: Vec<bool> = (0..d.cells())
+            .map(|c| {
+                let p = d.coords(c);
+                !(p.iter().all(|&v| (3..=5).contains(&v)))
+            })
+            .collect();
+        let g = Geometry::new::<D3Q19>(d, pocket.clone(), |_| [0.0; 3]).unwrap();
+        assert!(g.fluid_cells() == 27 && !(0..3).any(|a| g.percolates::<D3Q19>(a)));
+        // a tube along x through the pocket
+        let mut tube = pocket;
+        for x in 0..n {
+            tube[d.cell(x, 4, 4)] = false;
+        }
+        let g = Geometry::new::<D3Q19>(d, tube, |_| [0.0; 3]).unwrap();
+        assert!(g.percolates::<D3Q19>(0) && !g.percolates::<D3Q19>(1));
     }
 }

@@ -482,8 +482,12 @@ mod tests {
         assert!(e.contains("superquadric_roundness"), "{e}");
     }
 
+    /// All solid, and fluid only in isolated pockets (one sphere of radius 0.75 in the unit
+    /// box leaves the corners' fluid enclosed): both refused as permeability 0.
     #[test]
     fn no_flow_path_is_said_plainly() {
+        let pockets = voxelise(&Cell::cubic(1.0), &[sphere([0.5; 3], 0.75)], 8).unwrap();
+        assert!(pockets.solid.iter().any(|s| !s));
         let v = voxelise(&Cell::cubic(1.0), &[sphere([0.5; 3], 2.0)], 8).unwrap();
         let o = PoreOptions {
             lattice: LatticeKind::D3Q15,
@@ -499,5 +503,10 @@ mod tests {
         };
         let e = pore_permeability(&v, &o).unwrap_err().to_string();
         assert!(e.contains("permeability 0"), "{e}");
+        let e = pore_permeability(&pockets, &o).unwrap_err().to_string();
+        assert!(
+            e.contains("isolated pockets") && e.contains("permeability is 0"),
+            "{e}"
+        );
     }
 }

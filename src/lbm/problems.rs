@@ -96,6 +96,12 @@ pub fn permeability<L: Lattice, C: Collision>(
     if geom.fluid_cells() == 0 {
         return invalid("the solid mask has no fluid cell: permeability is 0 (no flow path)");
     }
+    if !geom.percolates::<L>(0) {
+        return invalid(
+            "no fluid path wraps round the periodic box along x (the pores are isolated \
+             pockets): permeability is 0 (no flow path)",
+        );
+    }
     let porosity = geom.fluid_cells() as f64 / geom.dims.cells() as f64;
     let nu = (1.0 / coll.omega_plus() - 0.5) / 3.0;
     let mut s = Solver::<L, C, BodyForce>::new(geom, coll, BodyForce { g: [g, 0.0, 0.0] })?;
