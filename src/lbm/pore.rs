@@ -12,7 +12,7 @@
 use super::choice::{dispatch, CollisionKind, Job, LatticeKind};
 use super::geometry::{Dims, Geometry};
 use super::problems::{permeability, Permeability};
-use super::steady::SteadyControl;
+use super::steady::{SteadyControl, SteadyProgress};
 use super::units::describe;
 use super::{Collision, Lattice};
 use crate::error::{invalid, Result};
@@ -208,27 +208,11 @@ struct PoreJob {
 impl Job for PoreJob {
     type Out = Result<Permeability>;
     fn run<L: Lattice, C: Collision>(self, coll: C) -> Result<Permeability> {
-        let quiet = self.quiet;
-        let tol = self.ctl.tol;
-        let bar = (!quiet).then(|| {
-            let b = indicatif::ProgressBar::new_spinner();
-            b.set_style(
-                indicatif::ProgressStyle::with_template("{spinner} {elapsed} {msg}")
-                    .unwrap_or_else(|_| indicatif::ProgressStyle::default_spinner()),
-            );
-            b
+        let mut bar = SteadyProgress::new(self.ctl.tol, self.quiet);
+        let r = permeability::<L, C>(self.geom, coll, self.g, self.ctl, |s, res| {
+            bar.update(s, res)
         });
-        let r = permeability::<L, C>(self.geom, coll, self.g, self.ctl, |steps, res| {
-            if let Some(b) = &bar {
-                b.set_message(format!(
-                    "step {steps}: residual {res:.2e} (stop at {tol:.0e})"
-                ));
-                b.tick();
-            }
-        });
-        if let Some(b) = bar {
-            b.finish_and_clear();
-        }
+        bar.finish();
         r
     }
 }

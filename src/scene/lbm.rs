@@ -50,7 +50,7 @@ use crate::lbm::flows::channel_mask;
 use crate::lbm::flows::{brinkman_poiseuille, channel_coordinate, sphere_array_mask};
 use crate::lbm::geometry::{Dims, Geometry};
 use crate::lbm::problems::{permeability, Channel, DrivenChannel, Inlet};
-use crate::lbm::steady::{Steady, SteadyControl};
+use crate::lbm::steady::{Steady, SteadyControl, SteadyProgress};
 use crate::lbm::units::{check_mach, describe, Units};
 use crate::lbm::{Collision, Lattice};
 use serde::Deserialize;
@@ -161,6 +161,8 @@ struct SceneRun {
     wall_u: f64,
     porous: Option<(f64, f64, bool)>,
     ctl: SteadyControl,
+    /// No progress display.
+    quiet: bool,
 }
 
 struct Outcome {
@@ -177,6 +179,19 @@ struct Outcome {
 impl Job for SceneRun {
     type Out = Result<Outcome>;
     fn run<L: Lattice, C: Collision>(self, coll: C) -> Result<Outcome> {
+        let mut bar = SteadyProgress::new(self.ctl.tol, self.quiet);
+        let out = self.solve::<L, C>(coll, &mut |s, r| bar.update(s, r));
+        bar.finish();
+        out
+    }
+}
+
+impl SceneRun {
+    fn solve<L: Lattice, C: Collision>(
+        self,
+        coll: C,
+        progress: &mut dyn FnMut(u64, f64),
+    ) -> Result<Outcome> {
         let n = self.scene.cells;
         if self.scene.flow == "sphere-array" {
             let phi = self.scene.solid_fraction.unwrap_or(0.0);
@@ -184,13 +199,7 @@ impl Job for SceneRun {
             let d = Dims::new(n, n, n)?;
             let mask = sphere_array_mask(n, radius);
             let geom = Geometry::new::<L>(d, mask.clone(), |_| [0.0; 3])?;
-            let p = permeability::<L, C>(geom, coll, self.g, self.ctl, |s, r| {
-                eprint!(
-                    "\rstep {s}: residual {r:.2e} (stop at {:.0e})   ",
-                    self.ctl.tol
-                )
-            })?;
-            eprintln!();
+            let p = permeability::<L, C>(geom, coll, self.g, self.ctl, progress)?;
             let porosity_field = mask.iter().map(|&s| if s { 0.0 } else { 1.0 }).collect();
             return Ok(Outcome {
                 k: Some(p.k),
@@ -208,7 +217,7 @@ impl Job for SceneRun {
                 inlet,
                 rho_out,
             };
-            let st = ch.steady::<L, C>(coll, self.ctl)?;
+            let st = ch.steady::<L, C>(coll, self.ctl, progress)?;
             let d = ch.dims()?;
             let solid = channel_mask(d);
             let porosity_field = solid.iter().map(|&s| if s { 0.0 } else { 1.0 }).collect();
@@ -227,7 +236,7 @@ impl Job for SceneRun {
             wall_u: self.wall_u,
             porous: self.porous,
         };
-        let (_, st) = ch.steady::<L, C>(coll, self.ctl)?;
+        let (_, st) = ch.steady::<L, C>(coll, self.ctl, progress)?;
         let d = Dims::new(1, n + 2, 1)?;
         let solid: Vec<bool> = (0..n + 2).map(|y| y == 0 || y == n + 1).collect();
         let eps = self.porous.map_or(1.0, |p| p.0);
@@ -444,6 +453,7 @@ pub fn run_scene(text: &str, origin: &str, out: &Path, opts: &RunOptions) -> Res
         wall_u,
         porous,
         ctl,
+        quiet: opts.quiet,
     };
     let o = on_threads(opts.threads, || dispatch(lat, coll, tau, run))?;
     let st = &o.steady;
@@ -559,6 +569,10 @@ pub fn run_scene(text: &str, origin: &str, out: &Path, opts: &RunOptions) -> Res
 mod tests {
     use super::*;
 
+    fn builtin(name: &str) -> Builtin {
+        builtins().into_iter().find(|b| b.name == name).unwrap()
+    }
+
     #[test]
     fn builtins_parse_and_unknown_keys_are_named() {
         for b in builtins() {
@@ -618,10 +632,7 @@ mod tests {
     /// 2.5e-3 density drop), and its keys are refused where they do not belong.
     #[test]
     fn pressure_channel_builtin_and_keys() {
-        let b = builtins()
-            .into_iter()
-            .find(|b| b.name == "lbm-pressure-channel")
-            .unwrap();
+        let b = builtin("lbm-pressure-channel");
         let tmp = std::env::temp_dir().join(format!("porelab-lbm-pch-{}", std::process::id()));
         run_scene(b.toml, "builtin", &tmp, &RunOptions::default()).unwrap();
         let text = std::fs::read_to_string(tmp.join("profile.csv")).unwrap();
