@@ -50,6 +50,7 @@ use crate::lbm::flows::channel_mask;
 use crate::lbm::flows::{brinkman_poiseuille, channel_coordinate, sphere_array_mask};
 use crate::lbm::geometry::{Dims, Geometry};
 use crate::lbm::problems::{permeability, Channel, DrivenChannel, Inlet};
+use crate::lbm::solver::check_memory;
 use crate::lbm::steady::{Steady, SteadyControl, SteadyProgress};
 use crate::lbm::units::{check_mach, describe, Units};
 use crate::lbm::{Collision, Lattice};
@@ -268,6 +269,14 @@ struct Prepared {
     u_est: f64,
 }
 
+/// Bytes per cell a scene holds besides the solver's populations and mask: the steady
+/// fields (velocity, density), their SI copies, the solid and porosity fields of the output,
+/// and the scene's own mask.
+const SCENE_PER_CELL: usize = 32 + 32 + 16 + 2;
+/// Bytes per cell of the Guo-Zhao porous medium (porosity, two drag coefficients, matrix
+/// velocity).
+const POROUS_PER_CELL: usize = 48;
+
 fn prepare(text: &str, origin: &str) -> Result<Prepared> {
     let sc: LbmScene = toml::from_str(text).map_err(|e| Error::File {
         path: origin.to_string(),
@@ -394,6 +403,15 @@ fn prepare(text: &str, origin: &str) -> Result<Prepared> {
             ))
         }
     };
+    // the lattice each flow builds, refused before anything is allocated
+    let n = sc.cells;
+    let dims = match (&sc.flow[..], driven) {
+        ("sphere-array", _) => Dims::new(n, n, n)?,
+        (_, Some((length, _, _))) => Dims::new(length + 1, n + 2, 1)?,
+        _ => Dims::new(1, n + 2, 1)?,
+    };
+    let porous_fields = if porous.is_some() { POROUS_PER_CELL } else { 0 };
+    check_memory(dims, lat.q(), SCENE_PER_CELL + porous_fields)?;
     check_mach(u_est, "estimated peak velocity")?;
     Ok(Prepared {
         sc,
@@ -605,6 +623,27 @@ mod tests {
         .unwrap_err()
         .to_string();
         assert!(e.contains("Mach"), "{e}");
+    }
+
+    /// A lattice too large for the machine is refused at preparation, naming its size,
+    /// before the mask or the populations are built (it took 100 s and 2 GB before).
+    #[test]
+    fn oversized_lattice_is_refused_before_allocating() {
+        let b = builtin("lbm-sphere-array");
+        let need = crate::lbm::solver::bytes_needed(1_000_000_000, 19, 0);
+        match crate::lbm::solver::memory_available() {
+            Some(avail) if avail < need => {}
+            _ => return eprintln!("skipped: this machine has room for a 1000^3 lattice"),
+        }
+        let big = b.toml.replace("cells = 32", "cells = 1000");
+        let t = std::time::Instant::now();
+        let tmp = std::env::temp_dir().join(format!("porelab-lbm-big-{}", std::process::id()));
+        let e = run_scene(&big, "t", &tmp, &RunOptions::default())
+            .unwrap_err()
+            .to_string();
+        assert!(t.elapsed().as_secs_f64() < 1.0, "{:?}", t.elapsed());
+        assert!(e.contains("1000 x 1000 x 1000") && e.contains("GiB"), "{e}");
+        assert!(!tmp.exists());
     }
 
     /// The channel builtin reproduces its own closed-form column (TRT: exact parabola).
