@@ -35,7 +35,7 @@ fn high_mach_is_refused_before_and_during_a_run() {
         porous: None,
     };
     let e = ch
-        .steady::<D3Q19, _>(Trt::magic(1.0), CTL)
+        .steady::<D3Q19, _>(Trt::magic(1.0), CTL, |_, _| {})
         .unwrap_err()
         .to_string();
     assert!(e.contains("Mach") || e.contains("non-finite"), "{e}");
@@ -66,7 +66,9 @@ fn extreme_porous_media_stay_finite() {
                 wall_u: 0.0,
                 porous: Some((eps, k, forch)),
             };
-            let (prof, st) = ch.steady::<D3Q19, _>(Trt::magic(1.0), CTL).unwrap();
+            let (prof, st) = ch
+                .steady::<D3Q19, _>(Trt::magic(1.0), CTL, |_, _| {})
+                .unwrap();
             assert!(st.fields.u.iter().flatten().all(|v| v.is_finite()));
             assert!(st.fields.rho.iter().all(|v| v.is_finite()));
             if !forch {
@@ -176,7 +178,7 @@ fn boundary_planes_refuse_what_they_cannot_do() {
         rho_out: 0.6,
     };
     let e = ch
-        .steady::<D3Q19, _>(Trt::magic(1.0), CTL)
+        .steady::<D3Q19, _>(Trt::magic(1.0), CTL, |_, _| {})
         .unwrap_err()
         .to_string();
     assert!(e.contains("Mach") || e.contains("non-finite"), "{e}");

@@ -37,6 +37,15 @@ pub fn brinkman_poiseuille(y: f64, h: f64, g: f64, nu: f64, eps: f64, k: f64) ->
     g * k / nu * (1.0 - ratio)
 }
 
+/// Plane Couette flow through a uniform porous medium without the Forchheimer term: the
+/// Brinkman equation nu u'' - (eps nu / K) u = 0 (effective viscosity = nu, as in Guo & Zhao
+/// 2002) with u(0) = 0, u(h) = U has u = U sinh(r y) / sinh(r h), r = sqrt(eps / K); written
+/// as U e^{r (y - h)} (1 - e^{-2 r y}) / (1 - e^{-2 r h}), which cannot overflow.
+pub fn brinkman_couette(y: f64, h: f64, u_wall: f64, eps: f64, k: f64) -> f64 {
+    let r = (eps / k).sqrt();
+    u_wall * (r * (y - h)).exp() * (-(-2.0 * r * y).exp_m1()) / (-(-2.0 * r * h).exp_m1())
+}
+
 /// Solid mask of one sphere of radius `radius` (cells) centred in the periodic n^3 box (a
 /// simple cubic array of period n): cell (i, j, k) is solid when its centre (i + 1/2, ...)
 /// lies inside.

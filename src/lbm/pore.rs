@@ -12,7 +12,7 @@
 use super::choice::{dispatch, CollisionKind, Job, LatticeKind};
 use super::geometry::{Dims, Geometry};
 use super::problems::{permeability, Permeability};
-use super::steady::SteadyControl;
+use super::steady::{SteadyControl, SteadyProgress};
 use super::units::describe;
 use super::{Collision, Lattice};
 use crate::error::{invalid, Result};
@@ -109,9 +109,9 @@ pub struct Voxels {
     pub v_over_s: Option<f64>,
 }
 
-/// Voxelises `particles` in the periodic orthorhombic `cell` with `n` cells along x (the
-/// other edges get the same spacing, rounded; they must come out within 1e-6 relative).
-pub fn voxelise(cell: &Cell, particles: &[XyzParticle], n: usize) -> Result<Voxels> {
+/// The lattice of `n` cells along x in the periodic orthorhombic `cell` and its spacing dx
+/// (the other edges get the same spacing, rounded; they must come out within 1e-6 relative).
+pub fn voxel_dims(cell: &Cell, n: usize) -> Result<(Dims, f64)> {
     if cell.pbc != [true; 3] {
         return invalid(format!(
             "the configuration's cell has pbc = {:?}: permeability needs a periodic box (T T T)",
@@ -134,7 +134,14 @@ pub fn voxelise(cell: &Cell, particles: &[XyzParticle], n: usize) -> Result<Voxe
             ));
         }
     }
-    let dims = Dims::new(ext[0], ext[1], ext[2])?;
+    Ok((Dims::new(ext[0], ext[1], ext[2])?, dx))
+}
+
+/// Voxelises `particles` in the periodic orthorhombic `cell` with `n` cells along x
+/// ([`voxel_dims`]).
+pub fn voxelise(cell: &Cell, particles: &[XyzParticle], n: usize) -> Result<Voxels> {
+    let (dims, dx) = voxel_dims(cell, n)?;
+    let ext = [dims.nx, dims.ny, dims.nz];
     crate::lbm::solver::check_memory(dims, 19, 0)?;
     let placed: Vec<Placed> = particles
         .iter()
@@ -208,27 +215,11 @@ struct PoreJob {
 impl Job for PoreJob {
     type Out = Result<Permeability>;
     fn run<L: Lattice, C: Collision>(self, coll: C) -> Result<Permeability> {
-        let quiet = self.quiet;
-        let tol = self.ctl.tol;
-        let bar = (!quiet).then(|| {
-            let b = indicatif::ProgressBar::new_spinner();
-            b.set_style(
-                indicatif::ProgressStyle::with_template("{spinner} {elapsed} {msg}")
-                    .unwrap_or_else(|_| indicatif::ProgressStyle::default_spinner()),
-            );
-            b
+        let mut bar = SteadyProgress::new(self.ctl.tol, self.quiet);
+        let r = permeability::<L, C>(self.geom, coll, self.g, self.ctl, |s, res| {
+            bar.update(s, res)
         });
-        let r = permeability::<L, C>(self.geom, coll, self.g, self.ctl, |steps, res| {
-            if let Some(b) = &bar {
-                b.set_message(format!(
-                    "step {steps}: residual {res:.2e} (stop at {tol:.0e})"
-                ));
-                b.tick();
-            }
-        });
-        if let Some(b) = bar {
-            b.finish_and_clear();
-        }
+        bar.finish();
         r
     }
 }
@@ -314,19 +305,80 @@ pub struct PermeabilityArgs {
     pub quiet: bool,
 }
 
+impl PoreOptions {
+    /// Refuses a body force that is not positive and finite (`force_key` names it) and an
+    /// unstable relaxation time.
+    pub fn check(&self, force_key: &str) -> Result<()> {
+        if !(self.g.is_finite() && self.g > 0.0) {
+            return invalid(format!(
+                "{force_key} = {}: must be positive and finite",
+                self.g
+            ));
+        }
+        super::units::check_tau(self.tau)
+    }
+}
+
+/// The line `porelab permeability` starts with: the configuration and the run's options.
+pub fn setup_line(cell: &Cell, particles: &[XyzParticle], o: &PoreOptions) -> String {
+    format!(
+        "{} particles in a {:?} box; {} {}, tau = {}, body force {:e} (lattice units)\n",
+        particles.len(),
+        cell.lengths,
+        o.lattice.name(),
+        o.collision.name(),
+        o.tau,
+        o.g
+    )
+}
+
+/// What `porelab permeability` prints for one resolution (`unit_m`: the configuration's
+/// length unit in metres, for k in m^2).
+pub fn report(v: &Voxels, r: &PoreResult, o: &PoreOptions, unit_m: Option<f64>) -> String {
+    let mut s = format!(
+        "resolution {} ({} x {} x {}, dx = {:.4}): k = {:.6e} unit^2, porosity {:.4} (voxels; \
+         particles {:.4}), {} steps, residual {:.1e}{}\n",
+        r.n,
+        v.dims.nx,
+        v.dims.ny,
+        v.dims.nz,
+        v.dx,
+        r.k,
+        r.porosity,
+        1.0 - v.phi_particles,
+        r.run.steps,
+        r.run.residual,
+        if r.run.converged {
+            ""
+        } else {
+            " (NOT converged)"
+        }
+    );
+    s += &format!(
+        "  {}\n",
+        describe(o.tau, r.run.u_max, v.v_over_s.map_or(1.0, |s| s / v.dx))
+    );
+    s += &format!("  Re (mean velocity, length V/S) = {:.3e}\n", r.re);
+    if let Some(vs) = v.v_over_s {
+        s += &format!(
+            "  Kozeny constant (eq. 7.4, nu = V/S = {vs:.4}): {:.3} with the particle phi, {:.3} \
+             with the voxel phi\n",
+            kozeny_constant(r.k, v.phi_particles, vs),
+            kozeny_constant(r.k, 1.0 - r.porosity, vs)
+        );
+    }
+    if let Some(u) = unit_m {
+        s += &format!("  k = {:.6e} m^2\n", r.k * u * u);
+    }
+    s
+}
+
 pub fn cli_permeability(a: &PermeabilityArgs) -> Result<()> {
     let text = std::fs::read_to_string(&a.packing).map_err(|e| crate::Error::File {
         path: a.packing.display().to_string(),
         msg: e.to_string(),
     })?;
     let (cell, parts) = xyz::parse(&text, &a.packing.display().to_string())?;
-    if !(a.force.is_finite() && a.force > 0.0) {
-        return invalid(format!(
-            "--force = {}: must be positive and finite",
-            a.force
-        ));
-    }
-    super::units::check_tau(a.tau)?;
     let o = PoreOptions {
         lattice: LatticeKind::parse(&a.lattice, "--lattice")?,
         collision: CollisionKind::parse(&a.collision, "--collision")?,
@@ -339,48 +391,13 @@ pub fn cli_permeability(a: &PermeabilityArgs) -> Result<()> {
         },
         quiet: a.quiet,
     };
-    println!(
-        "{} particles in a {:?} box; {} {}, tau = {}, body force {:e} (lattice units)",
-        parts.len(),
-        cell.lengths,
-        o.lattice.name(),
-        o.collision.name(),
-        o.tau,
-        o.g
-    );
+    o.check("--force")?;
+    print!("{}", setup_line(&cell, &parts, &o));
     let mut results = Vec::new();
     for n in [a.resolution / 2, a.resolution] {
         let v = voxelise(&cell, &parts, n)?;
         let r = pore_permeability(&v, &o)?;
-        println!(
-            "resolution {n} ({} x {} x {}, dx = {:.4}): k = {:.6e} unit^2, porosity {:.4} (voxels; \
-             particles {:.4}), {} steps, residual {:.1e}{}",
-            v.dims.nx,
-            v.dims.ny,
-            v.dims.nz,
-            v.dx,
-            r.k,
-            r.porosity,
-            1.0 - v.phi_particles,
-            r.run.steps,
-            r.run.residual,
-            if r.run.converged { "" } else { " (NOT converged)" }
-        );
-        println!(
-            "  {}",
-            describe(o.tau, r.run.u_max, v.v_over_s.map_or(1.0, |s| s / v.dx))
-        );
-        println!("  Re (mean velocity, length V/S) = {:.3e}", r.re);
-        if let Some(s) = v.v_over_s {
-            println!(
-                "  Kozeny constant (eq. 7.4, nu = V/S = {s:.4}): {:.3} with the particle phi, {:.3} with the voxel phi",
-                kozeny_constant(r.k, v.phi_particles, s),
-                kozeny_constant(r.k, 1.0 - r.porosity, s)
-            );
-        }
-        if let Some(u) = a.unit_m {
-            println!("  k = {:.6e} m^2", r.k * u * u);
-        }
+        print!("{}", report(&v, &r, &o, a.unit_m));
         results.push(r);
     }
     let (k1, k2) = (results[0].k, results[1].k);

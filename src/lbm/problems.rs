@@ -35,11 +35,13 @@ impl Channel {
         })
     }
 
-    /// The steady x velocity of fluid rows y = 1..=h (index y - 1), and the run's report.
+    /// The steady x velocity of fluid rows y = 1..=h (index y - 1), and the run's report;
+    /// `progress(steps, residual)` is called after each check.
     pub fn steady<L: Lattice, C: Collision>(
         &self,
         coll: C,
         ctl: SteadyControl,
+        progress: impl FnMut(u64, f64),
     ) -> Result<(Vec<f64>, Steady)> {
         let geom = self.geometry::<L>()?;
         let st = match self.porous {
@@ -51,7 +53,7 @@ impl Channel {
                         g: [self.g, 0.0, 0.0],
                     },
                 )?;
-                run_steady(&mut s, ctl, |_, _| {})?
+                run_steady(&mut s, ctl, progress)?
             }
             Some((eps, k, forch)) => {
                 let cells = geom.dims.cells();
@@ -62,7 +64,7 @@ impl Channel {
                 }
                 let mut s = Solver::<L, C, Porous>::new(geom, coll, p)?;
                 s.init(|_| (1.0, [0.0; 3]));
-                run_steady(&mut s, ctl, |_, _| {})?
+                run_steady(&mut s, ctl, progress)?
             }
         };
         let prof = (1..=self.h).map(|y| st.fields.u[y][0]).collect();
@@ -179,8 +181,14 @@ impl DrivenChannel {
         Dims::new(self.length + 1, self.h + 2, 1)
     }
 
-    /// Runs to steady state; returns the run (fields over the whole lattice).
-    pub fn steady<L: Lattice, C: Collision>(&self, coll: C, ctl: SteadyControl) -> Result<Steady> {
+    /// Runs to steady state; returns the run (fields over the whole lattice);
+    /// `progress(steps, residual)` is called after each check.
+    pub fn steady<L: Lattice, C: Collision>(
+        &self,
+        coll: C,
+        ctl: SteadyControl,
+        progress: impl FnMut(u64, f64),
+    ) -> Result<Steady> {
         if self.length < 2 {
             return invalid(format!(
                 "channel length {} cells: must be at least 2 (inlet, outlet and one node between)",
@@ -227,7 +235,7 @@ impl DrivenChannel {
         }
         let b = Boundaries::new(vec![inlet, outlet])?;
         let mut s = Solver::<L, C, Unforced>::new(geom, coll, Unforced)?.with_boundaries(b)?;
-        run_steady(&mut s, ctl, |_, _| {})
+        run_steady(&mut s, ctl, progress)
     }
 }
 
@@ -256,13 +264,15 @@ pub fn square_duct<L: Lattice, C: Collision>(
 /// Plane Couette flow with its walls on the lattice nodes y = 0 (at rest) and y = h (sliding
 /// at `u_wall` along x, lattice units), both velocity planes (non-equilibrium extrapolation),
 /// filled with a uniform medium `porous` = (eps, K in lattice units, Forchheimer on); one cell
-/// along x and z. Returns the steady x velocity at the nodes y = 0..=h and the run.
+/// along x and z. Returns the steady x velocity at the nodes y = 0..=h and the run;
+/// `progress(steps, residual)` is called after each check.
 pub fn node_couette<L: Lattice, C: Collision>(
     h: usize,
     u_wall: f64,
     porous: (f64, f64, bool),
     coll: C,
     ctl: SteadyControl,
+    progress: impl FnMut(u64, f64),
 ) -> Result<(Vec<f64>, Steady)> {
     let d = Dims::new(1, h + 1, 1)?;
     let geom = Geometry::open::<L>(d);
@@ -290,7 +300,7 @@ pub fn node_couette<L: Lattice, C: Collision>(
     )?;
     let b = Boundaries::new(vec![lower, upper])?;
     let mut s = Solver::<L, C, Porous>::new(geom, coll, p)?.with_boundaries(b)?;
-    let st = run_steady(&mut s, ctl, |_, _| {})?;
+    let st = run_steady(&mut s, ctl, progress)?;
     let prof = (0..=h).map(|y| st.fields.u[y][0]).collect();
     Ok((prof, st))
 }

@@ -107,3 +107,89 @@ pub fn run_steady<L: Lattice, C: Collision, F: Forcing>(
         }
     }
 }
+
+/// The progress display of a steady run, on stderr: a bar that fills as the residual falls
+/// from its first value to the stop value (on a log scale, never moving back), with the step
+/// count, the residual and the stop value. Hidden when `quiet` (indicatif also hides it when
+/// stderr is not a terminal). Pass `|s, r| p.update(s, r)` as the progress of [`run_steady`].
+pub struct SteadyProgress {
+    bar: indicatif::ProgressBar,
+    tol: f64,
+    first: Option<f64>,
+}
+
+/// Positions of the bar between the first residual and the stop value.
+const BAR_LEN: u64 = 1000;
+
+impl SteadyProgress {
+    pub fn new(tol: f64, quiet: bool) -> SteadyProgress {
+        let bar = if quiet {
+            indicatif::ProgressBar::hidden()
+        } else {
+            let b = indicatif::ProgressBar::new(BAR_LEN);
+            b.set_style(
+                indicatif::ProgressStyle::with_template("[{elapsed_precise}] {bar:30} {msg}")
+                    .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
+            );
+            b
+        };
+        SteadyProgress {
+            bar,
+            tol,
+            first: None,
+        }
+    }
+
+    /// Shows the check after `steps` steps that gave `residual`.
+    pub fn update(&mut self, steps: u64, residual: f64) {
+        let tol = self.tol;
+        self.bar.set_message(format!(
+            "step {steps}: residual {residual:.2e} (stop below {tol:.1e})"
+        ));
+        if residual > 0.0 && residual.is_finite() {
+            let first = *self.first.get_or_insert(residual.max(tol));
+            let span = (first / tol).ln();
+            let frac = if span > 0.0 {
+                ((first / residual).ln() / span).clamp(0.0, 1.0)
+            } else {
+                1.0
+            };
+            let pos = (frac * BAR_LEN as f64).round() as u64;
+            if pos > self.bar.position() {
+                self.bar.set_position(pos);
+            }
+        } else if residual == 0.0 {
+            self.bar.set_position(BAR_LEN);
+        }
+    }
+
+    /// Removes the display.
+    pub fn finish(self) {
+        self.bar.finish_and_clear();
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The bar is empty at the first residual, half full at the geometric mean of it and the
+    /// stop value, full at the stop value, and never moves back when the residual rises.
+    #[test]
+    fn progress_fills_on_a_log_scale_towards_the_stop_value() {
+        let mut p = SteadyProgress::new(1e-8, true);
+        p.update(100, 1e-2);
+        assert_eq!(p.bar.position(), 0);
+        p.update(200, 1e-5);
+        assert_eq!(p.bar.position(), BAR_LEN / 2);
+        p.update(300, 1e-3);
+        assert_eq!(p.bar.position(), BAR_LEN / 2);
+        assert!(p
+            .bar
+            .message()
+            .contains("residual 1.00e-3 (stop below 1.0e-8)"));
+        p.update(400, 1e-9);
+        assert_eq!(p.bar.position(), BAR_LEN);
+        p.finish();
+    }
+}

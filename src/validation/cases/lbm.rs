@@ -48,7 +48,7 @@ struct ChannelError {
 impl Job for ChannelError {
     type Out = Result<f64>;
     fn run<L: Lattice, C: Collision>(self, coll: C) -> Result<f64> {
-        let (prof, st) = self.channel.steady::<L, C>(coll, self.ctl)?;
+        let (prof, st) = self.channel.steady::<L, C>(coll, self.ctl, |_, _| {})?;
         if !st.converged {
             return Err(Error::Validation(format!(
                 "channel h = {} not steady after {} steps (residual {:e})",

@@ -63,7 +63,7 @@ struct DrivenError {
 impl Job for DrivenError {
     type Out = Result<f64>;
     fn run<L: Lattice, C: Collision>(self, coll: C) -> Result<f64> {
-        let st = self.ch.steady::<L, C>(coll, STEADY)?;
+        let st = self.ch.steady::<L, C>(coll, STEADY, |_, _| {})?;
         require_steady("driven channel", &st)?;
         let d = self.ch.dims()?;
         let (h, x) = (self.ch.h, self.ch.length / 2);
@@ -198,7 +198,8 @@ impl Job for CouetteProfile {
         let hf = self.h as f64;
         let u_wall = self.re * nu / hf;
         let k = self.da * hf * hf;
-        let (u, st) = node_couette::<L, C>(self.h, u_wall, (self.eps, k, true), coll, STEADY)?;
+        let (u, st) =
+            node_couette::<L, C>(self.h, u_wall, (self.eps, k, true), coll, STEADY, |_, _| {})?;
         require_steady("porous Couette", &st)?;
         Ok(u.iter().map(|v| v / u_wall).collect())
     }
