@@ -600,18 +600,23 @@ const BUILTIN_XYZ: [(&str, &str); 1] =
     [("lbm-packing.xyz", include_str!("builtin/lbm-packing.xyz"))];
 
 /// (where, text) of the configuration `xyz` names: a path relative to the scene file's folder,
-/// or absolute; for a built-in scene, one of [`BUILTIN_XYZ`].
+/// or absolute; `builtin:NAME` is one of [`BUILTIN_XYZ`], wherever the scene is (a built-in
+/// scene, its sweep jobs, or a scene file started from `--show`).
 fn read_xyz(xyz: &str, origin: &str) -> Result<(String, String)> {
-    let path = Path::new(xyz);
-    if origin.starts_with("builtin:") && path.is_relative() {
+    if let Some(wanted) = xyz.strip_prefix("builtin:") {
         return BUILTIN_XYZ
             .iter()
-            .find(|(name, _)| *name == xyz)
-            .map(|(name, text)| (format!("{origin}/{name}"), text.to_string()))
+            .find(|(name, _)| *name == wanted)
+            .map(|(_, text)| (xyz.to_string(), text.to_string()))
             .ok_or_else(|| {
-                Error::InvalidInput(format!("xyz = \"{xyz}\": no built-in configuration"))
+                let known: Vec<_> = BUILTIN_XYZ.iter().map(|(n, _)| *n).collect();
+                Error::InvalidInput(format!(
+                    "xyz = \"{xyz}\": no built-in configuration of that name (known: {})",
+                    known.join(", ")
+                ))
             });
     }
+    let path = Path::new(xyz);
     let full = match Path::new(origin).parent() {
         Some(dir) if path.is_relative() => dir.join(path),
         _ => path.to_path_buf(),
