@@ -38,7 +38,8 @@
 //!                                 # (exactly one of the two; the outlet is at the reference
 //!                                 # pressure)
 //! xyz = "final.xyz"               # packing, required: porelab extended XYZ (periodic box),
-//!                                 # relative to the scene file's folder
+//!                                 # relative to the scene file's folder, or
+//!                                 # "builtin:lbm-packing.xyz" (the built-in's)
 //! resolution = 32                 # packing, required: cells along the box's x edge
 //! unit_m = 1e-3                   # packing: the file's length unit in metres (k in m^2)
 //! force_lattice = 1e-6            # packing: body force in lattice units [1e-6]
