@@ -1,12 +1,13 @@
-//! Cases 920-921 (thesis 003 ch. 7): the permeability of porelab's own random packings (MCM,
+//! Cases 920-922 (thesis 003 ch. 7): the permeability of porelab's own random packings (MCM,
 //! periodic box) by the pore-resolving lattice Boltzmann solver ([`crate::lbm::pore`]), read
 //! as the Kozeny constant of eq. 7.4, k = (1 - phi)^3 nu^2 / (C_KC phi^2).
 //!
 //! * 920 (slow): spheres at packing fractions along one MCM run (the jamming schedule stopped
 //!   at the first accepted step past each target, and its jammed end): C_KC with nu = V/S = D/6
 //!   against Carman's 5 (the "180" of the sphere form).
-//! * 921 (slow): spherocylinders at their random-packing densities: C_KC with the exact
-//!   nu = V/S and with the long-rod nu = D/4 (thesis sec. 7.2.2), against L/D.
+//! * 921 and 922 (slow): spherocylinders at their random-packing densities (L/D 1-5 and the
+//!   long rods 10-20): C_KC with the exact nu = V/S and with the long-rod nu = D/4 (thesis
+//!   sec. 7.2.2), against L/D.
 
 use super::common::non_empty;
 use crate::lbm::choice::{CollisionKind, LatticeKind};
@@ -24,7 +25,7 @@ fn seed(ctx: &CaseContext) -> Result<u64> {
 }
 
 /// The pore-resolving run of these cases: D3Q19 TRT (Lambda = 3/16: k independent of the
-/// viscosity), tau = 1, body force 1e-5 (Re on V/S below 1e-3 at these k), steady to 1e-7 per
+/// viscosity, case 808), tau = 1 unless a row sets it, body force 1e-5 (Re on V/S below 1e-3 at these k), steady to 1e-7 per
 /// 100 steps.
 const PORE: PoreOptions = PoreOptions {
     lattice: LatticeKind::D3Q19,
@@ -68,14 +69,14 @@ struct KcPoint {
     re: f64,
 }
 
-fn kc_point(p: &Packing, cells_per_d: [f64; 2]) -> Result<KcPoint> {
+fn kc_point(p: &Packing, cells_per_d: [f64; 2], opts: &PoreOptions) -> Result<KcPoint> {
     let (cell, parts) = packing_particles(p)?;
     let mut k = [0.0; 2];
     let (mut phi_voxels, mut re, mut v_over_s) = (0.0, 0.0, 0.0);
     for (j, &c) in cells_per_d.iter().enumerate() {
         let n = (c * p.box_length).round() as usize;
         let v = voxelise(&cell, &parts, n)?;
-        let r = pore_permeability(&v, &PORE)?;
+        let r = pore_permeability(&v, opts)?;
         if !r.run.converged {
             return Err(Error::Validation(format!(
                 "phi = {:.4}, n = {n}: not steady after {} steps (residual {:e})",
@@ -160,7 +161,7 @@ pub fn case_920(ctx: &CaseContext) -> Result<Vec<Row>> {
             packs.last().expect("the final state is always there")
         };
         let cells = [t.f64(i, "cells_coarse")?, t.f64(i, "cells_fine")?];
-        let pt = kc_point(p, cells)?;
+        let pt = kc_point(p, cells, &PORE)?;
         let label = format!("spheres N={n} phi={:.3} D={}", pt.phi, cells[1]);
         // nu = V/S = D/6 for spheres
         let nus = [("V/S", pt.v_over_s)];
@@ -169,10 +170,10 @@ pub fn case_920(ctx: &CaseContext) -> Result<Vec<Row>> {
     Ok(rows)
 }
 
-/// Case 921: spherocylinders; expected.csv `length_over_diameter,particles,cells_coarse,
-/// cells_fine,c_kc`, one MCM run per row (the jamming schedule with the rod length set, as
-/// case 514), its jammed end: C_KC with nu = V/S and with the long-rod nu = D/4.
-pub fn case_921(ctx: &CaseContext) -> Result<Vec<Row>> {
+/// Cases 921 and 922: spherocylinders; expected.csv `length_over_diameter,particles,tau,
+/// cells_coarse,cells_fine,c_kc`, one MCM run per row (the jamming schedule with the rod length
+/// set, as case 514), its jammed end: C_KC with nu = V/S and with the long-rod nu = D/4.
+pub fn case_921_922(ctx: &CaseContext) -> Result<Vec<Row>> {
     let t = ctx.expected_table()?;
     non_empty(&t)?;
     let s = seed(ctx)?;
@@ -184,7 +185,11 @@ pub fn case_921(ctx: &CaseContext) -> Result<Vec<Row>> {
         prm.length = aspect;
         let r = packing::run(&prm)?;
         let cells = [t.f64(i, "cells_coarse")?, t.f64(i, "cells_fine")?];
-        let pt = kc_point(&r.packing, cells)?;
+        let opts = PoreOptions {
+            tau: t.f64(i, "tau")?,
+            ..PORE
+        };
+        let pt = kc_point(&r.packing, cells, &opts)?;
         // thesis eq. 7.2 with <C> = 9.8: the random-contact phi of long rods, for comparison
         eprintln!(
             "{} L/D={aspect}: MCM phi {:.4}, random contact equation (eq. 7.2) 4.9 D/L = {:.3}",

@@ -124,7 +124,7 @@ pub fn runner_for(id: &str) -> Option<Runner> {
         "807" => Some(lbm::case_806_807),
         "818" | "819" => Some(lbm::case_818_819),
         "920" => Some(lbm_packings::case_920),
-        "921" => Some(lbm_packings::case_921),
+        "921" | "922" => Some(lbm_packings::case_921_922),
         "701" => Some(dem::case_701),
         "702" => Some(dem::case_702),
         "703" => Some(dem::case_703),
