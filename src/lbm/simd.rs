@@ -88,17 +88,6 @@ pub trait Real: Arith {
     fn store_stream(self, s: &mut [f64]) {
         self.store(s)
     }
-    /// Lane l into `s[l]` for the lanes whose bit l of `mask` is set; the others are left.
-    #[inline(always)]
-    fn store_masked(self, s: &mut [f64], mask: u8) {
-        let mut v = [0.0; LANES];
-        self.store(&mut v);
-        for (l, (sl, vl)) in s[..Self::LANES].iter_mut().zip(v).enumerate() {
-            if mask & (1 << l) != 0 {
-                *sl = vl;
-            }
-        }
-    }
     /// Orders the non-temporal stores before any later store.
     #[inline(always)]
     fn fence() {}
@@ -302,12 +291,6 @@ mod x86 {
             } else {
                 self.store(s)
             }
-        }
-        #[inline(always)]
-        fn store_masked(self, s: &mut [f64], mask: u8) {
-            let s = &mut s[..LANES];
-            // SAFETY: eight writable f64 (the slice above); only the masked lanes are written.
-            unsafe { _mm512_mask_storeu_pd(s.as_mut_ptr(), mask, self.0) }
         }
         #[inline(always)]
         fn fence() {

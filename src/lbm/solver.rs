@@ -6,8 +6,7 @@
 //! `((z Q + q) ny + y) nx + x` ([`Layout`]), so each plane (all q) is one contiguous chunk
 //! that one rayon task writes. A step walks every row's fluid cells in blocks of [`LANES`]
 //! cells: it pulls the Q upstream populations of the block (one contiguous load per q, with
-//! one wrapped lane at the row's ends; a block with a few solid cells computes them too and
-//! stores only its fluid lanes; the fluid cells of mostly solid blocks are gathered),
+//! one wrapped lane at the row's ends; a gather for the cells of short runs between solids),
 //! overwrites the bounce-back links (f_q(x) = f*_opp(q)(x) + delta; halfway bounce-back, seed
 //! 002 ref. 12 and Ladd 1994), takes the moments, collides in place and stores, every q
 //! written out by [`each_q!`] so the whole block is straight-line vector code. Every cell's
@@ -420,15 +419,13 @@ impl<L: Lattice, C: Collision, F: Forcing> Solver<L, C, F> {
 
     /// Pull, bounce back, collide and store one block (see [`Self::gather`]): the moments
     /// over the pairs, the forcing's state and the collision, each written once for a cell
-    /// and a block ([`Pairs`], [`Forcing::states`], [`relax`]). Only the lanes whose bit is set
-    /// in `fluid` are stored: a contiguous block may hold solid cells, whose lanes compute on
-    /// zero populations (non-finite values that stay in the registers).
+    /// and a block ([`Pairs`], [`Forcing::states`], [`relax`]).
     #[allow(clippy::too_many_arguments)]
     #[inline(always)]
     fn block<const CONTIG: bool, R: Real>(
         (src, d, coll, force, rowc, links): RowArgs<C, F>,
         xs: &[usize; LANES],
-        fluid: u8,
+        n: usize,
         scratch: &mut Block<LANES>,
         out: &mut [f64],
         rec: &mut Option<PlaneRecord>,
@@ -455,16 +452,14 @@ impl<L: Lattice, C: Collision, F: Forcing> Solver<L, C, F> {
         let row0 = rowc.y * d.nx;
         each_q!(L, q, {
             let orow = &mut out[q * plane_q + row0..q * plane_q + row0 + d.nx];
-            if CONTIG && fluid == ALL_LANES && rowc.stream {
+            if CONTIG && rowc.stream {
                 post[q].store_stream(&mut orow[xs[0]..]);
-            } else if CONTIG && fluid == ALL_LANES {
-                post[q].store(&mut orow[xs[0]..]);
             } else if CONTIG {
-                post[q].store_masked(&mut orow[xs[0]..], fluid);
+                post[q].store(&mut orow[xs[0]..]);
             } else {
                 let mut v = [0.0; LANES];
                 post[q].store(&mut v);
-                for l in lanes_of(fluid) {
+                for l in 0..n {
                     orow[xs[l]] = v[l];
                 }
             }
@@ -477,7 +472,7 @@ impl<L: Lattice, C: Collision, F: Forcing> Solver<L, C, F> {
                 st.u[k].store(&mut u[k]);
                 st.a[k].store(&mut a[k]);
             }
-            for l in lanes_of(fluid) {
+            for l in 0..n {
                 let k = row0 + xs[l];
                 rho_out[k] = r[l];
                 u_out[k] = [u[0][l], u[1][l], u[2][l]];
@@ -505,7 +500,7 @@ impl<L: Lattice, C: Collision, F: Forcing> Solver<L, C, F> {
         Self::block::<false, R>(
             (src, d, coll, force, rowc, &links[first..]),
             pending,
-            (ALL_LANES as u16 >> (LANES - np)) as u8,
+            np,
             scratch,
             out,
             rec,
@@ -513,13 +508,10 @@ impl<L: Lattice, C: Collision, F: Forcing> Solver<L, C, F> {
     }
 
     /// Stream, bounce back and collide the z-plane `z` into `out` (its Q x ny x nx chunk).
-    /// A row goes in aligned blocks of [`LANES`] cells, x = 8 b .. 8 b + 8 (a fluid row of
-    /// nx = 8 k cells is k blocks that start on cache lines): an all-solid block is skipped, a
-    /// block with at least [`MASKED_MIN_FLUID`] fluid cells is one contiguous block whose solid
-    /// lanes are computed and not stored, and the fluid cells of the other blocks and of the
-    /// row's tail (nx not a multiple of 8) are packed into gathered blocks. A mostly solid row
-    /// thus costs about its fluid cells, and the cells between solids of a packing's pores
-    /// stay vector loads instead of gathers.
+    /// Each row's fluid cells go in blocks of [`LANES`]: a run of LANES cells is one
+    /// contiguous block (a fluid row of nx = 8 k cells is k blocks that start on cache lines);
+    /// the rest (short runs between solids, run tails) are packed into gathered blocks, so a
+    /// mostly solid row costs its fluid cells only.
     #[inline(always)]
     fn plane_body<R: Real>(
         src: &[f64],
@@ -533,8 +525,6 @@ impl<L: Lattice, C: Collision, F: Forcing> Solver<L, C, F> {
         let d = geom.dims;
         let nx = d.nx;
         let layout = Layout::new(&d, L::Q);
-        // aligned blocks of a row (none when the row is not longer than a block)
-        let blocks = if nx > LANES { nx / LANES } else { 0 };
         // a gathered block's populations, and a contiguous block's with bounce-back links
         let mut scratch: Block<LANES> = [[0.0; LANES]; QMAX];
         for y in 0..d.ny {
@@ -552,69 +542,37 @@ impl<L: Lattice, C: Collision, F: Forcing> Solver<L, C, F> {
                 let (ys, zs) = (upstream(y, c[1], d.ny), upstream(z, c[2], d.nz));
                 rowc.up[q] = layout.index(zs, q, ys, 0);
             });
-            // a link reads the cell's own opposite population, in this plane of `src`; for
-            // the directions with c_z = -1 that plane is not read by anything else until the
-            // next plane, so those loads miss the caches: prefetch them a few rows ahead
-            #[cfg(target_arch = "x86_64")]
-            if y + LINK_PREFETCH_ROWS < d.ny {
-                let ya = y + LINK_PREFETCH_ROWS;
-                let here = layout.index(z, 0, ya, 0);
-                for l in geom.links(r + LINK_PREFETCH_ROWS) {
-                    let at = here + opposite(l.q as usize) * layout.q_stride + l.x as usize;
-                    // SAFETY: a prefetch reads nothing and cannot fault; the address is only
-                    // computed (wrapping), never dereferenced.
-                    unsafe {
-                        std::arch::x86_64::_mm_prefetch::<{ std::arch::x86_64::_MM_HINT_T0 }>(
-                            src.as_ptr().wrapping_add(at) as *const i8,
-                        )
-                    };
-                }
-            }
             let links = geom.links(r);
             let row = (src, &d, coll, force, &rowc, links);
             let mut li = 0; // first link not before the current block
             let mut pending = [0usize; LANES];
             let mut np = 0;
-            let runs = geom.runs(r);
-            let mut ri = 0; // first run that does not end before the current block
-            for b in 0..blocks {
-                let x = b * LANES;
-                let fluid = fluid_lanes(runs, &mut ri, x);
-                if fluid == 0 {
-                    continue;
-                }
-                if fluid.count_ones() as usize >= MASKED_MIN_FLUID {
-                    let xs: [usize; LANES] = std::array::from_fn(|l| x + l);
-                    while li < links.len() && (links[li].x as usize) < x {
-                        li += 1;
-                    }
-                    li += Self::block::<true, R>(
-                        (src, &d, coll, force, &rowc, &links[li..]),
-                        &xs,
-                        fluid,
-                        &mut scratch,
-                        out,
-                        rec,
-                    );
-                } else {
-                    for l in lanes_of(fluid) {
-                        pending[np] = x + l;
+            for &(x0, x1) in geom.runs(r) {
+                let (x0, x1) = (x0 as usize, x1 as usize);
+                let mut x = x0;
+                while x < x1 {
+                    if x + LANES <= x1 && nx > LANES {
+                        let xs: [usize; LANES] = std::array::from_fn(|l| x + l);
+                        while li < links.len() && (links[li].x as usize) < x {
+                            li += 1;
+                        }
+                        li += Self::block::<true, R>(
+                            (src, &d, coll, force, &rowc, &links[li..]),
+                            &xs,
+                            LANES,
+                            &mut scratch,
+                            out,
+                            rec,
+                        );
+                        x += LANES;
+                    } else {
+                        pending[np] = x;
                         np += 1;
+                        x += 1;
                         if np == LANES {
                             Self::gathered::<R>(row, &mut pending, np, &mut scratch, out, rec);
                             np = 0;
                         }
-                    }
-                }
-            }
-            // the row's tail after the last aligned block
-            for &(x0, x1) in &runs[ri..] {
-                for x in (x0 as usize).max(blocks * LANES)..x1 as usize {
-                    pending[np] = x;
-                    np += 1;
-                    if np == LANES {
-                        Self::gathered::<R>(row, &mut pending, np, &mut scratch, out, rec);
-                        np = 0;
                     }
                 }
             }
@@ -868,45 +826,6 @@ impl<L: Lattice, C: Collision, F: Forcing> Solver<L, C, F> {
 /// How far ahead (values) a contiguous block prefetches each upstream row when the arrays
 /// exceed the caches: past the row's end this is the next row of the same population.
 const PREFETCH_AHEAD: usize = 32;
-
-/// How many rows ahead the kernel prefetches the populations its bounce-back links read.
-const LINK_PREFETCH_ROWS: usize = 2;
-
-/// Every lane of a block (bit l: lane l).
-const ALL_LANES: u8 = u8::MAX;
-
-/// The fewest fluid cells for which an aligned block with solid cells is computed as one
-/// contiguous block (its solid lanes wasted) rather than gathered cell by cell: on a random
-/// sphere packing at about 10 cells per diameter, 2, 4, 6 and 8 gave 10.5, 12.0, 12.9 and 12.5
-/// MLUPS on one thread, against 10.8 with every partial block gathered.
-const MASKED_MIN_FLUID: usize = 6;
-
-/// The lanes whose bit is set in `mask`, in increasing order.
-#[inline(always)]
-fn lanes_of(mask: u8) -> impl Iterator<Item = usize> {
-    (0..LANES).filter(move |&l| mask & (1 << l) != 0)
-}
-
-/// The fluid cells of the block x0 .. x0 + LANES of a row, as lane bits, from the row's runs
-/// (sorted, disjoint); `ri` is the first run not ending before x0 and moves on with the
-/// blocks.
-#[inline(always)]
-fn fluid_lanes(runs: &[(u32, u32)], ri: &mut usize, x0: usize) -> u8 {
-    let x1 = x0 + LANES;
-    while *ri < runs.len() && (runs[*ri].1 as usize) <= x0 {
-        *ri += 1;
-    }
-    let mut mask = 0u16;
-    for &(a, b) in &runs[*ri..] {
-        let (a, b) = (a as usize, b as usize);
-        if a >= x1 {
-            break;
-        }
-        let (lo, hi) = (a.max(x0) - x0, b.min(x1) - x0);
-        mask |= ((1u16 << hi) - 1) & !((1u16 << lo) - 1);
-    }
-    mask as u8
-}
 
 /// The periodic upstream coordinate v - c of v in 0..n, for c in {-1, 0, 1}.
 #[inline(always)]
