@@ -25,8 +25,8 @@ fn seed(ctx: &CaseContext) -> Result<u64> {
 }
 
 /// The pore-resolving run of these cases: D3Q19 TRT (Lambda = 3/16: k independent of the
-/// viscosity, case 808), tau = 1 unless a row sets it, body force 1e-5 (Re on V/S below 1e-3 at these k), steady to 1e-7 per
-/// 100 steps.
+/// viscosity, case 808), tau = 1 unless a row sets it, body force 1e-5 (Re on V/S below 1e-3
+/// at these k), steady to 1e-7 per 100 steps.
 const PORE: PoreOptions = PoreOptions {
     lattice: LatticeKind::D3Q19,
     collision: CollisionKind::Trt,
