@@ -115,9 +115,11 @@ pub struct Porous {
     nu: f64,
     /// Whether the Forchheimer term is on.
     forchheimer: bool,
-    eps: Vec<f64>,
-    lin: Vec<f64>,
-    quad: Vec<f64>,
+    /// eps, lin and quad of every cell: three arrays of `cells` values in one allocation,
+    /// `stride` apart ([`Porous::field`]).
+    fields: Vec<f64>,
+    cells: usize,
+    stride: usize,
     w: Vec<[f64; 3]>,
     /// Whether any cell was given a nonzero matrix velocity (else the kernel skips w).
     moving: bool,
@@ -139,13 +141,18 @@ pub fn guo_zhao_coefficients(eps: f64, k: f64, nu: f64, forchheimer: bool) -> (f
 impl Porous {
     /// A medium of `cells` cells, all clear fluid (eps = 1, K = infinity).
     pub fn clear(cells: usize, nu: f64, g: [f64; 3], forchheimer: bool) -> Porous {
+        // the three fields an odd number of cache lines apart where `cells` is a multiple of
+        // 16 (every power-of-two lattice): else a block's three loads fall into one cache set
+        let stride = cells + if cells.is_multiple_of(16) { 8 } else { 0 };
+        let mut fields = vec_on_huge_pages(3 * stride, 0.0);
+        fields[..cells].fill(1.0);
         Porous {
             g,
             nu,
             forchheimer,
-            eps: vec_on_huge_pages(cells, 1.0),
-            lin: vec_on_huge_pages(cells, 0.0),
-            quad: vec_on_huge_pages(cells, 0.0),
+            fields,
+            cells,
+            stride,
             w: vec_on_huge_pages(cells, [0.0; 3]),
             moving: false,
         }
@@ -179,9 +186,7 @@ impl Porous {
                 "drag coefficients lin = {lin}, quad = {quad} (lattice units): must be finite and >= 0"
             ));
         }
-        self.eps[cell] = eps;
-        self.lin[cell] = lin;
-        self.quad[cell] = quad;
+        self.set_fields(cell, [eps, lin, quad]);
         Ok(())
     }
 
@@ -213,19 +218,29 @@ impl Porous {
             return Err(format!("permeability K = {k} (lattice units): must be > 0"));
         }
         let (lin, quad) = guo_zhao_coefficients(eps, k, self.nu, self.forchheimer);
-        self.eps[cell] = eps;
-        self.lin[cell] = lin;
-        self.quad[cell] = quad;
+        self.set_fields(cell, [eps, lin, quad]);
         Ok(())
     }
 
+    fn set_fields(&mut self, cell: usize, values: [f64; 3]) {
+        for (k, v) in values.into_iter().enumerate() {
+            self.fields[k * self.stride + cell] = v;
+        }
+    }
+
+    /// Field `k` of every cell: 0 eps, 1 lin, 2 quad.
+    #[inline(always)]
+    fn field(&self, k: usize) -> &[f64] {
+        &self.fields[k * self.stride..k * self.stride + self.cells]
+    }
+
     pub fn eps(&self, cell: usize) -> f64 {
-        self.eps[cell]
+        self.field(0)[cell]
     }
 
     /// The porosity field.
     pub fn eps_field(&self) -> &[f64] {
-        &self.eps
+        self.field(0)
     }
 }
 
@@ -238,9 +253,9 @@ impl Forcing for Porous {
     /// + eps G. The matrix velocity is read only where some cell has one.
     #[inline(always)]
     fn states<R: Real>(&self, cells: Cells, rho: R, j: [R; 3]) -> CellState<R> {
-        let eps = R::field(&self.eps, cells);
-        let lin = R::field(&self.lin, cells);
-        let quad = R::field(&self.quad, cells);
+        let eps = R::field(self.field(0), cells);
+        let lin = R::field(self.field(1), cells);
+        let quad = R::field(self.field(2), cells);
         let g = self.g;
         let r = R::splat(1.0) / rho;
         let half_eps = eps * R::splat(0.5);
@@ -274,11 +289,11 @@ impl Forcing for Porous {
     }
     /// Seed 002 eq. 10 at the prescribed velocity u (relative to the matrix velocity w).
     fn state_at_velocity(&self, cell: usize, _rho: f64, u: [f64; 3]) -> CellState {
-        let eps = self.eps[cell];
+        let eps = self.field(0)[cell];
         let w = self.w[cell];
         let rel = [u[0] - w[0], u[1] - w[1], u[2] - w[2]];
         let un = (rel[0] * rel[0] + rel[1] * rel[1] + rel[2] * rel[2]).sqrt();
-        let drag = self.lin[cell] + self.quad[cell] * un;
+        let drag = self.field(1)[cell] + self.field(2)[cell] * un;
         CellState {
             u,
             a: [0, 1, 2].map(|k| eps * self.g[k] - drag * rel[k]),

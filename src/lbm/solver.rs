@@ -3,7 +3,8 @@
 //! per-cell branch on the choice.
 //!
 //! Storage is a structure of arrays in z-planes: population q of cell (x, y, z) is at
-//! `((z Q + q) ny + y) nx + x` ([`Layout`]), so each plane (all q) is one contiguous chunk
+//! `(z Q + q) q_stride + y nx + x`, q_stride = ny nx (one cache line more at power-of-two sizes;
+//! [`Layout`]), so each plane (all q) is one contiguous chunk
 //! that one rayon task writes. A step walks every row's fluid cells in blocks of [`LANES`]
 //! cells: it pulls the Q upstream populations of the block (one contiguous load per q, with
 //! one wrapped lane at the row's ends; a gather for the cells of short runs between solids),
@@ -111,10 +112,9 @@ impl std::ops::DerefMut for Populations {
 }
 
 /// Where population q of cell (x, y, z) lives in the population arrays:
-/// `z z_stride + q q_stride + y nx + x` with q_stride = ny nx and z_stride = Q ny nx, the one
-/// place the kernel, the boundaries and the sums take the index from. (Padding each q-subplane
-/// to an odd number of cache lines, so that at power-of-two sizes the 2Q rows of a block fall
-/// in different cache sets, was measured and gave no speed-up.)
+/// `z z_stride + q q_stride + y nx + x` with q_stride = ny nx (plus one cache line at
+/// power-of-two sizes, see [`Layout::new`]) and z_stride = Q q_stride, the one place the
+/// kernel, the boundaries and the sums take the index from.
 #[derive(Debug, Clone, Copy)]
 pub struct Layout {
     pub nx: usize,
@@ -125,7 +125,15 @@ pub struct Layout {
 
 impl Layout {
     pub fn new(d: &Dims, q: usize) -> Layout {
-        let q_stride = d.ny * d.nx;
+        // one population plane of a multiple of 16 values (every power-of-two lattice) is
+        // padded by one cache line, to an odd number of lines: else the Q planes a block
+        // reads lie a multiple of 4 KiB apart and all fall into the same cache sets
+        let plane = d.ny * d.nx;
+        let q_stride = if plane.is_multiple_of(16) {
+            plane + 8
+        } else {
+            plane
+        };
         Layout {
             nx: d.nx,
             nz: d.nz,
@@ -876,12 +884,46 @@ mod kernel_tests {
     use rand::{Rng, SeedableRng};
     use rand_chacha::ChaCha8Rng;
 
+    /// Every (z, q, y, x) has its own index below `values()`, rows start on cache lines where
+    /// nx is a multiple of 8, and where ny nx is a multiple of 16 the population planes are an
+    /// odd number of cache lines apart (so the Q rows a block reads spread over the sets).
+    #[test]
+    fn layout_indices_distinct_and_planes_odd_lines_apart() {
+        for (n, q) in [
+            ((4, 4, 4), 15),
+            ((8, 8, 3), 19),
+            ((5, 3, 2), 15),
+            ((16, 8, 2), 19),
+        ] {
+            let d = Dims::new(n.0, n.1, n.2).unwrap();
+            let l = Layout::new(&d, q);
+            let mut seen = vec![false; l.values()];
+            for z in 0..d.nz {
+                for qq in 0..q {
+                    for y in 0..d.ny {
+                        for x in 0..d.nx {
+                            let i = l.index(z, qq, y, x);
+                            assert!(!seen[i], "{n:?} index {i} twice");
+                            seen[i] = true;
+                        }
+                    }
+                }
+            }
+            if d.nx.is_multiple_of(8) {
+                assert_eq!(l.index(1, 3, 2, 0) % 8, 0, "{n:?}");
+            }
+            if (d.ny * d.nx).is_multiple_of(16) {
+                assert_eq!((l.q_stride / 8) % 2, 1, "{n:?}");
+            }
+        }
+    }
+
     /// One step cell by cell, the plainest form of the kernel's arithmetic: the pulled
     /// populations of [`Solver::pull_row`], the moments over the pairs, the forcing's `state`
     /// and [`relax_cell`], all on one f64 at a time; no blocks, no vector loads.
     fn reference_step<L: Lattice, C: Collision, F: Forcing>(s: &Solver<L, C, F>) -> Vec<f64> {
         let d = s.dims();
-        let mut out = vec![0.0; d.cells() * L::Q];
+        let mut out = vec![0.0; s.layout.values()];
         let mut buf = vec![0.0; L::Q * d.nx];
         let mut post = [0.0; QMAX];
         for z in 0..d.nz {
