@@ -44,7 +44,7 @@ impl Coupled {
     pub fn save_state(&self) -> CoupledState {
         CoupledState {
             dem: self.dem.save_state(),
-            populations: bits(self.lbm.populations()),
+            populations: bits(&self.lbm.populations()),
             lbm_steps: self.lbm.steps(),
             slip: bits(&self.slip),
             steps: self.steps,
@@ -90,7 +90,7 @@ mod tests {
     #[test]
     fn restored_run_continues_bitwise() {
         let scene = parse_scene(include_str!("../scene/builtin/coupled-quick.toml"), "t").unwrap();
-        let (k, n) = (150, 300);
+        let (k, n) = (100, 200); // the scene's own 200 coupling steps, stopped half-way
         let mut whole = build(&scene).unwrap();
         for _ in 0..n {
             whole.step().unwrap();
