@@ -7,7 +7,7 @@
 //! a = -(eps nu / K) u - (eps F_eps / sqrt K) |u| u + eps G (seed 002 eq. 10).
 //! `ACTIVE = false` lets the compiler drop the source term of an unforced fluid.
 
-use super::memory::vec_on_huge_pages;
+use super::memory::{stride_off_sets, vec_on_huge_pages};
 use super::simd::{v3, Cells, Real};
 
 /// The state of a cell (or of a block of cells, one per lane of `R`) that the collision
@@ -141,9 +141,7 @@ pub fn guo_zhao_coefficients(eps: f64, k: f64, nu: f64, forchheimer: bool) -> (f
 impl Porous {
     /// A medium of `cells` cells, all clear fluid (eps = 1, K = infinity).
     pub fn clear(cells: usize, nu: f64, g: [f64; 3], forchheimer: bool) -> Porous {
-        // the three fields an odd number of cache lines apart where `cells` is a multiple of
-        // 16 (every power-of-two lattice): else a block's three loads fall into one cache set
-        let stride = cells + if cells.is_multiple_of(16) { 8 } else { 0 };
+        let stride = stride_off_sets(cells);
         let mut fields = vec_on_huge_pages(3 * stride, 0.0);
         fields[..cells].fill(1.0);
         Porous {

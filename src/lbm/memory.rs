@@ -1,6 +1,20 @@
 //! Where the kernel's arrays sit in the memory system: the size of the last-level cache (which
 //! decides the non-temporal stores and the prefetch) and huge-page backing for the population
-//! arrays and the per-cell fields.
+//! arrays and the per-cell fields, and the strides that keep arrays read side by side out of
+//! each other's cache sets.
+
+/// The stride (values of 8 bytes) at which to lay out arrays of `values` values one after
+/// another that a block reads at the same index: one cache line more where `values` is a
+/// multiple of 16, so that the stride is an odd number of lines. Else (every power-of-two
+/// lattice) the arrays start a multiple of 4 KiB apart and a block's loads all fall into the
+/// same cache sets.
+pub fn stride_off_sets(values: usize) -> usize {
+    if values.is_multiple_of(16) {
+        values + 8
+    } else {
+        values
+    }
+}
 
 /// Bytes of the largest CPU cache (Linux sysfs, cpu 0), 32 MiB where it cannot be read.
 pub fn last_level_cache_bytes() -> u64 {

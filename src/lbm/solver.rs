@@ -19,7 +19,7 @@ use super::collision::{equilibrium, relax, Block, Collision, Pairs};
 use super::forcing::Forcing;
 use super::geometry::{Dims, Geometry, Link};
 use super::lattice::{each_q, opposite, Lattice, QMAX};
-use super::memory::{last_level_cache_bytes, vec_on_huge_pages};
+use super::memory::{last_level_cache_bytes, stride_off_sets, vec_on_huge_pages};
 use super::simd::{Cells, Real, VArr, LANES};
 #[cfg(target_arch = "x86_64")]
 use super::simd::{V256x2, V512};
@@ -113,7 +113,7 @@ impl std::ops::DerefMut for Populations {
 
 /// Where population q of cell (x, y, z) lives in the population arrays:
 /// `z z_stride + q q_stride + y nx + x` with q_stride = ny nx (plus one cache line at
-/// power-of-two sizes, see [`Layout::new`]) and z_stride = Q q_stride, the one place the
+/// power-of-two sizes, see [`stride_off_sets`]) and z_stride = Q q_stride, the one place the
 /// kernel, the boundaries and the sums take the index from.
 #[derive(Debug, Clone, Copy)]
 pub struct Layout {
@@ -125,15 +125,7 @@ pub struct Layout {
 
 impl Layout {
     pub fn new(d: &Dims, q: usize) -> Layout {
-        // one population plane of a multiple of 16 values (every power-of-two lattice) is
-        // padded by one cache line, to an odd number of lines: else the Q planes a block
-        // reads lie a multiple of 4 KiB apart and all fall into the same cache sets
-        let plane = d.ny * d.nx;
-        let q_stride = if plane.is_multiple_of(16) {
-            plane + 8
-        } else {
-            plane
-        };
+        let q_stride = stride_off_sets(d.ny * d.nx);
         Layout {
             nx: d.nx,
             nz: d.nz,
