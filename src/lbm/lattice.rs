@@ -13,15 +13,14 @@ pub trait Lattice: Copy + Send + Sync + 'static {
     type Pop: Copy + Default + AsRef<[f64]> + AsMut<[f64]> + Send + Sync;
 }
 
-/// The opposite direction of q (c_opp = -c_q).
+/// The opposite direction of q (c_opp = -c_q): pairs (2p + 1, 2p + 2), q = 0 its own. Written
+/// without a branch on q's parity, which a link list (q in no order) would mispredict.
 #[inline(always)]
 pub const fn opposite(q: usize) -> usize {
     if q == 0 {
         0
-    } else if q % 2 == 1 {
-        q + 1
     } else {
-        q - 1
+        q - 1 + 2 * (q & 1)
     }
 }
 

@@ -376,9 +376,12 @@ impl<L: Lattice, C: Collision, F: Forcing> Solver<L, C, F> {
             }
         });
         // halfway bounce-back (links sorted by x): f_q(x) = f*_opp(q)(x) + delta, into the
-        // scratch block, each population marked in `mask` taken from there
+        // scratch block, each population marked in `mask` taken from there. The lanes' x
+        // increase, so a link finds its lane by walking on from the previous link's; a link of
+        // a cell that is not in the block (between a gathered block's cells) finds none.
         let last = xs[LANES - 1];
         let mut used = 0;
+        let mut lane = 0;
         if links.first().is_some_and(|l| l.x as usize <= last) {
             let mut mask = [false; QMAX];
             if CONTIG {
@@ -395,10 +398,14 @@ impl<L: Lattice, C: Collision, F: Forcing> Solver<L, C, F> {
                 let q = l.q as usize;
                 let v = src[here + opposite(q) * rowc.layout.q_stride + x] + l.delta;
                 mask[q] = true;
-                for (fl, &xl) in scratch[q].iter_mut().zip(xs) {
-                    if xl == x {
-                        *fl = v;
-                    }
+                while xs[lane] < x {
+                    lane += 1;
+                }
+                // a gathered block's padding lanes repeat its last cell and take its value
+                let mut k = lane;
+                while k < LANES && xs[k] == x {
+                    scratch[q][k] = v;
+                    k += 1;
                 }
             }
             if CONTIG {
@@ -483,12 +490,15 @@ impl<L: Lattice, C: Collision, F: Forcing> Solver<L, C, F> {
     }
 
     /// The block of the `np` cells `pending` (increasing x, not contiguous), padded with
-    /// copies of the last so that every lane holds a real cell.
+    /// copies of the last so that every lane holds a real cell. `first`: the index of the
+    /// row's first link at or after the previous gathered block's first cell, moved on here
+    /// (gathered blocks of a row come in increasing x).
     #[inline(always)]
     fn gathered<R: Real>(
         (src, d, coll, force, rowc, links): RowArgs<C, F>,
         pending: &mut [usize; LANES],
         np: usize,
+        first: &mut usize,
         scratch: &mut Block<LANES>,
         out: &mut [f64],
         rec: &mut Option<PlaneRecord>,
@@ -496,9 +506,11 @@ impl<L: Lattice, C: Collision, F: Forcing> Solver<L, C, F> {
         for l in np..LANES {
             pending[l] = pending[np - 1];
         }
-        let first = links.partition_point(|k| (k.x as usize) < pending[0]);
+        while *first < links.len() && (links[*first].x as usize) < pending[0] {
+            *first += 1;
+        }
         Self::block::<false, R>(
-            (src, d, coll, force, rowc, &links[first..]),
+            (src, d, coll, force, rowc, &links[*first..]),
             pending,
             np,
             scratch,
@@ -543,8 +555,12 @@ impl<L: Lattice, C: Collision, F: Forcing> Solver<L, C, F> {
                 rowc.up[q] = layout.index(zs, q, ys, 0);
             });
             let links = geom.links(r);
+            if stream && y + 1 < d.ny {
+                prefetch_bounce_back(src, geom, &layout, z, y + 1);
+            }
             let row = (src, &d, coll, force, &rowc, links);
             let mut li = 0; // first link not before the current block
+            let mut lg = 0; // first link not before the last gathered block
             let mut pending = [0usize; LANES];
             let mut np = 0;
             for &(x0, x1) in geom.runs(r) {
@@ -570,14 +586,22 @@ impl<L: Lattice, C: Collision, F: Forcing> Solver<L, C, F> {
                         np += 1;
                         x += 1;
                         if np == LANES {
-                            Self::gathered::<R>(row, &mut pending, np, &mut scratch, out, rec);
+                            Self::gathered::<R>(
+                                row,
+                                &mut pending,
+                                np,
+                                &mut lg,
+                                &mut scratch,
+                                out,
+                                rec,
+                            );
                             np = 0;
                         }
                     }
                 }
             }
             if np > 0 {
-                Self::gathered::<R>(row, &mut pending, np, &mut scratch, out, rec);
+                Self::gathered::<R>(row, &mut pending, np, &mut lg, &mut scratch, out, rec);
             }
         }
         if stream {
@@ -844,6 +868,31 @@ impl<L: Lattice, C: Collision, F: Forcing> Solver<L, C, F> {
 /// How far ahead (values) a contiguous block prefetches each upstream row when the arrays
 /// exceed the caches: past the row's end this is the next row of the same population.
 const PREFETCH_AHEAD: usize = 32;
+
+/// Prefetches what the halfway bounce-back links of row (y, z) will read: f*_opp(q) at the
+/// link's own cell. Only that link reads this value (the neighbour it would stream to is
+/// solid), so nothing else brings its line in, and unprefetched each link waited on memory
+/// (pore mode, random mask, 64^3: a quarter of the kernel's samples on that one load).
+/// Called a row ahead when the arrays exceed the caches.
+#[inline(always)]
+fn prefetch_bounce_back(src: &[f64], geom: &Geometry, layout: &Layout, z: usize, y: usize) {
+    #[cfg(target_arch = "x86_64")]
+    {
+        let here = layout.index(z, 0, y, 0);
+        for l in geom.links(z * geom.dims.ny + y) {
+            let i = here + opposite(l.q as usize) * layout.q_stride + l.x as usize;
+            // SAFETY: a prefetch reads nothing and cannot fault; the address is only
+            // computed (wrapping), never dereferenced.
+            unsafe {
+                std::arch::x86_64::_mm_prefetch::<{ std::arch::x86_64::_MM_HINT_T0 }>(
+                    src.as_ptr().wrapping_add(i) as *const i8,
+                )
+            };
+        }
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    let _ = (src, geom, layout, z, y);
+}
 
 /// The periodic upstream coordinate v - c of v in 0..n, for c in {-1, 0, 1}.
 #[inline(always)]
