@@ -352,15 +352,8 @@ impl<L: Lattice, C: Collision, F: Forcing> Solver<L, C, F> {
                     R::load(&v)
                 } else {
                     let x0 = (xs[0] as isize - cx as isize) as usize;
-                    #[cfg(target_arch = "x86_64")]
                     if rowc.stream {
-                        // SAFETY: a prefetch reads nothing and cannot fault; the address
-                        // is only computed (wrapping), never dereferenced.
-                        unsafe {
-                            std::arch::x86_64::_mm_prefetch::<{ std::arch::x86_64::_MM_HINT_T0 }>(
-                                row.as_ptr().wrapping_add(x0 + PREFETCH_AHEAD) as *const i8,
-                            )
-                        };
+                        prefetch(row, x0 + PREFETCH_AHEAD);
                     }
                     R::load(&row[x0..])
                 };
@@ -506,9 +499,7 @@ impl<L: Lattice, C: Collision, F: Forcing> Solver<L, C, F> {
         for l in np..LANES {
             pending[l] = pending[np - 1];
         }
-        while *first < links.len() && (links[*first].x as usize) < pending[0] {
-            *first += 1;
-        }
+        skip_links_before(links, first, pending[0]);
         Self::block::<false, R>(
             (src, d, coll, force, rowc, &links[*first..]),
             pending,
@@ -569,9 +560,7 @@ impl<L: Lattice, C: Collision, F: Forcing> Solver<L, C, F> {
                 while x < x1 {
                     if x + LANES <= x1 && nx > LANES {
                         let xs: [usize; LANES] = std::array::from_fn(|l| x + l);
-                        while li < links.len() && (links[li].x as usize) < x {
-                            li += 1;
-                        }
+                        skip_links_before(links, &mut li, x);
                         li += Self::block::<true, R>(
                             (src, &d, coll, force, &rowc, &links[li..]),
                             &xs,
@@ -876,22 +865,37 @@ const PREFETCH_AHEAD: usize = 32;
 /// Called a row ahead when the arrays exceed the caches.
 #[inline(always)]
 fn prefetch_bounce_back(src: &[f64], geom: &Geometry, layout: &Layout, z: usize, y: usize) {
-    #[cfg(target_arch = "x86_64")]
-    {
-        let here = layout.index(z, 0, y, 0);
-        for l in geom.links(z * geom.dims.ny + y) {
-            let i = here + opposite(l.q as usize) * layout.q_stride + l.x as usize;
-            // SAFETY: a prefetch reads nothing and cannot fault; the address is only
-            // computed (wrapping), never dereferenced.
-            unsafe {
-                std::arch::x86_64::_mm_prefetch::<{ std::arch::x86_64::_MM_HINT_T0 }>(
-                    src.as_ptr().wrapping_add(i) as *const i8,
-                )
-            };
-        }
+    let here = layout.index(z, 0, y, 0);
+    for l in geom.links(z * geom.dims.ny + y) {
+        prefetch(
+            src,
+            here + opposite(l.q as usize) * layout.q_stride + l.x as usize,
+        );
     }
+}
+
+/// Asks for the cache line of `s[i]` (into L1); `i` may lie past the end of `s` (nothing is
+/// read). No operation off x86-64.
+#[inline(always)]
+fn prefetch(s: &[f64], i: usize) {
+    #[cfg(target_arch = "x86_64")]
+    // SAFETY: a prefetch reads nothing and cannot fault; the address is only computed
+    // (wrapping), never dereferenced.
+    unsafe {
+        std::arch::x86_64::_mm_prefetch::<{ std::arch::x86_64::_MM_HINT_T0 }>(
+            s.as_ptr().wrapping_add(i) as *const i8,
+        )
+    };
     #[cfg(not(target_arch = "x86_64"))]
-    let _ = (src, geom, layout, z, y);
+    let _ = (s, i);
+}
+
+/// Moves `first` on past the links (sorted by x) of cells before `x`.
+#[inline(always)]
+fn skip_links_before(links: &[Link], first: &mut usize, x: usize) {
+    while *first < links.len() && (links[*first].x as usize) < x {
+        *first += 1;
+    }
 }
 
 /// The periodic upstream coordinate v - c of v in 0..n, for c in {-1, 0, 1}.
