@@ -50,3 +50,33 @@ pub struct CaseContext {
 
 /// A case runner: returns the checked rows, or an error (which fails the case).
 pub type Runner = fn(&CaseContext) -> Result<Vec<Row>>;
+
+/// A runner and the case numbers it answers, registered next to its function (see
+/// `src/validation/cases/mod.rs`).
+pub struct Registration {
+    pub ids: &'static [&'static str],
+    pub run: Runner,
+}
+
+/// Every registered runner, gathered at link time.
+#[linkme::distributed_slice]
+pub static RUNNERS: [Registration];
+
+/// The runner registered for case `id` ("104"), if there is one.
+pub fn runner_for(id: &str) -> Option<Runner> {
+    RUNNERS.iter().find(|r| r.ids.contains(&id)).map(|r| r.run)
+}
+
+/// Case numbers registered more than once (each such number is a mistake: which runner would
+/// answer it depends on link order).
+pub fn registered_twice() -> Vec<&'static str> {
+    let mut ids: Vec<&str> = RUNNERS.iter().flat_map(|r| r.ids.iter().copied()).collect();
+    ids.sort_unstable();
+    let mut twice: Vec<&str> = ids
+        .windows(2)
+        .filter(|w| w[0] == w[1])
+        .map(|w| w[0])
+        .collect();
+    twice.dedup();
+    twice
+}

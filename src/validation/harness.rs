@@ -394,9 +394,9 @@ fn panic_message(p: &(dyn std::any::Any + Send)) -> String {
     }
 }
 
-/// Runs `case` with the registered runner (`cases::runner_for`).
+/// Runs `case` with the registered runner (`case::runner_for`).
 pub fn run_case(root: &Path, case: &Case) -> Outcome {
-    run_case_with(root, case, super::cases::runner_for)
+    run_case_with(root, case, super::case::runner_for)
 }
 
 /// Runs `case` with the runner that `lookup` finds for its id.
@@ -417,7 +417,7 @@ pub fn run_case_with(root: &Path, case: &Case, lookup: impl Fn(&str) -> Option<R
             tol_s,
             elapsed(start),
             format!(
-                "no runner registered for case {} (add it to runner_for in src/validation/cases/mod.rs)",
+                "no runner registered for case {} (register a runner next to its function in src/validation/cases/, see mod.rs there)",
                 spec.id
             ),
         );

@@ -2,7 +2,7 @@
 //! `tests/validation.rs` and `porelab validate`.
 //!
 //! A case is a folder `validation/NNN-slug/` with a `case.toml` ([`CaseSpec`]), an expected
-//! table and `snapshots/`. Its runner (registered in [`cases::runner_for`]) returns the
+//! table and `snapshots/`. Its runner (registered next to its function, see [`case::runner_for`]) returns the
 //! checked [`Row`]s; the harness passes the case iff every row is finite and
 //! `|got - expected| <= atol + rtol * scale` ([`Tolerance`]).
 

@@ -224,9 +224,18 @@ impl CaseContext {
         self.resolve(&self.expected)
     }
 
-    /// The case's expected table (`expected` in case.toml).
+    /// The case's expected table (`expected` in case.toml), refused when it has no data rows:
+    /// every runner opens with it.
     pub fn expected_table(&self) -> Result<Table> {
-        Table::read(self.expected_path())
+        let t = Table::read(self.expected_path())?;
+        if t.is_empty() {
+            return Err(crate::Error::Validation(format!(
+                "case {}: {} has a header but no data rows",
+                self.id,
+                t.path().display()
+            )));
+        }
+        Ok(t)
     }
 
     /// Another table of the case, resolved like `expected`.

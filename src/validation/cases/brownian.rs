@@ -151,6 +151,7 @@ fn all_displacements(specs: &[RunSpec], seed: u64) -> Result<Vec<Vec<Vector3<f64
     Ok(par)
 }
 
+register!("401" => case_401);
 /// Case 401: S = sum |dr|^2 / (2 D t), D = kB T / (6 pi eta a), is chi-square(3N); the row is
 /// z = Phi^-1(F(S)) (expected 0), with the acceptance |z| <= z of case.toml.
 pub fn case_401(ctx: &CaseContext) -> Result<Vec<Row>> {
@@ -175,6 +176,7 @@ pub fn case_401(ctx: &CaseContext) -> Result<Vec<Row>> {
     Ok(rows)
 }
 
+register!("402" => case_402);
 /// Case 402: per component, z = sum_i (dx_ic - F_c t / (6 pi eta a)) / sqrt(N 2 D t).
 pub fn case_402(ctx: &CaseContext) -> Result<Vec<Row>> {
     let t = ctx.expected_table()?;
@@ -201,6 +203,7 @@ pub fn case_402(ctx: &CaseContext) -> Result<Vec<Row>> {
     Ok(rows)
 }
 
+register!("403" => case_403);
 /// Case 403: two-sphere mobilities from the table; symmetry and positive definiteness of the
 /// RPY matrix over random dense configurations (checked here, rows with expected 0).
 pub fn case_403(ctx: &CaseContext) -> Result<Vec<Row>> {
@@ -276,6 +279,7 @@ fn config_positions(n: usize, spacing: f64) -> Vec<Vector3<f64>> {
         .collect()
 }
 
+register!("404" => case_404);
 /// Case 404: z-scores of the sample covariance entries of the Cholesky noise.
 pub fn case_404(ctx: &CaseContext) -> Result<Vec<Row>> {
     let t = ctx.expected_table()?;
@@ -423,6 +427,7 @@ fn unit_random<R: Rng>(rng: &mut R) -> Vector3<f64> {
     }
 }
 
+register!("405" => case_405);
 /// Case 405: Mie closed forms and dipole energies from the table; Mie, dipole and
 /// field-gradient forces against complex-step derivatives of independently written energies.
 pub fn case_405(ctx: &CaseContext) -> Result<Vec<Row>> {
@@ -549,6 +554,7 @@ pub fn case_405(ctx: &CaseContext) -> Result<Vec<Row>> {
     Ok(rows)
 }
 
+register!("406" => case_406);
 /// Case 406: L(x) and L(x)/x against mpmath; m/m_s of the law against mpmath; the low-field
 /// slope (eq. 7.7) and saturation checked here against their closed forms.
 pub fn case_406(ctx: &CaseContext) -> Result<Vec<Row>> {
@@ -606,6 +612,7 @@ pub fn case_406(ctx: &CaseContext) -> Result<Vec<Row>> {
     Ok(rows)
 }
 
+register!("407" => case_407);
 /// Case 407: B B^T of TEA-HI equals M for diagonal and equal-off-diagonal M.
 pub fn case_407(ctx: &CaseContext) -> Result<Vec<Row>> {
     let t = ctx.expected_table()?;
@@ -643,6 +650,7 @@ pub fn case_407(ctx: &CaseContext) -> Result<Vec<Row>> {
     Ok(rows)
 }
 
+register!("408" => case_408);
 /// Case 408: displacement at T = 0 after `steps` steps equals factor F t / (6 pi eta a).
 pub fn case_408(ctx: &CaseContext) -> Result<Vec<Row>> {
     let t = ctx.expected_table()?;
@@ -700,6 +708,7 @@ fn config_409<R: Rng>(rng: &mut R, n: usize, a: f64, phi: f64, spacing: f64) -> 
     pos
 }
 
+register!("409" => case_409);
 /// Case 409: collective (centre-of-mass) diffusion of TEA-HI against the exact (Cholesky)
 /// covariance, e^T B B^T e / e^T M e for e the uniform translation along x, y, z.
 pub fn case_409(ctx: &CaseContext) -> Result<Vec<Row>> {

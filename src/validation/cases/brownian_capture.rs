@@ -20,16 +20,6 @@ use nalgebra::{Quaternion, UnitQuaternion, Vector3};
 use rand::Rng;
 use rayon::prelude::*;
 
-fn need_rows(ctx: &CaseContext, n: usize) -> Result<()> {
-    if n == 0 {
-        return Err(Error::Validation(format!(
-            "case {}: expected table has no rows",
-            ctx.id
-        )));
-    }
-    Ok(())
-}
-
 /// Uniform random rotation (normalised 4-D Gaussian by rejection from the unit ball).
 fn random_rotation<R: Rng>(rng: &mut R) -> UnitQuaternion<f64> {
     loop {
@@ -46,12 +36,12 @@ fn random_rotation<R: Rng>(rng: &mut R) -> UnitQuaternion<f64> {
     }
 }
 
+register!("410" => case_410);
 /// Case 410: signed distance from a point to a finite solid cylinder. Each table row (cylinder
 /// frame: rho, phi, z) is checked as given, and after 4 random rigid motions (uniform rotation,
 /// translation up to 5 (R + L) per component) applied to point and cylinder alike. Scale: R + L.
 pub fn case_410(ctx: &CaseContext) -> Result<Vec<Row>> {
     let t = ctx.expected_table()?;
-    need_rows(ctx, t.len())?;
     let seed = ctx
         .seed
         .ok_or_else(|| Error::Validation("case 410 needs a seed in case.toml".into()))?;
@@ -157,12 +147,12 @@ fn kernel_average(gamma: f64) -> Result<([f64; 2], [f64; 2])> {
     Ok((out, err))
 }
 
+register!("411" => case_411);
 /// Case 411: demagnetizing factors. Rows `formula`: N_par(gamma) against mpmath values of the
 /// same closed form. Rows `kernel_average`: N_par against -<T_zz> and N_perp = (1 - N_par)/2
 /// against -<(T_xx + T_yy)/2>, the volume averages of porelab's field tensor (computed here).
 pub fn case_411(ctx: &CaseContext) -> Result<Vec<Row>> {
     let t = ctx.expected_table()?;
-    need_rows(ctx, t.len())?;
     let mut jobs = Vec::new();
     let mut rows = Vec::new();
     for i in 0..t.len() {
@@ -221,6 +211,7 @@ pub fn case_411(ctx: &CaseContext) -> Result<Vec<Row>> {
     Ok(rows)
 }
 
+register!("412" => case_412);
 /// Case 412: Stoner-Wohlfarth. `easy` rows use N_par = 0.1, N_perp = 0.45 (easy axis),
 /// `plane` rows N_par = 0.6, N_perp = 0.2 (easy plane); the field is h |H_K| at angle psi, and
 /// the row checks the equilibrium angle (rad, scale pi). `astroid` rows bisect, for the field
@@ -229,7 +220,6 @@ pub fn case_411(ctx: &CaseContext) -> Result<Vec<Row>> {
 /// compare it with h_sw(t) (scale 1).
 pub fn case_412(ctx: &CaseContext) -> Result<Vec<Row>> {
     let t = ctx.expected_table()?;
-    need_rows(ctx, t.len())?;
     let ms = 985e3;
     let easy = StonerWohlfarth::new(ms, 0.1, 0.45)?;
     let plane = StonerWohlfarth::new(ms, 0.6, 0.2)?;
@@ -280,6 +270,7 @@ pub fn case_412(ctx: &CaseContext) -> Result<Vec<Row>> {
     Ok(rows)
 }
 
+register!("422" => case_422);
 /// Case 422 (section 6.4.1, eq. 6.20): the force on a particle aligned with the local field,
 /// F = mu0 |m| (h . grad) H, h = (H0 + H)/|H0 + H| (`aligned_dipole_force`, the force behind the
 /// capture-volume maps), against mpmath's exterior multipole series of the cylinder
@@ -291,7 +282,6 @@ pub fn case_422(ctx: &CaseContext) -> Result<Vec<Row>> {
     use crate::brownian::experiment::aligned_dipole_force;
     use crate::magnetics::Magnet;
     let t = ctx.expected_table()?;
-    need_rows(ctx, t.len())?;
     let mut rows = Vec::with_capacity(3 * t.len());
     for i in 0..t.len() {
         let magnet = Magnet::new(

@@ -281,6 +281,7 @@ fn ks_normal(x: &[f64], sd: f64) -> Result<(f64, usize, f64)> {
     Ok((d, u.len(), ks_p_value(d, u.len())))
 }
 
+register!("413" => case_413);
 /// Case 413: per row, the KS test of all sampled coordinates against the exact discrete-time
 /// stationary law N(0, (kB T / k) / (1 - a/2)); the row is the z-equivalent of the p-value
 /// (expected 0; the case's z = 4.8916 is alpha = 1e-6 per row). The last row's first run is
@@ -373,6 +374,7 @@ fn lag_correlation_z(runs: &[RunOut], width: usize) -> f64 {
     sxy / (sxx * syy).sqrt() * (m as f64).sqrt()
 }
 
+register!("414" => case_414);
 /// Case 414: particles in the trap with RPY hydrodynamic interactions (Cholesky or TEA-HI
 /// noise). RPY has zero divergence, so the update (eq. 6.11) has the Boltzmann law
 /// N(0, kB T / k) per coordinate as its dt -> 0 stationary law whatever the mobility; dt is

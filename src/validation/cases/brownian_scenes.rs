@@ -110,6 +110,7 @@ fn runs(exp: &CaptureExperiment, seed: u64, n: u64) -> Result<Vec<RunResult>> {
     crate::brownian::experiment::run_ensemble(n, None, |r| exp.run(seed, r, &|_| {}))
 }
 
+register!("415" => case_415);
 /// Case 415: Fig. 6.4 — a transverse cylinder (alpha = 90 deg) captures more SIDE particles
 /// than a longitudinal one (alpha = 0), and the longitudinal one more TOP particles.
 pub fn case_415(ctx: &CaseContext) -> Result<Vec<Row>> {
@@ -134,6 +135,7 @@ pub fn case_415(ctx: &CaseContext) -> Result<Vec<Row>> {
     band_rows(ctx, &got)
 }
 
+register!("416" => case_416);
 /// Case 416: Fig. 6.6 — the capture fraction rises with particle size (25 < 75 < 212 nm,
 /// transverse cylinder, TOP and SIDE together).
 pub fn case_416(ctx: &CaseContext) -> Result<Vec<Row>> {
@@ -154,6 +156,7 @@ pub fn case_416(ctx: &CaseContext) -> Result<Vec<Row>> {
     band_rows(ctx, &got)
 }
 
+register!("417" => case_417);
 /// Case 417 (slow): section 6.4.4 — short cylinders (L/D = 5/3 and 6) perpendicular to the
 /// field capture nearly all particles with R >= 50 nm within 50 s. The captured fraction is the
 /// thesis' TOP-and-SIDE average weighted by region volume (Fig. 6.6, 6.8b: "averaged with a
@@ -199,6 +202,7 @@ pub fn case_417(ctx: &CaseContext) -> Result<Vec<Row>> {
     band_rows(ctx, &got)
 }
 
+register!("418" => case_418);
 /// Case 418 (slow): the capture fraction after 5 s does not depend on the time step (1e-3,
 /// 5e-4, 2.5e-4 s; R = 125 nm, alpha = 45 deg): two-sided two-proportion z within 3.29 (alpha =
 /// 1e-3) against the smallest step.
@@ -243,6 +247,7 @@ fn welch_dof(parts: &[(f64, f64)]) -> f64 {
     num / den
 }
 
+register!("419" => case_419);
 /// Case 419 (section 6.4.5, Fig. 6.11a): the cascade with optimally oriented cylinders
 /// (perpendicular to the field, parallel to each other) captures more than the cascade with
 /// randomly oriented ones, and both cascades are sequences of independent stages.

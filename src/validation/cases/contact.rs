@@ -29,6 +29,7 @@ fn shape_of(kind: &str, ax: [f64; 3]) -> Result<ContactShape> {
     }
 }
 
+register!("301" => case_301);
 /// Case 301.
 pub fn case_301(ctx: &CaseContext) -> Result<Vec<Row>> {
     let t = ctx.expected_table()?;
@@ -86,6 +87,7 @@ pub fn case_301(ctx: &CaseContext) -> Result<Vec<Row>> {
     Ok(rows)
 }
 
+register!("302" => case_302);
 /// Case 302.
 pub fn case_302(ctx: &CaseContext) -> Result<Vec<Row>> {
     let t = ctx.expected_table()?;
@@ -206,11 +208,13 @@ fn pw_vs_nr(ctx: &CaseContext) -> Result<Vec<Row>> {
     Ok(rows)
 }
 
+register!("303" => case_303);
 /// Case 303 (1e4 pairs, fast).
 pub fn case_303(ctx: &CaseContext) -> Result<Vec<Row>> {
     pw_vs_nr(ctx)
 }
 
+register!("304" => case_304);
 /// Case 304 (1e5 pairs, slow).
 pub fn case_304(ctx: &CaseContext) -> Result<Vec<Row>> {
     pw_vs_nr(ctx)
@@ -244,6 +248,7 @@ fn size_of(s: &ContactShape) -> f64 {
     }
 }
 
+register!("305" => case_305);
 /// Case 305.
 pub fn case_305(ctx: &CaseContext) -> Result<Vec<Row>> {
     let t = ctx.expected_table()?;

@@ -2,7 +2,6 @@
 //! Expected values are closed forms written out here (Ergun 1952, Wen & Yu 1966 as combined by
 //! Gidaspow 1994, Stokes 1851), never values of the code under test.
 
-use super::common::non_empty;
 use crate::coupled::{Basesheet, Coupled, CoupledSetup, Overlap, Switch};
 use crate::dem::{
     ContactModel, DampingModel, Dem, DemSetup, Material, NormalModel, Particles, TangentialModel,
@@ -93,11 +92,11 @@ fn beta_gidaspow(eps: f64, d: f64, mu: f64, rho: f64, w: f64, blend: bool) -> f6
     (1.0 - phi) * ergun + phi * wen_yu
 }
 
+register!("811" => case_811);
 /// Case 811: phase momentum balance and fluid mass, every coupling step, for a settling
 /// suspension with contacts (no wall contact).
 pub fn case_811(ctx: &CaseContext) -> Result<Vec<Row>> {
     let t = ctx.expected_table()?;
-    non_empty(&t)?;
     let mut rows = Vec::new();
     for i in 0..t.len() {
         let n = t.f64(i, "n")? as usize;
@@ -165,13 +164,13 @@ pub fn case_811(ctx: &CaseContext) -> Result<Vec<Row>> {
     Ok(rows)
 }
 
+register!("812" => case_812);
 /// Case 812: fixed bed of uniform porosity (one frozen sphere centred in each cell) under a
 /// pressure gradient: the steady superficial velocity U satisfies grad p = beta(U) U / eps^2
 /// (Ergun 150/1.75 below eps = 0.8 with the sharp switch; Gidaspow's blend otherwise), and the
 /// bed carries the whole pressure drop.
 pub fn case_812(ctx: &CaseContext) -> Result<Vec<Row>> {
     let t = ctx.expected_table()?;
-    non_empty(&t)?;
     let mut rows = Vec::new();
     for i in 0..t.len() {
         let dx = t.f64(i, "dx_m")?;
@@ -323,13 +322,13 @@ fn settle(
     Ok((v_sum / w, slip_sum / w, corr_sum / w))
 }
 
+register!("813" => case_813);
 /// Case 813: a single sphere settling at low Re: its slip against the local fluid equals the
 /// single-particle limit of Wen & Yu (Stokes, corrected by the cell porosity eps^-2.65 and by
 /// C_d Re / 24 = 1 + 0.15 Re^0.687), under the weight m' g (1 - V / V_box) left after the
 /// balancing pressure gradient.
 pub fn case_813(ctx: &CaseContext) -> Result<Vec<Row>> {
     let t = ctx.expected_table()?;
-    non_empty(&t)?;
     let mut rows = Vec::new();
     for i in 0..t.len() {
         let dx = t.f64(i, "dx_m")?;
@@ -374,11 +373,11 @@ pub fn case_813(ctx: &CaseContext) -> Result<Vec<Row>> {
     Ok(rows)
 }
 
+register!("814" => case_814);
 /// Case 814: the settling sphere's terminal velocity does not depend on the number M of DEM
 /// steps per LBM step (the seed's remark), M = 100, 300, 1000.
 pub fn case_814(ctx: &CaseContext) -> Result<Vec<Row>> {
     let t = ctx.expected_table()?;
-    non_empty(&t)?;
     let mut rows = Vec::new();
     let mut reference = None;
     for i in 0..t.len() {
@@ -404,13 +403,13 @@ pub fn case_814(ctx: &CaseContext) -> Result<Vec<Row>> {
     Ok(rows)
 }
 
+register!("815" => case_815);
 /// Case 815: the momentum ledger with the walls in it: particles of the coupled-quick built-in
 /// settle onto the floor (and slide on it under a cross flow), or are held as a frozen bed;
 /// every coupling step balances fluid + particle momentum against the external, wall and
 /// constraint impulses.
 pub fn case_815(ctx: &CaseContext) -> Result<Vec<Row>> {
     let t = ctx.expected_table()?;
-    non_empty(&t)?;
     let mut rows = Vec::new();
     for i in 0..t.len() {
         let variant = t.str(i, "variant")?;
@@ -511,13 +510,13 @@ fn jittered_lattice(
     Ok(pos)
 }
 
+register!("816" => case_816);
 /// Case 816: hindered settling of a homogeneous suspension (the whole box filled) against
 /// Richardson & Zaki: the effective exponent n = ln(U / U_t) / ln(eps) of the settling
 /// velocity U relative to the zero-volume-flux frame over the isolated sphere's terminal
 /// velocity U_t, against the cited low-Re band of n.
 pub fn case_816(ctx: &CaseContext) -> Result<Vec<Row>> {
     let t = ctx.expected_table()?;
-    non_empty(&t)?;
     let mut rows = Vec::new();
     for i in 0..t.len() {
         let phi_target = t.f64(i, "solid_fraction")?;
@@ -637,12 +636,12 @@ pub fn case_816(ctx: &CaseContext) -> Result<Vec<Row>> {
     Ok(rows)
 }
 
+register!("817" => case_817);
 /// Case 817: the basesheet alone (no particles) under a mean pressure gradient in a periodic
 /// column: the pressure drop across it from the fluid's own pressure field equals Darcy's
 /// mu U h / K, and U equals the closed form of the column, grad p L K / (mu h).
 pub fn case_817(ctx: &CaseContext) -> Result<Vec<Row>> {
     let t = ctx.expected_table()?;
-    non_empty(&t)?;
     let mut rows = Vec::new();
     for i in 0..t.len() {
         let dx = t.f64(i, "dx_m")?;
@@ -807,12 +806,12 @@ fn chord_porosity(pos: &[Vector3<f64>], r: f64, n: [usize; 3], dx: f64, k: usize
     eps
 }
 
+register!("840" => case_840);
 /// Case 840: random fixed beds (MCM in a periodic cube, DEM settled on a floor) frozen in the
 /// coupled engine under a pressure gradient: grad p / Ergun(eps_b, U) between the bounds of
 /// the bed's counted porosity field (columns in parallel: upper; layers in series: lower).
 pub fn case_840(ctx: &CaseContext) -> Result<Vec<Row>> {
     let t = ctx.expected_table()?;
-    non_empty(&t)?;
     let (rho, mu) = (1000.0, 1e-3);
     let mut rows = Vec::new();
     for i in 0..t.len() {
@@ -1031,12 +1030,12 @@ fn seed_bed_run(overlap: &str) -> Result<std::sync::Arc<SeedBedRun>> {
     Ok(run)
 }
 
+register!("940" => case_940);
 /// Case 940 (seed 002 Fig. 12): the built-in 2014-sphere bed under a pressure drop; zones
 /// on the porosity profile by thresholds fixed in the case notes, interface positions and
 /// speeds, and the decay of the flow through the consolidating bed.
 pub fn case_940(ctx: &CaseContext) -> Result<Vec<Row>> {
     let t = ctx.expected_table()?;
-    non_empty(&t)?;
     let eps_free = t.f64(0, "eps_free_min")?;
     let eps_bed = t.f64(0, "eps_bed_max")?;
     let run = seed_bed_run(t.str(0, "overlap")?)?;
@@ -1161,11 +1160,11 @@ pub fn case_940(ctx: &CaseContext) -> Result<Vec<Row>> {
     Ok(rows)
 }
 
+register!("941" => case_941);
 /// Case 941: the bottom of the coupled seed bed (case 940's run) against the uniform-drag DEM
 /// packing of the same spheres (built-in dem-seed-drag): porosity of a bottom window.
 pub fn case_941(ctx: &CaseContext) -> Result<Vec<Row>> {
     let t = ctx.expected_table()?;
-    non_empty(&t)?;
     let run = seed_bed_run(t.str(0, "overlap")?)?;
     let d = 2.0 * run.r[0];
     let (a, b) = (

@@ -5,7 +5,6 @@
 //! bed. Expected values are computed here from the closed forms (or, for the damped Hertz
 //! restitution, by an independent fine-step RK4 of the contact ODE), never by the engine.
 
-use super::common::non_empty;
 use crate::dem::{
     engine::auto_time_step, ContactModel, DampingModel, Dem, DemSetup, Drag, Material, NormalModel,
     PairMaterial, Particles, TangentialModel, TopWall,
@@ -201,6 +200,7 @@ pub(super) fn restitution_rk4(
     }
 }
 
+register!("701" => case_701);
 /// Case 701: linear spring–dashpot head-on collision of two equal spheres. Each row of
 /// expected.csv is one impact (restitution, speed, dt as a fraction of t_c); rows check e
 /// against exp(-pi zeta / sqrt(1 - zeta^2)) (which the dashpot is built to give) and t_c
@@ -209,6 +209,7 @@ pub fn case_701(ctx: &CaseContext) -> Result<Vec<Row>> {
     collisions(ctx, false)
 }
 
+register!("703" => case_703);
 /// Case 703: a sphere hitting the floor (a sphere of infinite radius and mass, its own
 /// material): Hertz contact time with R* = R, m* = m and E* from the same rule as for pairs,
 /// and the linear law's t_c with m* = m.
@@ -218,7 +219,6 @@ pub fn case_703(ctx: &CaseContext) -> Result<Vec<Row>> {
 
 fn collisions(ctx: &CaseContext, on_wall: bool) -> Result<Vec<Row>> {
     let t = ctx.expected_table()?;
-    non_empty(&t)?;
     let mut rows = Vec::new();
     for i in 0..t.len() {
         let model = model_from_row(&t, i)?;
@@ -279,12 +279,12 @@ fn collisions(ctx: &CaseContext, on_wall: bool) -> Result<Vec<Row>> {
     Ok(rows)
 }
 
+register!("702" => case_702);
 /// Case 702: restitution-damped Hertz (LIGGGHTS form): e does not depend on the impact speed
 /// (the contact ODE is self-similar in v). Rows: e at each speed against e at the first speed
 /// of the same (restitution, dt) group; and e against the fine-step RK4 of the contact ODE.
 pub fn case_702(ctx: &CaseContext) -> Result<Vec<Row>> {
     let t = ctx.expected_table()?;
-    non_empty(&t)?;
     let mut rows = Vec::new();
     let mut first: Option<(String, f64)> = None;
     for i in 0..t.len() {
@@ -345,12 +345,12 @@ fn resting_sphere(r: f64, mu: f64, damp_ratio: f64, g: Vector3<f64>, v0: f64) ->
     Dem::new(s, p, 0.1)
 }
 
+register!("704" => case_704);
 /// Case 704: a sphere launched sliding without spin on the floor with Coulomb friction mu:
 /// slip v - R w decreases as v0 - (7/2) mu g t, so rolling starts at t = 2 v0 / (7 mu g), then
 /// v = 5 v0 / 7 and w = v / R (angular momentum about the contact point is conserved).
 pub fn case_704(ctx: &CaseContext) -> Result<Vec<Row>> {
     let t = ctx.expected_table()?;
-    non_empty(&t)?;
     let mut rows = Vec::new();
     for i in 0..t.len() {
         let (r, mu, v0, g) = (
@@ -406,13 +406,13 @@ pub fn case_704(ctx: &CaseContext) -> Result<Vec<Row>> {
     Ok(rows)
 }
 
+register!("705" => case_705);
 /// Case 705: a sphere released at rest on a plane inclined by theta (gravity tilted): it rolls
 /// with a = (5/7) g sin(theta) when tan(theta) <= (7/2) mu, else slides with
 /// a = g (sin(theta) - mu cos(theta)). Acceleration from the velocity change over the second
 /// half of the run.
 pub fn case_705(ctx: &CaseContext) -> Result<Vec<Row>> {
     let t = ctx.expected_table()?;
-    non_empty(&t)?;
     let mut rows = Vec::new();
     for i in 0..t.len() {
         let (r, mu, th, g, dur) = (
@@ -481,12 +481,12 @@ fn settle(r: f64, mu: f64, rho_f: f64, g: f64, t_end: f64, dt: f64) -> Result<(f
     Ok((dem.p.vel[0].z, exact))
 }
 
+register!("706" => case_706);
 /// Case 706: Stokes settling; rows: the velocity at T = 3 tau for dt = tau / k (k and the
 /// allowed relative error from expected.csv), and the observed order of the error between
 /// consecutive step sizes (expected 2). Every row's scale is its allowed deviation (rtol = 1).
 pub fn case_706(ctx: &CaseContext) -> Result<Vec<Row>> {
     let t = ctx.expected_table()?;
-    non_empty(&t)?;
     let mut rows = Vec::new();
     let mut errs = Vec::new();
     let (r, mu, rho_f, g) = (1e-4, 1e-3, 1000.0, 9.81);
@@ -566,13 +566,13 @@ fn gas(n: usize, seed: u64, dt_frac: f64, t_end: f64) -> Result<(f64, f64, usize
     Ok((worst, (e - e0) / e0, contacts))
 }
 
+register!("707" => case_707);
 /// Case 707: energy without damping (elastic frictionless Hertz gas with walls): the largest
 /// relative energy error and the end-to-start drift stay below the bounds of the table at the
 /// automatic step, and the largest error falls with the order band of the table when dt is
 /// halved (every row's scale is its allowed deviation).
 pub fn case_707(ctx: &CaseContext) -> Result<Vec<Row>> {
     let t = ctx.expected_table()?;
-    non_empty(&t)?;
     let seed = ctx.seed.unwrap_or(707);
     let n = t.f64(0, "n_spheres")? as usize;
     let t_end = t.f64(0, "duration_s")?;
@@ -609,11 +609,11 @@ pub fn case_707(ctx: &CaseContext) -> Result<Vec<Row>> {
     ])
 }
 
+register!("708" => case_708);
 /// Case 708: a bed settled under gravity on the floor of a periodic box: the floor's force
 /// equals the buoyant weight N m (1 - rho_f / rho_p) g once the bed is at rest.
 pub fn case_708(ctx: &CaseContext) -> Result<Vec<Row>> {
     let t = ctx.expected_table()?;
-    non_empty(&t)?;
     let seed = ctx.seed.unwrap_or(708);
     let n = t.f64(0, "n_spheres")? as usize;
     let mu = t.f64(0, "mu")?;
@@ -676,6 +676,7 @@ pub fn case_708(ctx: &CaseContext) -> Result<Vec<Row>> {
     )])
 }
 
+register!("709" => case_709);
 /// Case 709: the pressure-controlled top wall holds its target once the bed is consolidated:
 /// the built-in small scene without gravity, the wall driven to the target pressure of the
 /// table; after the scene's stop criterion, the wall pressure averaged over a window equals the
@@ -684,7 +685,6 @@ pub fn case_708(ctx: &CaseContext) -> Result<Vec<Row>> {
 /// below the table's fraction of its speed limit). Rows' scales are their allowed deviations.
 pub fn case_709(ctx: &CaseContext) -> Result<Vec<Row>> {
     let t = ctx.expected_table()?;
-    non_empty(&t)?;
     let target = t.f64(0, "target_pressure_Pa")?;
     let band = t.f64(0, "pressure_rel_band")?;
     let travel_tol = t.f64(0, "wall_travel_over_d")?;
@@ -739,6 +739,7 @@ pub fn case_709(ctx: &CaseContext) -> Result<Vec<Row>> {
     ])
 }
 
+register!("710" => case_710);
 /// Case 710: pore size distribution by local thickness (`analysis::pore_size`) of the fixed
 /// bed `reference/pore_size_bed.xyz` against PoreSpy's (`reference/pore_size_porespy.csv`,
 /// made offline by `reference/scripts/pore_size_porespy.py`): the pore voxel count and the
@@ -750,7 +751,6 @@ pub fn case_710(ctx: &CaseContext) -> Result<Vec<Row>> {
     use crate::analysis::pore_size::{pore_size_distribution, voxelize_bed, VoxelGrid};
     use crate::analysis::rdf::Bed;
     let t = ctx.expected_table()?;
-    non_empty(&t)?;
     let text = std::fs::read_to_string(ctx.resolve("reference/pore_size_bed.xyz"))?;
     let (cell, parts) = crate::io::xyz::parse(&text, "reference/pore_size_bed.xyz")?;
     let pos: Vec<Vector3<f64>> = parts.iter().map(|p| p.position).collect();
@@ -878,6 +878,7 @@ fn oblique_impact(model: ContactModel, r: f64, v: f64, theta: f64) -> Result<(f6
     ))
 }
 
+register!("711", "712" => case_711);
 /// Cases 711 (elastic) and 712 (with normal damping; a documented deviation): oblique impacts on the floor against the rigid-body limits (Hertz–Mindlin,
 /// Coulomb mu): for tan(theta) above (7/2) mu (1 + e) the sphere slides throughout the
 /// contact, so the tangential impulse is mu times the normal one (mu (1 + e) m v_n) and the
@@ -885,7 +886,6 @@ fn oblique_impact(model: ContactModel, r: f64, v: f64, theta: f64) -> Result<(f6
 /// allowed deviation (table).
 pub fn case_711(ctx: &CaseContext) -> Result<Vec<Row>> {
     let t = ctx.expected_table()?;
-    non_empty(&t)?;
     let mut rows = Vec::new();
     for i in 0..t.len() {
         let (mu, e_req, over) = (

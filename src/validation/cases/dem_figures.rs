@@ -193,6 +193,7 @@ fn detailed_rows(ctx: &CaseContext, m: &Measured) -> Result<Vec<Row>> {
     Ok(rows)
 }
 
+register!("930" => case_930);
 /// Case 930 (seed 002 Fig. 10): bulk porosity of the three seed beds, the compression bed's
 /// porosity below the gravity bed's, no gradient in the compression bed, a gradient (lower
 /// third denser than the upper third) in the drag bed.
@@ -238,6 +239,7 @@ pub fn case_930(ctx: &CaseContext) -> Result<Vec<Row>> {
 /// Voxels per sphere diameter of the pore-size grid of case 931 (edge 40 um for d = 400 um).
 const PORE_VOXELS_PER_D: f64 = 10.0;
 
+register!("931" => case_931);
 /// Case 931 (seed 002 Fig. 11): the pore-volume-weighted median and 75th percentile of the
 /// local-thickness pore diameter (over d) of the drag bed below the gravity bed's.
 pub fn case_931(ctx: &CaseContext) -> Result<Vec<Row>> {
@@ -281,6 +283,7 @@ pub fn case_931(ctx: &CaseContext) -> Result<Vec<Row>> {
 /// dem-seed-compression's 184 Pa (the seed beds' weight per area).
 const FIG8_FINAL_PRESSURE_PA: f64 = 1840.0;
 
+register!("932" => case_932);
 /// Case 932 (seed 002 Fig. 8): the polydisperse bed of the case's `scene.toml` compressed by
 /// its pressure wall to a loose "initial" state, then the wall's target raised to
 /// [`FIG8_FINAL_PRESSURE_PA`] and run to its stop rule again: bulk porosity of both states.

@@ -1,7 +1,7 @@
 //! Cases 601-608: the Monte-Carlo deposition engine of seed 000 (src/deposition) and the
 //! layer observables of src/analysis (slab porosity, height map).
 
-use super::common::{non_empty, required_seed};
+use super::common::required_seed;
 use crate::analysis::height_map::height_map;
 use crate::analysis::slab::{solid_fraction_between, PosedEllipsoid};
 use crate::deposition::engine::{deposit, DepositionParams};
@@ -22,11 +22,11 @@ fn z_of(samples: &[f64], mu: f64) -> f64 {
     (m - mu) / (var / n).sqrt()
 }
 
+register!("601" => case_601);
 /// Case 601: the move generator. Eq. A14 for every move (worst relative deviation), and
 /// z-scores of E[dz^2] = K/12 and E|dz| = c sqrt(K) over `moves` draws.
 pub fn case_601(ctx: &CaseContext) -> Result<Vec<Row>> {
     let t = ctx.expected_table()?;
-    non_empty(&t)?;
     let seed = required_seed(ctx, "case 601 needs a seed")?;
     let mut rows = Vec::new();
     for i in 0..t.len() {
@@ -90,11 +90,11 @@ fn params(k: f64, max_sweeps: u64, stop_fraction: f64) -> DepositionParams {
     }
 }
 
+register!("602" => case_602);
 /// Case 602: an isolated sphere far above the substrate at T = 0: z-scores of the accepted
 /// fraction (1/2) and of the mean descent per trial (c/2 sqrt(K)).
 pub fn case_602(ctx: &CaseContext) -> Result<Vec<Row>> {
     let t = ctx.expected_table()?;
-    non_empty(&t)?;
     let seed = required_seed(ctx, "case 602 needs a seed")?;
     let mut rows = Vec::new();
     for i in 0..t.len() {
@@ -197,12 +197,12 @@ fn cube_group() -> Vec<UnitQuaternion<f64>> {
     out
 }
 
+register!("603" => case_603);
 /// Case 603: the vertical drag coefficient of posed spheroids (eq. A3 with A11) against the
 /// closed forms rotated, C = C_ax cos^2 + C_tr sin^2, and the orientation mean over the cube
 /// group against (C_a + C_b + C_c)/3 for triaxial ellipsoids.
 pub fn case_603(ctx: &CaseContext) -> Result<Vec<Row>> {
     let t = ctx.expected_table()?;
-    non_empty(&t)?;
     let mut rows = Vec::new();
     let group = cube_group();
     if group.len() != 24 {
@@ -243,11 +243,11 @@ pub fn case_603(ctx: &CaseContext) -> Result<Vec<Row>> {
     Ok(rows)
 }
 
+register!("604" => case_604);
 /// Case 604: exact slab volumes. Slices of random posed ellipsoids sum to 4/3 pi abc; the
 /// porosity of whole periods of simple cubic and FCC sphere lattices.
 pub fn case_604(ctx: &CaseContext) -> Result<Vec<Row>> {
     let t = ctx.expected_table()?;
-    non_empty(&t)?;
     let seed = required_seed(ctx, "case 604 needs a seed")?;
     let mut rows = Vec::new();
     for i in 0..t.len() {
@@ -342,11 +342,11 @@ pub fn case_604(ctx: &CaseContext) -> Result<Vec<Row>> {
     Ok(rows)
 }
 
+register!("605" => case_605);
 /// Case 605: RMS roughness of constructed monolayers of spheres at coverage theta against
 /// r sqrt(17 theta / 6 - 25 theta^2 / 9) (a node has height 0 or r + sqrt(r^2 - rho^2)).
 pub fn case_605(ctx: &CaseContext) -> Result<Vec<Row>> {
     let t = ctx.expected_table()?;
-    non_empty(&t)?;
     let mut rows = Vec::new();
     for i in 0..t.len() {
         let r = t.f64(i, "radius_m")?;
@@ -388,11 +388,11 @@ pub fn case_605(ctx: &CaseContext) -> Result<Vec<Row>> {
     Ok(rows)
 }
 
+register!("606" => case_606);
 /// Case 606: a periodic square column of side L, d < L < sqrt(2) d: one sphere per layer,
 /// each ends in the hollow of the one below, z_k = r + (k - 1) sqrt(d^2 - L^2/2).
 pub fn case_606(ctx: &CaseContext) -> Result<Vec<Row>> {
     let t = ctx.expected_table()?;
-    non_empty(&t)?;
     let seed = required_seed(ctx, "case 606 needs a seed")?;
     let mut rows = Vec::new();
     for i in 0..t.len() {
@@ -445,12 +445,12 @@ pub fn case_606(ctx: &CaseContext) -> Result<Vec<Row>> {
     Ok(rows)
 }
 
+register!("607" => case_607);
 /// Case 607: metamorphic. Spheres at T = 0 give bitwise the same deposit when viscosity,
 /// gravity or density change (the sign of dE is the sign of dz), and all lengths scaled by a
 /// power of two s (K_max by s^2) give positions scaled by s exactly.
 pub fn case_607(ctx: &CaseContext) -> Result<Vec<Row>> {
     let t = ctx.expected_table()?;
-    non_empty(&t)?;
     let seed = required_seed(ctx, "case 607 needs a seed")?;
     let run = |scale: f64, viscosity: f64, g_acc: f64, density: f64| -> Result<Vec<Vector3<f64>>> {
         let r = 0.5e-6 * scale;
@@ -534,12 +534,12 @@ fn band_row(t: &crate::validation::Table, i: usize, what: &str, values: &[f64]) 
     ))
 }
 
+register!("608" => case_608);
 /// Case 608: core packing fraction of monodisperse spheres deposited from the Table B1
 /// colour (mean over runs), against the band between random loose packing and sequential
 /// gravitational deposition; rows also give each run's value for review.
 pub fn case_608(ctx: &CaseContext) -> Result<Vec<Row>> {
     let t = ctx.expected_table()?;
-    non_empty(&t)?;
     let seed = required_seed(ctx, "case 608 needs a seed")?;
     (0..t.len())
         .map(|i| {
@@ -556,12 +556,12 @@ pub fn case_608(ctx: &CaseContext) -> Result<Vec<Row>> {
         .collect()
 }
 
+register!("609" => case_609);
 /// Case 609: first-layer coverage of the substrate by monodisperse spheres deposited from the
 /// Table B1 colour (mean over runs), between the random sequential adsorption jamming limit of
 /// discs and hexagonal close packing.
 pub fn case_609(ctx: &CaseContext) -> Result<Vec<Row>> {
     let t = ctx.expected_table()?;
-    non_empty(&t)?;
     let seed = required_seed(ctx, "case 609 needs a seed")?;
     (0..t.len())
         .map(|i| {

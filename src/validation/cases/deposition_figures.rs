@@ -4,7 +4,7 @@
 //! notes before measuring and expressed as bands on z-scores, rank correlations or the location
 //! of an extremum.
 
-use super::common::{non_empty, required_seed};
+use super::common::required_seed;
 use crate::deposition::measure::DepositMeasures;
 use crate::validation::Table;
 use crate::validation::{CaseContext, Row};
@@ -65,6 +65,7 @@ fn rise_row(label: String, z: f64) -> Row {
     Row::new(label, z, 503.0, 500.0)
 }
 
+register!("901", "902" => case_901_902);
 /// Cases 901 and 902: seed 000 Figs. 3 and 5, platelets of fixed diameter and needles of fixed
 /// length (the table's `shape`): the layer porosity falls from aspect ratio 1 to a minimum and
 /// rises again. Rows: the aspect ratio of the minimum of the mean porosity (band), and the
@@ -72,7 +73,6 @@ fn rise_row(label: String, z: f64) -> Row {
 /// standard error (band from 3 up).
 pub fn case_901_902(ctx: &CaseContext) -> Result<Vec<Row>> {
     let t = ctx.expected_table()?;
-    non_empty(&t)?;
     let seed = required_seed(ctx, "case 901 needs a seed")?;
     let mut points = Vec::new();
     for i in 0..t.len() {
@@ -166,7 +166,6 @@ fn figure_points(
     measure: fn(&DepositMeasures) -> f64,
 ) -> Result<Vec<FigurePoint>> {
     let t = ctx.expected_table()?;
-    non_empty(&t)?;
     let seed = required_seed(ctx, &format!("case {} needs a seed", ctx.id))?;
     (0..t.len())
         .map(|i| {
@@ -254,6 +253,7 @@ pub(super) fn spearman_critical_5_percent(n: usize) -> Result<f64> {
         .ok_or_else(|| Error::Validation(format!("no Spearman critical value for {n} points")))
 }
 
+register!("910", "914" => case_910_914);
 /// Cases 910 and 914: seed 000 Figs. 4 and 6, the RMS roughness of platelets (910) or needles
 /// (914) at high solids falls with the aspect ratio. Rows: Spearman's rank correlation of the
 /// mean roughness with the aspect ratio, at most minus the one-sided 5 % critical value c for
@@ -288,6 +288,7 @@ pub fn case_910_914(ctx: &CaseContext) -> Result<Vec<Row>> {
     ])
 }
 
+register!("911" => case_911);
 /// Case 911: seed 000 Fig. 3 text, platelets of aspect ratio 5-20 deposit more porous layers
 /// from a 45 % solids colour than from a 60 % one. Series = aspect ratio, x = solids content;
 /// one row per aspect ratio: the porosity at 45 % above that at 60 % (z, band from 3 up).
@@ -313,6 +314,7 @@ pub fn case_911(ctx: &CaseContext) -> Result<Vec<Row>> {
         .collect()
 }
 
+register!("912" => case_912);
 /// Case 912: seed 000 Fig. 7, clay platelets of aspect 10 blended with carbonate needles: the
 /// layer porosity has a maximum at a clay volume share between 30 % and 50 %. Rows: the share
 /// of the maximum of the mean porosity (band [30, 50]), and the maximum above each pure
@@ -342,6 +344,7 @@ pub fn case_912(ctx: &CaseContext) -> Result<Vec<Row>> {
     Ok(rows)
 }
 
+register!("913" => case_913);
 /// Case 913: seed 000 Fig. 14, clay platelets blended with spheres: a larger platelet/sphere
 /// volume ratio gives a more porous layer. Series = volume ratio (`1` and `8`), x = clay volume
 /// share; one row per share: porosity at ratio 8 above that at ratio 1 (z, band from 3 up).

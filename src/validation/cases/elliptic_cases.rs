@@ -13,6 +13,7 @@ use crate::special::elliptic::{
 use crate::validation::{CaseContext, Row};
 use crate::{Error, Result};
 
+register!("001" => case_001);
 /// Runner of case 001.
 pub fn case_001(ctx: &CaseContext) -> Result<Vec<Row>> {
     let t = ctx.expected_table()?;

@@ -59,16 +59,19 @@ fn field_table_rows(ctx: &CaseContext, extra_label: &[&str]) -> Result<Vec<Row>>
     Ok(rows)
 }
 
+register!("101" => case_101);
 /// Case 101: infinite cylinder (eq. 5.24) at the midplane of cylinders with L/R = 1e6..1e8.
 pub fn case_101(ctx: &CaseContext) -> Result<Vec<Row>> {
     field_table_rows(ctx, &["magnetization", "region"])
 }
 
+register!("102" => case_102);
 /// Case 102: field on the axis and at rho = 1e-12 R (eq. 5.26-5.27, solenoid formula).
 pub fn case_102(ctx: &CaseContext) -> Result<Vec<Row>> {
     field_table_rows(ctx, &["magnetization", "kind", "region"])
 }
 
+register!("103" => case_103);
 /// Case 103: far field against the exact exterior multipole series (rows, rtol of case.toml),
 /// and the convergence to the dipole (checked here; a violation is returned as an error):
 /// along each ray, e(d) = |H - H_dip| / |H_dip| must fall as (a/d)^2 (fitted exponent
@@ -230,6 +233,7 @@ fn frob(g: &Matrix3<f64>) -> f64 {
     g.norm()
 }
 
+register!("105" => case_105);
 /// Case 105: Maxwell's equations from `h_gradient` and the jump conditions at the surface.
 ///
 /// * Off the surface (random points, some down to 1e-9 R from it): div B = 0, i.e.
@@ -378,6 +382,7 @@ fn local_point(rng: &mut ChaCha8Rng, r: f64, l: f64) -> Vector3<f64> {
     }
 }
 
+register!("106" => case_106);
 /// Case 106: rigid motions and superposition. For random poses (rotation Q, translation t;
 /// fixed seed) the `Magnet` with axis Q z and world magnetization M must give
 /// H(Q p + t) = Q H_cyl(Q^T M; p), B likewise, and dH/dx = Q G_cyl Q^T, where H_cyl is the

@@ -2,7 +2,6 @@
 //! Guo & Zhao's Brinkman channel, Taylor-Green decay, nu(tau) of seed 002 eq. 8) and the
 //! literature table of Zick & Homsy (1982) for simple cubic sphere arrays.
 
-use super::common::non_empty;
 use crate::lbm::choice::{dispatch, CollisionKind, Job, LatticeKind};
 use crate::lbm::flows::{
     brinkman_poiseuille, channel_coordinate, cylinder_array_mask, drag_coefficient,
@@ -72,7 +71,6 @@ fn per_row(
     mut f: impl FnMut(&Table, usize, LatticeKind, CollisionKind, f64) -> Result<Option<Row>>,
 ) -> Result<Vec<Row>> {
     let t = ctx.expected_table()?;
-    non_empty(&t)?;
     let mut rows = Vec::new();
     for i in 0..t.len() {
         let (lat, coll) = kinds(&t, i)?;
@@ -134,6 +132,7 @@ fn channel_error(
     )
 }
 
+register!("801" => case_801);
 /// Case 801: BGK plane Poiseuille, order of the L2 error between H and 2H (expected 2).
 pub fn case_801(ctx: &CaseContext) -> Result<Vec<Row>> {
     per_row(ctx, |t, i, lat, coll, tau| {
@@ -156,6 +155,7 @@ pub fn case_801(ctx: &CaseContext) -> Result<Vec<Row>> {
     })
 }
 
+register!("802" => case_802);
 /// Case 802: TRT (Lambda = 3/16) plane Poiseuille is exact: relative L2 error 0.
 pub fn case_802(ctx: &CaseContext) -> Result<Vec<Row>> {
     per_row(ctx, |t, i, lat, coll, tau| {
@@ -178,6 +178,7 @@ pub fn case_802(ctx: &CaseContext) -> Result<Vec<Row>> {
 /// Cells across the Brinkman wall layer sqrt(K/eps) that case 803 requires at its coarse grid.
 const MIN_LAYER_CELLS: f64 = 4.0;
 
+register!("803" => case_803);
 /// Case 803: Guo-Zhao porous Poiseuille against the Brinkman solution; order between H, 2H.
 pub fn case_803(ctx: &CaseContext) -> Result<Vec<Row>> {
     per_row(ctx, |t, i, lat, coll, tau| {
@@ -239,6 +240,7 @@ impl Job for TaylorGreen {
     }
 }
 
+register!("804" => case_804);
 /// Case 804: Taylor-Green decay; the recovered viscosity against nu = (tau - 1/2)/3.
 pub fn case_804(ctx: &CaseContext) -> Result<Vec<Row>> {
     per_row(ctx, |t, i, lat, coll, tau| {
@@ -336,11 +338,11 @@ fn sphere_array_k(
     )
 }
 
+register!("808" => case_808);
 /// Case 808: Darcy's law. Rows "force": k at force g against k at g_ref (ratio 1, low Re);
 /// rows "viscosity": TRT k at tau against k at tau_ref (ratio 1). BGK's ratio is printed.
 pub fn case_808(ctx: &CaseContext) -> Result<Vec<Row>> {
     let t = ctx.expected_table()?;
-    non_empty(&t)?;
     let mut rows = Vec::new();
     for i in 0..t.len() {
         let (lat, coll) = kinds(&t, i)?;
@@ -391,7 +393,6 @@ fn resolution_study(
     extra: impl Fn(&StudyRow, &str, f64) -> Vec<Row>,
 ) -> Result<Vec<Row>> {
     let t = ctx.expected_table()?;
-    non_empty(&t)?;
     let mut rows = Vec::new();
     let mut problems = Vec::new();
     let mut sq = [0.0; 2];
@@ -429,6 +430,7 @@ fn resolution_study(
     Ok(rows)
 }
 
+register!("806", "807" => case_806_807);
 /// Cases 806 (slow, the whole table) and 807 (fast, one row): simple cubic sphere arrays, drag
 /// coefficient K = 2a^2/(9 phi k) against Zick & Homsy (1982) Table 2; the error must fall from
 /// the coarse to the fine resolution.
@@ -501,6 +503,7 @@ fn cylinder_array_drag(
 /// Sangani & Acrivos table by 4 % at 0.3 and diverges beyond).
 const DRUMMOND_TAHIR_MAX_PHI: f64 = 0.2;
 
+register!("818", "819" => case_818_819);
 /// Cases 818 (fast) and 819 (slow): transverse flow through the square array of cylinders;
 /// F/(mu U) = L^2/k against Sangani & Acrivos (1982) Table 1 and, for phi <= 0.2, Drummond &
 /// Tahir (1984). The RMS error over the rows must fall from the coarse to the fine lattice.

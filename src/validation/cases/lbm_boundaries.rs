@@ -78,12 +78,12 @@ impl Job for DrivenError {
     }
 }
 
+register!("805" => case_805);
 /// Case 805: plane Poiseuille flow driven through non-equilibrium-extrapolation planes, by a
 /// density (pressure) difference or by a parabolic velocity inlet; the L2 error of the
 /// mid-length profile and its order between H and 2H under diffusive scaling.
 pub fn case_805(ctx: &CaseContext) -> Result<Vec<Row>> {
     let t = ctx.expected_table()?;
-    non_empty(&t)?;
     let mut rows = Vec::new();
     for i in 0..t.len() {
         let (lat, coll) = kinds(&t, i)?;
@@ -157,11 +157,11 @@ impl Job for DuctError {
     }
 }
 
+register!("810" => case_810);
 /// Case 810: square duct under a body force against the series solution; order of the L2
 /// error between H and 2H.
 pub fn case_810(ctx: &CaseContext) -> Result<Vec<Row>> {
     let t = ctx.expected_table()?;
-    non_empty(&t)?;
     let mut rows = Vec::new();
     for i in 0..t.len() {
         let (lat, coll) = kinds(&t, i)?;
@@ -236,11 +236,11 @@ fn couette_reference(ref_table: &Table, eps: f64, re: f64, da: f64) -> Result<Ve
     Ok(prof)
 }
 
+register!("809" => case_809);
 /// Case 809: porous plane Couette flow (seed 002 Fig. 6a) against the finite-difference
 /// oracle; relative L2 error of the interior nodes, expected 0.
 pub fn case_809(ctx: &CaseContext) -> Result<Vec<Row>> {
     let t = ctx.expected_table()?;
-    non_empty(&t)?;
     let oracle = Table::read(&ctx.repo_root.join("reference/porous_couette.csv"))?;
     non_empty(&oracle)?;
     let mut rows = Vec::new();

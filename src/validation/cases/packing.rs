@@ -87,6 +87,7 @@ fn params(n: usize, length: f64, seed: u64) -> McmParams {
     p
 }
 
+register!("501" => case_501);
 pub fn case_501(ctx: &CaseContext) -> Result<Vec<Row>> {
     let prm = params(100, 0.0, seed(ctx)?);
     let a = packing::run(&prm)?;
@@ -106,6 +107,7 @@ pub fn case_501(ctx: &CaseContext) -> Result<Vec<Row>> {
     band_rows(ctx, &got)
 }
 
+register!("502" => case_502);
 pub fn case_502(ctx: &CaseContext) -> Result<Vec<Row>> {
     let prm = params(1000, 0.0, seed(ctx)?);
     let a = packing::run(&prm)?;
@@ -116,6 +118,7 @@ pub fn case_502(ctx: &CaseContext) -> Result<Vec<Row>> {
     band_rows(ctx, &got)
 }
 
+register!("503" => case_503);
 pub fn case_503(ctx: &CaseContext) -> Result<Vec<Row>> {
     let s = seed(ctx)?;
     let sph = packing::run(&params(500, 0.0, s))?;
@@ -136,6 +139,7 @@ pub fn case_503(ctx: &CaseContext) -> Result<Vec<Row>> {
     band_rows(ctx, &got)
 }
 
+register!("504" => case_504);
 pub fn case_504(ctx: &CaseContext) -> Result<Vec<Row>> {
     // Long rods have ~100 neighbours each: a lighter schedule keeps the run in minutes.
     let mut prm = params(300, 5.0, seed(ctx)?);
@@ -166,6 +170,7 @@ fn line_fit(xs: &[f64], ys: &[f64]) -> (f64, f64) {
 /// Cylinder diameters of case 505 (particle diameters).
 const CYLINDERS_505: [f64; 5] = [4.0, 5.0, 6.0, 8.0, 10.0];
 
+register!("505" => case_505);
 pub fn case_505(ctx: &CaseContext) -> Result<Vec<Row>> {
     let s = seed(ctx)?;
     let n = 500;
@@ -191,6 +196,7 @@ pub fn case_505(ctx: &CaseContext) -> Result<Vec<Row>> {
     band_rows(ctx, &got)
 }
 
+register!("506" => case_506);
 pub fn case_506(ctx: &CaseContext) -> Result<Vec<Row>> {
     let r = packing::run(&McmParams::two_stage_spheres(1000, seed(ctx)?))?;
     let mut got = BTreeMap::new();
@@ -237,6 +243,7 @@ impl JammedSpheres {
     }
 }
 
+register!("512" => case_512);
 pub fn case_512(ctx: &CaseContext) -> Result<Vec<Row>> {
     let s = seed(ctx)?;
     // Independent runs in parallel, each with its own fixed seed.
@@ -259,6 +266,7 @@ pub fn case_512(ctx: &CaseContext) -> Result<Vec<Row>> {
     band_rows(ctx, &got)
 }
 
+register!("522" => case_522);
 /// Case 522: the jamming schedule over 20 seeds, read as typical (median and extremes).
 pub fn case_522(ctx: &CaseContext) -> Result<Vec<Row>> {
     use rayon::prelude::*;
@@ -308,6 +316,7 @@ fn rods_513(seed: u64) -> McmParams {
     p
 }
 
+register!("513" => case_513);
 pub fn case_513(ctx: &CaseContext) -> Result<Vec<Row>> {
     let s = seed(ctx)?;
     let runs = two_seeds(s, rods_513);
@@ -344,6 +353,7 @@ fn argmax(xs: &[f64]) -> (usize, f64) {
 /// Aspect ratios L/D of case 507 (spheres, near the maximum, beyond it).
 const ASPECTS_507: [f64; 3] = [0.0, 0.4, 1.0];
 
+register!("507" => case_507);
 pub fn case_507(ctx: &CaseContext) -> Result<Vec<Row>> {
     use rayon::prelude::*;
     let s = seed(ctx)?;
@@ -399,6 +409,7 @@ fn params_514(length: f64, seed: u64) -> McmParams {
     p
 }
 
+register!("514" => case_514);
 pub fn case_514(ctx: &CaseContext) -> Result<Vec<Row>> {
     use rayon::prelude::*;
     let s = seed(ctx)?;
@@ -468,6 +479,7 @@ pub fn case_514(ctx: &CaseContext) -> Result<Vec<Row>> {
     band_rows(ctx, &got)
 }
 
+register!("508" => case_508);
 pub fn case_508(ctx: &CaseContext) -> Result<Vec<Row>> {
     use rayon::prelude::*;
     let s = seed(ctx)?;
@@ -542,6 +554,7 @@ fn wedge_run(n: usize, l_w: f64, alpha: f64, seed: u64) -> Result<(f64, f64, f64
     Ok((phi, deepest_overlap(&res)?, wall))
 }
 
+register!("520" => case_520);
 pub fn case_520(ctx: &CaseContext) -> Result<Vec<Row>> {
     let s = seed(ctx)?;
     let mut got = BTreeMap::new();
@@ -565,6 +578,7 @@ pub fn case_520(ctx: &CaseContext) -> Result<Vec<Row>> {
     band_rows(ctx, &got)
 }
 
+register!("521" => case_521);
 pub fn case_521(ctx: &CaseContext) -> Result<Vec<Row>> {
     let s = seed(ctx)?;
     let alpha = 30f64.to_radians();
@@ -667,6 +681,7 @@ fn superball_rise(
     band_rows(ctx, &got)
 }
 
+register!("509" => case_509);
 pub fn case_509(ctx: &CaseContext) -> Result<Vec<Row>> {
     superball_rise(ctx, GAMMAS_509, 50, 3, 100.0, "phi_gamma3_minus_phi_gamma2")
 }
@@ -675,6 +690,7 @@ pub fn case_509(ctx: &CaseContext) -> Result<Vec<Row>> {
 /// 509's notes (4 halvings, 200 N tries).
 const GAMMAS_517: [f64; 2] = [3.0, 5.0];
 
+register!("517" => case_517);
 pub fn case_517(ctx: &CaseContext) -> Result<Vec<Row>> {
     superball_rise(
         ctx,
@@ -740,6 +756,7 @@ fn params_516(seed: u64) -> McmParams {
     p
 }
 
+register!("516" => case_516);
 pub fn case_516(ctx: &CaseContext) -> Result<Vec<Row>> {
     let (mean, solver, sampled) = superball_pairs(&[2.0], seed(ctx)?, |_, k| params_516(k))?;
     let mut got = BTreeMap::new();
@@ -749,6 +766,7 @@ pub fn case_516(ctx: &CaseContext) -> Result<Vec<Row>> {
     band_rows(ctx, &got)
 }
 
+register!("510" => case_510);
 pub fn case_510(ctx: &CaseContext) -> Result<Vec<Row>> {
     use rayon::prelude::*;
     let s = seed(ctx)?;

@@ -66,6 +66,7 @@ fn first_crossing(pts: &[(f64, f64)], level: f64) -> f64 {
         })
 }
 
+register!("515" => case_515);
 pub fn case_515(ctx: &CaseContext) -> Result<Vec<Row>> {
     use rayon::prelude::*;
     let s = required_seed(ctx, "case 515: a random case needs `seed` in case.toml")?;

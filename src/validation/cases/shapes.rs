@@ -29,6 +29,7 @@ fn quantities(s: &dyn ConvexShape) -> [f64; 4] {
     [s.volume(), i.x, i.y, i.z]
 }
 
+register!("002" => case_002);
 /// Case 002. Rows: V, Ixx, Iyy, Izz of every table row against the quadrature oracle (scale
 /// |expected|); for g = (2, 2, 2) also against V = 4/3 pi a b c, Ixx = V (b^2 + c^2)/5.
 /// Checked here (an error fails the case): the approach to the box 2a1 x 2a2 x 2a3 for equal
@@ -40,7 +41,6 @@ fn quantities(s: &dyn ConvexShape) -> [f64; 4] {
 /// resp. 7 pi^2/6 (the O(1/g) correction is 8 zeta(3)/g relative to pi^2/2, 0.2% at g = 1000).
 pub fn case_002(ctx: &CaseContext) -> Result<Vec<Row>> {
     let t = ctx.expected_table()?;
-    non_empty(&t)?;
     let mut rows = Vec::new();
     let mut box_pts: std::collections::BTreeMap<String, Vec<(f64, f64, f64)>> = Default::default();
     for i in 0..t.len() {
@@ -140,6 +140,7 @@ pub fn case_002(ctx: &CaseContext) -> Result<Vec<Row>> {
     Ok(rows)
 }
 
+register!("003" => case_003);
 /// Case 003. Rows: V, Ixx, Iyy, Izz against the decomposition (expected.csv) and against the
 /// z-slice quadrature (reference/spherocylinder_volume_inertia.csv); scale |expected|.
 pub fn case_003(ctx: &CaseContext) -> Result<Vec<Row>> {
