@@ -6,7 +6,9 @@
 //! independent oracle tables without calling the code under test.
 
 pub mod analysis;
+pub mod bench;
 pub mod brownian;
+pub mod cli;
 pub mod consts;
 pub mod contact;
 pub mod coupled;

@@ -30,13 +30,13 @@ enum Command {
         action: ReferenceAction,
     },
     /// Field of a uniformly magnetized cylinder at the points of a CSV file (header x,y,z in m).
-    Field(porelab::magnetics::cli::FieldArgs),
+    Field(porelab::cli::field::FieldArgs),
     /// Contact of shape pairs, one JSON pair per line ({"a": SHAPE, "b": SHAPE}).
-    Contact(porelab::contact::cli::ContactArgs),
+    Contact(porelab::cli::contact::ContactArgs),
     /// Volume, principal inertia (unit density) and bounding radius of one particle shape.
-    Shape(porelab::shape::cli::ShapeArgs),
+    Shape(porelab::cli::shape::ShapeArgs),
     /// Happel-Brenner translational resistances of an ellipsoid in Stokes flow.
-    Drag(porelab::hydro::cli::DragArgs),
+    Drag(porelab::cli::drag::DragArgs),
     /// Run a scene file (TOML; schema in README) or a built-in scene.
     Run {
         /// The scene file.
@@ -87,27 +87,27 @@ enum ReferenceAction {
 #[derive(Subcommand)]
 enum BenchWhat {
     /// Cylinder field: points per second and error against the oracle.
-    Field(porelab::magnetics::bench::BenchArgs),
+    Field(porelab::bench::field::BenchArgs),
     /// Brownian dynamics: particle-steps per second against N and method, field-evaluation
     /// share, and work-precision against the time step.
-    Brownian(porelab::brownian::bench::BenchArgs),
+    Brownian(porelab::bench::brownian::BenchArgs),
     /// Packing (MCM): seconds to jam against N, density and contacts, one and two threads,
     /// and the reached packing fraction against the try budget.
-    Packing(porelab::packing::bench::BenchArgs),
+    Packing(porelab::bench::packing::BenchArgs),
     /// Deposition: trial moves per second for spheres, platelets and needles, and the share
     /// of pair tests settled by each prefilter.
-    Deposition(porelab::deposition::bench::BenchArgs),
+    Deposition(porelab::bench::deposition::BenchArgs),
     /// Lattice Boltzmann: MLUPS per lattice, collision and forcing against the measured
     /// memory-bandwidth limit and the lbmpy peer.
-    Lbm(porelab::lbm::bench::BenchArgs),
+    Lbm(porelab::bench::lbm::BenchArgs),
     /// DEM: particle-steps per second per core against N, one and two threads, neighbour
     /// share, side by side with LAMMPS.
-    Dem(porelab::dem::bench::BenchArgs),
+    Dem(porelab::bench::dem::BenchArgs),
     /// Sweeps: per-job overhead of plan, launch and collect; a 100-job sweep on 1 and 2 workers.
-    Sweep(porelab::sweep::bench::BenchArgs),
+    Sweep(porelab::bench::sweep::BenchArgs),
     /// Coupled LBM-DEM: seconds per simulated second of the built-in scenes and the shares of
     /// LBM, DEM and the coupling, both porosity variants, one and two threads.
-    Coupled(porelab::coupled::bench::BenchArgs),
+    Coupled(porelab::bench::coupled::BenchArgs),
 }
 
 fn main() -> ExitCode {
@@ -120,10 +120,10 @@ fn main() -> ExitCode {
             }
             ReferenceAction::List => porelab::reference::cli_list().map(|_| ExitCode::SUCCESS),
         },
-        Command::Field(args) => porelab::magnetics::cli::run_field(&args),
-        Command::Contact(args) => porelab::contact::cli::run_contact(&args),
-        Command::Shape(args) => porelab::shape::cli::run_shape(&args),
-        Command::Drag(args) => porelab::hydro::cli::run_drag(&args),
+        Command::Field(args) => porelab::cli::field::run_field(&args),
+        Command::Contact(args) => porelab::cli::contact::run_contact(&args),
+        Command::Shape(args) => porelab::cli::shape::run_shape(&args),
+        Command::Drag(args) => porelab::cli::drag::run_drag(&args),
         Command::Permeability(args) => {
             porelab::lbm::pore::cli_permeability(&args).map(|_| ExitCode::SUCCESS)
         }
@@ -153,23 +153,21 @@ fn main() -> ExitCode {
         .map(|_| ExitCode::SUCCESS),
         Command::Sweep(args) => porelab::sweep::cli(&args),
         Command::Bench { what } => match what {
-            BenchWhat::Field(args) => {
-                porelab::magnetics::bench::run(&args).map(|_| ExitCode::SUCCESS)
-            }
+            BenchWhat::Field(args) => porelab::bench::field::run(&args).map(|_| ExitCode::SUCCESS),
             BenchWhat::Brownian(args) => {
-                porelab::brownian::bench::run(&args).map(|_| ExitCode::SUCCESS)
+                porelab::bench::brownian::run(&args).map(|_| ExitCode::SUCCESS)
             }
             BenchWhat::Packing(args) => {
-                porelab::packing::bench::run_bench(&args).map(|_| ExitCode::SUCCESS)
+                porelab::bench::packing::run_bench(&args).map(|_| ExitCode::SUCCESS)
             }
             BenchWhat::Deposition(args) => {
-                porelab::deposition::bench::run(&args).map(|_| ExitCode::SUCCESS)
+                porelab::bench::deposition::run(&args).map(|_| ExitCode::SUCCESS)
             }
-            BenchWhat::Lbm(args) => porelab::lbm::bench::run(&args).map(|_| ExitCode::SUCCESS),
-            BenchWhat::Dem(args) => porelab::dem::bench::run(&args).map(|_| ExitCode::SUCCESS),
-            BenchWhat::Sweep(args) => porelab::sweep::bench::run(&args).map(|_| ExitCode::SUCCESS),
+            BenchWhat::Lbm(args) => porelab::bench::lbm::run(&args).map(|_| ExitCode::SUCCESS),
+            BenchWhat::Dem(args) => porelab::bench::dem::run(&args).map(|_| ExitCode::SUCCESS),
+            BenchWhat::Sweep(args) => porelab::bench::sweep::run(&args).map(|_| ExitCode::SUCCESS),
             BenchWhat::Coupled(args) => {
-                porelab::coupled::bench::run(&args).map(|_| ExitCode::SUCCESS)
+                porelab::bench::coupled::run(&args).map(|_| ExitCode::SUCCESS)
             }
         },
     };

@@ -28,12 +28,15 @@
 //! change nothing but the capture time by less than one step.
 
 use super::capture::CaptureSet;
-use super::forces::{dipole_force, magnetic_dipole_force, FieldSource, LangevinMoment, Mie};
+use super::forces::{
+    dipole_force, magnetic_dipole_force, FieldFn, FieldSource, LangevinMoment, Mie,
+};
 use super::mobility::{mobility_matrix, stokes_mobility, Hydrodynamics};
 use super::noise::{NoiseGenerator, NoiseMethod};
 use super::{standard_normal, Params, Particles};
-use crate::error::{invalid, Result};
-use nalgebra::{DVector, Vector3};
+use crate::consts::MU0;
+use crate::error::{invalid, require_positive, Result};
+use nalgebra::{DVector, Matrix3, Vector3};
 use rand::Rng;
 
 /// One force (N) per particle.
@@ -64,6 +67,31 @@ pub struct Magnetic {
     pub moment: LangevinMoment,
     pub dipole_pairs: bool,
     pub cutoff: f64,
+}
+
+/// Moment (A m^2) and field (A/m) used by [`Magnetic::harmonic_trap`]; any non-zero values give the
+/// same force.
+const TRAP_MOMENT: f64 = 1e-16;
+const TRAP_FIELD: f64 = 1e5;
+
+impl Magnetic {
+    /// The magnetic terms that make the force on every particle F = -k r (N), r its position (m),
+    /// `stiffness` k in N/m (no dipole pairs).
+    pub fn harmonic_trap(stiffness: f64) -> Result<Self> {
+        require_positive(stiffness, || format!("trap stiffness k = {stiffness} N/m"))?;
+        let c = -stiffness / (MU0 * TRAP_MOMENT);
+        let source = FieldFn(move |p: &Vector3<f64>| {
+            let mut g = Matrix3::zeros();
+            g.set_column(0, &(p * c));
+            (Vector3::new(TRAP_FIELD, 0.0, 0.0), g)
+        });
+        Ok(Magnetic {
+            source: Box::new(source),
+            moment: LangevinMoment::fixed(TRAP_MOMENT)?,
+            dipole_pairs: false,
+            cutoff: 0.0,
+        })
+    }
 }
 
 /// A Brownian-dynamics simulation of identical spheres.
@@ -369,6 +397,26 @@ pub fn check_overlaps(p: &Particles) -> Result<()> {
 mod tests {
     use super::*;
     use crate::brownian::run_rng;
+
+    #[test]
+    fn trap_force_is_minus_k_r() {
+        let k = 3e-7;
+        let p = vec![
+            Vector3::new(1e-7, -2e-7, 3e-7),
+            Vector3::new(-4e-7, 0.0, 5e-8),
+        ];
+        let mut sim = Simulation::new(
+            Particles::new(p.clone(), 1e-8).unwrap(),
+            Params::new(298.0, 1e-3, 1e-6).unwrap(),
+        )
+        .unwrap();
+        sim.magnetic = Some(Magnetic::harmonic_trap(k).unwrap());
+        for (f, r) in sim.forces().unwrap().iter().zip(&p) {
+            assert!((f + r * k).norm() <= 1e-15 * k * r.norm(), "{f:?} {r:?}");
+        }
+        assert!(Magnetic::harmonic_trap(0.0).is_err());
+        assert!(Magnetic::harmonic_trap(f64::NAN).is_err());
+    }
 
     fn pair(sep: f64) -> Particles {
         Particles::new(vec![Vector3::zeros(), Vector3::new(sep, 0.0, 0.0)], 1e-7).unwrap()

@@ -16,7 +16,6 @@
 //! Randomness: one `ChaCha8Rng` stream per independent run, derived from (seed, run index) by
 //! [`run_rng`], so results do not depend on how runs are spread over threads.
 
-pub mod bench;
 pub mod capture;
 pub mod experiment;
 pub mod forces;

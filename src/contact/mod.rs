@@ -23,7 +23,6 @@
 //! what rounding can resolve, the query returns `Err(ContactError::NotConverged { .. })`.
 
 pub mod broad_phase;
-pub mod cli;
 pub mod contact_ellipsoid_ellipsoid;
 pub mod contact_sphere_ellipsoid;
 pub mod contact_sphere_sphere;

@@ -10,7 +10,6 @@
 //! * [`engine`]: the coupling loop, momentum balance and the run-time refusals;
 //! * [`checkpoint`]: the run's state, bitwise, for resuming.
 
-pub mod bench;
 pub mod checkpoint;
 pub mod drag;
 pub mod engine;

@@ -19,7 +19,6 @@
 //!
 //! Vertical axis: z (the seed's x); SI units throughout.
 
-pub mod bench;
 pub mod checkpoint;
 pub mod engine;
 pub mod lanes;

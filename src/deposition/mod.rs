@@ -14,7 +14,6 @@
 //!
 //! Lengths in metres, energies in joules, everywhere.
 
-pub mod bench;
 pub mod cells;
 pub mod energy;
 pub mod engine;

@@ -1,6 +1,5 @@
 //! Hydrodynamic resistance: Stokes sphere and Happel-Brenner ellipsoids (seed 000 appendix A).
 
-pub mod cli;
 pub mod happel_brenner;
 pub mod stokes;
 

@@ -8,7 +8,6 @@
 //! fuses the first four into one kernel per choice. Everything inside is in lattice units (dx = dt = 1, rho ~ 1); [`units`] converts at
 //! the boundary and refuses unstable parameters.
 
-pub mod bench;
 pub mod boundary;
 pub mod choice;
 pub mod collision;

@@ -5,8 +5,6 @@
 //! (centre, axis) with a magnetization given in world coordinates; an [`Assembly`] sums magnets.
 //! H is the field of the magnetization alone (no external field); B = mu0 (H + M inside).
 
-pub mod bench;
-pub mod cli;
 pub mod cylinder;
 pub mod kernel;
 pub mod magnet;

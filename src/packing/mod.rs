@@ -1331,7 +1331,6 @@ impl McmState {
     }
 }
 
-pub mod bench;
 mod container;
 mod neighbours;
 mod relax;

@@ -28,7 +28,6 @@ pub trait ConvexShape: Send + Sync + std::fmt::Debug {
     fn surface_samples(&self, n: usize) -> Vec<Vector3<f64>>;
 }
 
-pub mod cli;
 pub mod ellipsoid;
 pub mod sphere;
 pub mod spherocylinder;

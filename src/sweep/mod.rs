@@ -35,7 +35,6 @@
 //! Every job writes only into its own folder, so local workers and Slurm tasks never write the
 //! same file, and the collected table depends only on the jobs' results.
 
-pub mod bench;
 pub mod builtin;
 pub mod collect;
 pub mod plan;

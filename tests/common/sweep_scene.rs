@@ -6,7 +6,7 @@ use std::path::{Path, PathBuf};
 use std::process::Command;
 
 /// The base scene: 20 spheres (the sweep benchmark's scene).
-pub const BASE_SCENE: &str = porelab::sweep::bench::TINY_PACKING;
+pub const BASE_SCENE: &str = porelab::bench::sweep::TINY_PACKING;
 
 pub const SWEEP: &str = r#"title = "2 sizes x 3 runs"
 scene = "base.toml"

@@ -5,7 +5,7 @@
 //! the continuous law at a time step whose bias is bounded below the KS resolution.
 //!
 //! Independent particles (free-draining, no repulsion, no dipole pairs) in the isotropic trap
-//! U = k |r|^2 / 2, i.e. F = -k r, built by [`crate::brownian::bench::harmonic_trap`] through
+//! U = k |r|^2 / 2, i.e. F = -k r, built by [`crate::brownian::integrator::Magnetic::harmonic_trap`] through
 //! the engine's field-source hook. Per coordinate the update is the linear Gaussian recursion
 //!   x' = (1 - a) x + sqrt(2 kB T mu dt) g,   a = mu k dt,   mu = 1 / (6 pi eta R) (eq. 6.1),
 //! whose stationary law (for 0 < a < 2) is exactly normal with variance
@@ -17,7 +17,7 @@
 //! D from U(0, 1) has the Kolmogorov distribution.
 
 use super::common::{non_empty, required_seed};
-use crate::brownian::bench::harmonic_trap;
+use crate::brownian::integrator::Magnetic;
 use crate::brownian::{
     cubic_lattice, mobility_matrix, run_rng, stokes_mobility, Hydrodynamics, NoiseMethod, Params,
     Particles, Simulation, StepGuard,
@@ -175,7 +175,7 @@ fn run_samples(s: &TrapSpec, temperature: f64, seed: u64, run: u64) -> Result<Ru
     )?;
     sim.hydrodynamics = s.hydrodynamics;
     sim.noise = s.noise;
-    sim.magnetic = Some(harmonic_trap(s.stiffness)?);
+    sim.magnetic = Some(Magnetic::harmonic_trap(s.stiffness)?);
     sim.guard = StepGuard::Refuse {
         max_fraction: s.guard,
     };

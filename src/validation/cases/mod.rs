@@ -63,6 +63,9 @@ mod tests {
             .flat_map(|r| r.ids.iter())
             .filter(|id| !cases.iter().any(|c| c.id == **id))
             .collect();
-        assert!(orphans.is_empty(), "runners without a case folder: {orphans:?}");
+        assert!(
+            orphans.is_empty(),
+            "runners without a case folder: {orphans:?}"
+        );
     }
 }

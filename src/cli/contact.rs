@@ -10,7 +10,7 @@
 //! A bad line, or a pair the solver cannot certify, stops the run with one line on stderr
 //! naming the problem and the line number (exit status 2, see `main.rs`).
 
-use super::{contact, ContactShape, Pose};
+use crate::contact::{contact, ContactShape, Pose};
 use crate::error::{Error, Result};
 use nalgebra::{Quaternion, UnitQuaternion, Vector3};
 use serde_json::{Map, Value};

@@ -1,9 +1,9 @@
 //! `porelab bench deposition`: trial moves per second for spheres, platelets and needles, the
 //! share of pair tests settled by each prefilter, and seconds per run on one thread.
 
-use super::engine::{deposit, DepositionParams};
-use super::film::{build, Colour, FilmOptions};
-use super::grain::Grain;
+use crate::deposition::engine::{deposit, DepositionParams};
+use crate::deposition::film::{build, Colour, FilmOptions};
+use crate::deposition::grain::Grain;
 use crate::Result;
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;

@@ -9,10 +9,10 @@
 //! the kernel stores non-temporally it moves 2 x 8 Q, and the run also reports the fraction of
 //! that higher limit.
 
-use super::choice::{dispatch, CollisionKind, Job, LatticeKind};
-use super::geometry::{Dims, Geometry};
-use super::{BodyForce, Collision, Lattice, Porous, Solver};
 use crate::error::{invalid, Result};
+use crate::lbm::choice::{dispatch, CollisionKind, Job, LatticeKind};
+use crate::lbm::geometry::{Dims, Geometry};
+use crate::lbm::{BodyForce, Collision, Lattice, Porous, Solver};
 use std::time::Instant;
 
 #[derive(Debug, Clone, clap::Args)]
@@ -177,7 +177,7 @@ impl Job for Measure {
     }
 }
 
-fn time_steps<L: Lattice, C: Collision, F: super::Forcing>(
+fn time_steps<L: Lattice, C: Collision, F: crate::lbm::Forcing>(
     mut s: Solver<L, C, F>,
     seconds: f64,
     stores: Option<bool>,

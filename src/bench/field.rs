@@ -7,8 +7,8 @@
 //! (`reference::cylinder_field`) on a sample of the same points. The oracle's own rate is
 //! reported for comparison. Output: a table on stdout and `target/porelab/bench-field.csv`.
 
-use super::kernel::Regime;
-use super::Cylinder;
+use crate::magnetics::kernel::Regime;
+use crate::magnetics::Cylinder;
 use crate::reference::cylinder_field::{oracle_h, oracle_h_gradient};
 use crate::Result;
 use nalgebra::Vector3;

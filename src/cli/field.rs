@@ -5,8 +5,8 @@
 //! more columns `dHx_dx_A_per_m2,...,dHz_dz_A_per_m2`, 17 significant digits. Bad input is one line on stderr naming
 //! the problem (and the CSV line) with exit status 2 (see `main.rs`).
 
-use super::{Cylinder, Magnet};
 use crate::error::{invalid, Error, Result};
+use crate::magnetics::{Cylinder, Magnet};
 use nalgebra::Vector3;
 use rayon::prelude::*;
 use std::io::Write;

@@ -35,14 +35,14 @@
 //! external force; the whole force path (field source -> moment law -> mu0 G m -> update
 //! eq. 6.11) is exercised.
 
-use super::forces::{FieldFn, FieldSource, LangevinMoment, Mie, WithUniform};
-use super::integrator::{Magnetic, Simulation, StepGuard};
-use super::magnetization::stoner_wohlfarth_magnet;
-use super::{
+use crate::brownian::forces::{FieldSource, LangevinMoment, Mie, WithUniform};
+use crate::brownian::integrator::{Magnetic, Simulation, StepGuard};
+use crate::brownian::magnetization::stoner_wohlfarth_magnet;
+use crate::brownian::{
     cubic_lattice, run_rng, stokes_mobility, Hydrodynamics, NoiseMethod, Params, Particles,
 };
 use crate::consts::{KB, MU0};
-use crate::error::{invalid, require_positive, Result};
+use crate::error::{invalid, Result};
 use crate::magnetics::kernel::Regime;
 use crate::magnetics::Cylinder;
 use nalgebra::{Matrix3, Vector3};
@@ -52,29 +52,6 @@ use std::f64::consts::PI;
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::Arc;
 use std::time::Instant;
-
-/// Moment (A m^2) and field (A/m) used by [`harmonic_trap`]; any non-zero values give the
-/// same force.
-const TRAP_MOMENT: f64 = 1e-16;
-const TRAP_FIELD: f64 = 1e5;
-
-/// The magnetic terms that make the force on every particle F = -k r (N), r its position (m),
-/// `stiffness` k in N/m (no dipole pairs).
-pub fn harmonic_trap(stiffness: f64) -> Result<Magnetic> {
-    require_positive(stiffness, || format!("trap stiffness k = {stiffness} N/m"))?;
-    let c = -stiffness / (MU0 * TRAP_MOMENT);
-    let source = FieldFn(move |p: &Vector3<f64>| {
-        let mut g = Matrix3::zeros();
-        g.set_column(0, &(p * c));
-        (Vector3::new(TRAP_FIELD, 0.0, 0.0), g)
-    });
-    Ok(Magnetic {
-        source: Box::new(source),
-        moment: LangevinMoment::fixed(TRAP_MOMENT)?,
-        dipole_pairs: false,
-        cutoff: 0.0,
-    })
-}
 
 #[derive(Debug, clap::Args)]
 pub struct BenchArgs {
@@ -404,7 +381,7 @@ fn trap_sweep(n: usize, a_list: &[f64], sample_steps: u64) -> Result<Vec<Precisi
             Particles::new(p0.clone(), RADIUS)?,
             Params::new(TEMPERATURE, VISCOSITY, dt)?,
         )?;
-        sim.magnetic = Some(harmonic_trap(k)?);
+        sim.magnetic = Some(Magnetic::harmonic_trap(k)?);
         // No repulsion: the guard protects nothing (the recursion is stable for a < 2).
         sim.guard = StepGuard::Refuse {
             max_fraction: f64::INFINITY,
@@ -684,26 +661,6 @@ fn run_single_thread(args: &BenchArgs, sizes: &[usize]) -> Result<()> {
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    #[test]
-    fn trap_force_is_minus_k_r() {
-        let k = 3e-7;
-        let p = vec![
-            Vector3::new(1e-7, -2e-7, 3e-7),
-            Vector3::new(-4e-7, 0.0, 5e-8),
-        ];
-        let mut sim = Simulation::new(
-            Particles::new(p.clone(), 1e-8).unwrap(),
-            Params::new(298.0, 1e-3, 1e-6).unwrap(),
-        )
-        .unwrap();
-        sim.magnetic = Some(harmonic_trap(k).unwrap());
-        for (f, r) in sim.forces().unwrap().iter().zip(&p) {
-            assert!((f + r * k).norm() <= 1e-15 * k * r.norm(), "{f:?} {r:?}");
-        }
-        assert!(harmonic_trap(0.0).is_err());
-        assert!(harmonic_trap(f64::NAN).is_err());
-    }
 
     #[test]
     fn dilute_cloud_has_no_close_pairs() {

@@ -32,8 +32,8 @@
 //! Output: tables on stdout and
 //! `target/porelab/bench-packing-{jamming,work-precision,jamming-work-precision}.csv`.
 
-use super::{run, McmParams, Scheme};
 use crate::error::invalid;
+use crate::packing::{run, McmParams, Scheme};
 use crate::scene::packing::measure;
 use crate::Result;
 use std::time::Instant;

@@ -6,8 +6,8 @@
 //! Launch overhead per job = (wall time of `sweep run --jobs 1` - sum of the jobs' own
 //! seconds) / jobs: process start, manifest read, hash check, rename and records.
 
-use super::{job_dir, Plan};
 use crate::error::{invalid, Error, Result};
+use crate::sweep::{job_dir, Plan};
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
@@ -77,7 +77,7 @@ pub fn run(a: &BenchArgs) -> Result<()> {
     for workers in [1usize, 2] {
         let dir = a.out.join(format!("workers-{workers}"));
         let t = Instant::now();
-        super::plan::cli_plan(&sweep, &dir)?;
+        crate::sweep::plan::cli_plan(&sweep, &dir)?;
         let plan_s = t.elapsed().as_secs_f64();
         let t = Instant::now();
         let status = std::process::Command::new(&exe)
@@ -94,7 +94,7 @@ pub fn run(a: &BenchArgs) -> Result<()> {
             )));
         }
         let t = Instant::now();
-        super::collect::cli_collect(&dir)?;
+        crate::sweep::collect::cli_collect(&dir)?;
         let collect_s = t.elapsed().as_secs_f64();
         let plan = Plan::read(&dir)?;
         let n = plan.jobs.len() as f64;

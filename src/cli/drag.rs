@@ -2,9 +2,9 @@
 //! ellipsoid (N s/m, along each semi-axis) and the orientation-averaged resistance
 //! f = 3 / sum(1/C_i), printed as `{"resistance": [Ca, Cb, Cc], "mobility_averaged_resistance": f}`.
 
-use super::happel_brenner::EllipsoidDrag;
+use crate::cli::shape::{json_number, parse_three};
 use crate::error::{invalid, Result};
-use crate::shape::cli::{json_number, parse_three};
+use crate::hydro::happel_brenner::EllipsoidDrag;
 use std::process::ExitCode;
 
 #[derive(Debug, clap::Args)]

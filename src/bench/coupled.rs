@@ -3,7 +3,7 @@
 //! force transfer and the momentum ledger), for both porosity variants at one and two threads.
 //! The goal (the coupling under 15 % of a step) is checked against these shares.
 
-use super::{Coupled, Overlap};
+use crate::coupled::{Coupled, Overlap};
 use crate::error::{invalid, Error, Result};
 use crate::scene::coupled::{build, parse_scene};
 use std::fmt::Write as _;

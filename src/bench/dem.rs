@@ -8,7 +8,7 @@
 //! `bed`), E = 1e7 Pa, nu = 0.3, e = 0.5, mu = 0.3, gravity 9.81 m/s^2; both codes start from
 //! the same positions at rest and run the same number of steps with the same dt and skin.
 
-use super::{
+use crate::dem::{
     ContactModel, DampingModel, Dem, DemSetup, Material, NormalModel, Particles, TangentialModel,
     TopWall,
 };

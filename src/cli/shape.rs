@@ -3,8 +3,8 @@
 //! `{"volume": v, "principal_inertia": [Ixx, Iyy, Izz], "bounding_radius": r}`.
 //! Bad arguments: one line naming the problem, exit status 2 (see `main.rs`).
 
-use super::{ConvexShape, Ellipsoid, Sphere, Spherocylinder, Superquadric};
 use crate::error::{invalid, Result};
+use crate::shape::{ConvexShape, Ellipsoid, Sphere, Spherocylinder, Superquadric};
 use std::process::ExitCode;
 
 #[derive(Debug, clap::Args)]
