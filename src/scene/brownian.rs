@@ -1053,6 +1053,27 @@ fn run_volumes(
     Ok(serde_json::Value::Array(rows))
 }
 
+/// `kind = "brownian"`.
+pub struct Kind;
+
+impl super::Scene for Kind {
+    fn kind(&self) -> &'static str {
+        "brownian"
+    }
+    fn builtins(&self) -> Vec<Builtin> {
+        builtins()
+    }
+    fn seed_key(&self) -> Option<&'static str> {
+        Some("run.seed")
+    }
+    fn check(&self, text: &str, origin: &str) -> Result<()> {
+        check_scene(text, origin)
+    }
+    fn run(&self, text: &str, origin: &str, out: &Path, opts: &RunOptions) -> Result<()> {
+        run_scene(text, origin, out, opts)
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

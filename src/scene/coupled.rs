@@ -573,6 +573,27 @@ pub fn summarize(
     }
 }
 
+/// `kind = "coupled"`.
+pub struct Kind;
+
+impl super::Scene for Kind {
+    fn kind(&self) -> &'static str {
+        "coupled"
+    }
+    fn builtins(&self) -> Vec<Builtin> {
+        builtins()
+    }
+    fn seed_key(&self) -> Option<&'static str> {
+        Some("dem.seed")
+    }
+    fn check(&self, text: &str, origin: &str) -> Result<()> {
+        parse_scene(text, origin).map(|_| ())
+    }
+    fn run(&self, text: &str, origin: &str, out: &Path, opts: &RunOptions) -> Result<()> {
+        run_scene(text, origin, out, opts)
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -1051,6 +1051,27 @@ fn write_outputs(
     Ok(())
 }
 
+/// `kind = "deposition"`.
+pub struct Kind;
+
+impl super::Scene for Kind {
+    fn kind(&self) -> &'static str {
+        "deposition"
+    }
+    fn builtins(&self) -> Vec<Builtin> {
+        builtins()
+    }
+    fn seed_key(&self) -> Option<&'static str> {
+        Some("seed")
+    }
+    fn check(&self, text: &str, origin: &str) -> Result<()> {
+        parse_scene(text, origin).map(|_| ())
+    }
+    fn run(&self, text: &str, origin: &str, out: &Path, opts: &RunOptions) -> Result<()> {
+        run_scene(text, origin, out, opts)
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::parse_scene;

@@ -906,6 +906,27 @@ fn run_flow(p: Prepared, origin: &str, out: &Path, opts: &RunOptions) -> Result<
     write_summary(out, &summary)
 }
 
+/// `kind = "lbm"`.
+pub struct Kind;
+
+impl super::Scene for Kind {
+    fn kind(&self) -> &'static str {
+        "lbm"
+    }
+    fn builtins(&self) -> Vec<Builtin> {
+        builtins()
+    }
+    fn seed_key(&self) -> Option<&'static str> {
+        None
+    }
+    fn check(&self, text: &str, origin: &str) -> Result<()> {
+        check_scene(text, origin)
+    }
+    fn run(&self, text: &str, origin: &str, out: &Path, opts: &RunOptions) -> Result<()> {
+        run_scene(text, origin, out, opts)
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

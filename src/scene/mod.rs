@@ -1,7 +1,8 @@
 //! Scene files: `porelab run SCENE.toml` and the built-in scenes.
 //!
-//! A scene is a TOML file whose top-level `kind` key names the engine (`"brownian"` or
-//! `"packing"`); the rest of the file is that engine's schema (README, "Scene files"). Every
+//! A scene is a TOML file whose top-level `kind` key names the engine (one of [`KINDS`]:
+//! `"brownian"`, `"packing"`, `"deposition"`, `"dem"`, `"lbm"`, `"coupled"`); the rest of the
+//! file is that engine's schema (README, "Scene files"). Every
 //! table is parsed with `deny_unknown_fields`, so a misspelt key is rejected by name. A scene
 //! builds only the terms it needs and prints them before the run.
 //!
@@ -27,14 +28,41 @@ pub struct Builtin {
     pub toml: &'static str,
 }
 
+/// One kind of scene: what a scene file's `kind = "..."` selects. Each engine's scene module
+/// implements it once (its `Kind`), and [`KINDS`] is the one list of kinds.
+pub trait Scene: Sync {
+    /// The value of the scene file's `kind` key.
+    fn kind(&self) -> &'static str;
+    /// The built-in scenes of this kind.
+    fn builtins(&self) -> Vec<Builtin>;
+    /// The key path of the scene's random seed (`porelab sweep` derives one per run there);
+    /// None for an engine that draws no random numbers.
+    fn seed_key(&self) -> Option<&'static str>;
+    /// Parses and checks a scene text as [`Scene::run`] does before it runs, without running.
+    fn check(&self, text: &str, origin: &str) -> Result<()>;
+    /// Runs the scene in `text` (read from `origin`, a path or `builtin:NAME`), writing its
+    /// outputs under `out`.
+    fn run(&self, text: &str, origin: &str, out: &Path, opts: &RunOptions) -> Result<()>;
+}
+
+/// Every kind of scene, in the order error messages list them.
+pub const KINDS: &[&dyn Scene] = &[
+    &brownian::Kind,
+    &packing::Kind,
+    &deposition::Kind,
+    &dem::Kind,
+    &lbm::Kind,
+    &coupled::Kind,
+];
+
+/// The kind of scene that `kind = "{name}"` selects.
+pub fn kind_named(name: &str) -> Option<&'static dyn Scene> {
+    KINDS.iter().copied().find(|k| k.kind() == name)
+}
+
 /// All built-in scenes, in the order `porelab run --list` prints them.
 pub fn builtins() -> Vec<Builtin> {
-    let mut v = brownian::builtins();
-    v.extend(packing::builtins());
-    v.extend(deposition::builtins());
-    v.extend(lbm::builtins());
-    v.extend(dem::builtins());
-    v.extend(coupled::builtins());
+    let mut v: Vec<Builtin> = KINDS.iter().flat_map(|k| k.builtins()).collect();
     v.sort_by_key(|b| b.name);
     v
 }
@@ -75,29 +103,34 @@ impl RunOptions {
 }
 
 /// The values of a scene's `kind`, as error messages list them.
-const KNOWN_KINDS: &str =
-    "\"brownian\", \"packing\", \"deposition\", \"dem\", \"lbm\", \"coupled\"";
-
-/// The error for a `kind` that names no engine.
-fn unknown_kind<T>(origin: &str, kind: &str) -> Result<T> {
-    invalid(format!(
-        "{origin}: kind = \"{kind}\": unknown engine (known: {KNOWN_KINDS})"
-    ))
+fn known_kinds() -> String {
+    let names: Vec<String> = KINDS.iter().map(|k| format!("\"{}\"", k.kind())).collect();
+    names.join(", ")
 }
 
-/// The engine a scene names, read from its top-level `kind` key.
-fn scene_kind(text: &str, origin: &str) -> Result<String> {
+/// The kind of scene the text's top-level `kind` key names.
+fn scene_kind(text: &str, origin: &str) -> Result<&'static dyn Scene> {
     let value: toml::Table = toml::from_str(text).map_err(|e| Error::File {
         path: origin.to_string(),
         msg: format!("not valid TOML: {e}"),
     })?;
     match value.get("kind") {
-        Some(toml::Value::String(s)) => Ok(s.clone()),
+        Some(toml::Value::String(s)) => kind_named(s).map_or_else(
+            || {
+                invalid(format!(
+                    "{origin}: kind = \"{s}\": unknown engine (known: {})",
+                    known_kinds()
+                ))
+            },
+            Ok,
+        ),
         Some(other) => invalid(format!(
-            "{origin}: key `kind` = {other}: must be a string, one of {KNOWN_KINDS}"
+            "{origin}: key `kind` = {other}: must be a string, one of {}",
+            known_kinds()
         )),
         None => invalid(format!(
-            "{origin}: missing top-level key `kind` (one of {KNOWN_KINDS})"
+            "{origin}: missing top-level key `kind` (one of {})",
+            known_kinds()
         )),
     }
 }
@@ -109,29 +142,13 @@ pub fn run_text(text: &str, origin: &str, out_stem: &str, opts: &RunOptions) -> 
         .out
         .clone()
         .unwrap_or_else(|| default_out_dir(out_stem));
-    match scene_kind(text, origin)?.as_str() {
-        "brownian" => brownian::run_scene(text, origin, &out, opts),
-        "packing" => packing::run_scene(text, origin, &out, opts),
-        "dem" => dem::run_scene(text, origin, &out, opts),
-        "deposition" => deposition::run_scene(text, origin, &out, opts),
-        "lbm" => lbm::run_scene(text, origin, &out, opts),
-        "coupled" => coupled::run_scene(text, origin, &out, opts),
-        other => unknown_kind(origin, other),
-    }
+    scene_kind(text, origin)?.run(text, origin, &out, opts)
 }
 
 /// Parses and checks the scene in `text` as [`run_text`] does before it runs, without running
 /// it (each engine's own parse and validation; `porelab sweep plan` checks every job so).
 pub fn check_text(text: &str, origin: &str) -> Result<()> {
-    match scene_kind(text, origin)?.as_str() {
-        "brownian" => brownian::check_scene(text, origin),
-        "packing" => packing::parse_scene(text, origin).map(|_| ()),
-        "dem" => dem::parse_scene(text, origin).map(|_| ()),
-        "deposition" => deposition::parse_scene(text, origin).map(|_| ()),
-        "lbm" => lbm::check_scene(text, origin),
-        "coupled" => coupled::parse_scene(text, origin).map(|_| ()),
-        other => unknown_kind(origin, other),
-    }
+    scene_kind(text, origin)?.check(text, origin)
 }
 
 /// `porelab run --show NAME`: prints the built-in scene's TOML to stdout, to start a scene

@@ -15,7 +15,7 @@
 //! "species.0.fraction" = [0.5]   # e.g. the first [[species]] of a deposition scene
 //! ```
 //!
-//! Each job's seed goes to its engine's seed key ([`plan::seed_key`]: `run.seed` brownian,
+//! Each job's seed goes to its engine's seed key ([`crate::scene::Scene::seed_key`]: `run.seed` brownian,
 //! `mcm.seed` packing, `seed` deposition and DEM, `dem.seed` coupled; LBM has none and takes one run per point):
 //! [`plan::job_seed`], a SplitMix64 chain of (base_seed, point, run).
 //!

@@ -48,17 +48,6 @@ fn one_u64() -> u64 {
 /// Most jobs one plan holds (five-digit job folders).
 pub const MAX_JOBS: usize = 100_000;
 
-/// The key path of each engine's seed (the engines' scene modules; LBM draws no random numbers).
-pub fn seed_key(kind: &str) -> Option<&'static str> {
-    match kind {
-        "brownian" => Some("run.seed"),
-        "packing" => Some("mcm.seed"),
-        "deposition" | "dem" => Some("seed"),
-        "coupled" => Some("dem.seed"),
-        _ => None,
-    }
-}
-
 /// SplitMix64 finaliser (Steele, Lea & Flood 2014, "Fast splittable pseudorandom number
 /// generators", OOPSLA; the constants of Vigna's `splitmix64.c`).
 pub fn splitmix64(x: u64) -> u64 {
@@ -285,7 +274,7 @@ pub fn plan_text(text: &str, base: &Path, origin: &str) -> Result<Plan> {
     if f.runs_per_point == 0 {
         return invalid(format!("{origin}: runs_per_point = 0: must be at least 1"));
     }
-    let seed_path = seed_key(&kind);
+    let seed_path = crate::scene::kind_named(&kind).and_then(|k| k.seed_key());
     if seed_path.is_none() && f.runs_per_point > 1 {
         return invalid(format!(
             "{origin}: runs_per_point = {}: a \"{kind}\" scene has no seed (it draws no random \

@@ -61,6 +61,28 @@
 mod outputs;
 mod run;
 mod schema;
+
+/// `kind = "packing"`.
+pub struct Kind;
+
+impl super::Scene for Kind {
+    fn kind(&self) -> &'static str {
+        "packing"
+    }
+    fn builtins(&self) -> Vec<Builtin> {
+        builtins()
+    }
+    fn seed_key(&self) -> Option<&'static str> {
+        Some("mcm.seed")
+    }
+    fn check(&self, text: &str, origin: &str) -> Result<()> {
+        parse_scene(text, origin).map(|_| ())
+    }
+    fn run(&self, text: &str, origin: &str, out: &Path, opts: &RunOptions) -> Result<()> {
+        run_scene(text, origin, out, opts)
+    }
+}
+
 #[cfg(test)]
 mod tests;
 
@@ -68,7 +90,9 @@ pub use outputs::{measure, Measures};
 pub use run::run_scene;
 pub use schema::{parse_scene, PackingScene};
 
-use super::Builtin;
+use super::{Builtin, RunOptions};
+use crate::Result;
+use std::path::Path;
 
 /// The built-in packing scenes.
 pub fn builtins() -> Vec<Builtin> {
