@@ -14,6 +14,7 @@ pub mod contact;
 pub mod coupled;
 pub mod dem;
 pub mod deposition;
+pub mod driver;
 pub mod error;
 pub mod hydro;
 pub mod io;

@@ -1,9 +1,12 @@
 //! Readers and writers: CSV tables with units in the headers; atomic file writes; extended
 //! XYZ particle configurations ([`xyz`]).
 
+pub mod csv_table;
 pub mod plot;
 pub mod vtk;
 pub mod xyz;
+
+pub use csv_table::CsvTable;
 
 use crate::error::{invalid, Error};
 use crate::Result;

@@ -14,6 +14,7 @@ pub mod brownian;
 pub mod coupled;
 pub mod dem;
 pub mod deposition;
+pub mod keys;
 pub mod lbm;
 pub mod packing;
 pub mod run_store;

@@ -1,0 +1,82 @@
+//! Key names shared by every engine's schema: one spelling per quantity (`density_kg_m3`,
+//! `viscosity_pa_s`), with the spellings earlier scene files used still read, and named on
+//! stderr so that a user can update the file.
+
+use std::sync::Mutex;
+
+/// Old spellings of keys, and the name each now has. Every engine's schema reads the new name;
+/// [`rename_old_keys`] maps an old one to it before parsing.
+pub const RENAMED: &[(&str, &str)] = &[
+    ("viscosity_Pa_s", "viscosity_pa_s"),
+    ("rho_kg_m3", "density_kg_m3"),
+];
+
+/// Renames, in every table of `table` (recursively), each key of [`RENAMED`]'s old spellings to
+/// its new name, printing one note per renamed key on stderr naming `origin` and the key. A
+/// table that holds both spellings is left alone, so the schema refuses the old one by name.
+pub fn rename_old_keys(table: &mut toml::Table, origin: &str) {
+    rename_in(table, origin, "");
+}
+
+fn rename_in(table: &mut toml::Table, origin: &str, path: &str) {
+    for (old, new) in RENAMED {
+        if table.contains_key(*old) && !table.contains_key(*new) {
+            if let Some(v) = table.remove(*old) {
+                table.insert((*new).to_string(), v);
+                note(format!(
+                    "{origin}: key `{path}{old}` is now spelt `{path}{new}` (read as such; \
+                     please rename it)"
+                ));
+            }
+        }
+    }
+    for (k, v) in table.iter_mut() {
+        match v {
+            toml::Value::Table(t) => rename_in(t, origin, &format!("{path}{k}.")),
+            toml::Value::Array(a) => {
+                for (i, item) in a.iter_mut().enumerate() {
+                    if let toml::Value::Table(t) = item {
+                        rename_in(t, origin, &format!("{path}{k}.{i}."));
+                    }
+                }
+            }
+            _ => {}
+        }
+    }
+}
+
+/// Notes already printed in this process: a sweep that checks a thousand jobs of one scene
+/// prints each note once.
+static PRINTED: Mutex<Vec<String>> = Mutex::new(Vec::new());
+
+fn note(msg: String) {
+    if let Ok(mut seen) = PRINTED.lock() {
+        if seen.contains(&msg) {
+            return;
+        }
+        seen.push(msg.clone());
+    }
+    eprintln!("note: {msg}");
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn old_spellings_are_read_under_their_new_names() {
+        let mut t: toml::Table = toml::from_str(
+            "rho_kg_m3 = 1000.0\n[fluid]\nviscosity_Pa_s = 1e-3\n[[species]]\nrho_kg_m3 = 2.0\n",
+        )
+        .unwrap();
+        rename_old_keys(&mut t, "s.toml");
+        assert_eq!(t["density_kg_m3"].as_float(), Some(1000.0));
+        assert_eq!(t["fluid"]["viscosity_pa_s"].as_float(), Some(1e-3));
+        assert_eq!(t["species"][0]["density_kg_m3"].as_float(), Some(2.0));
+        assert!(!t.contains_key("rho_kg_m3"));
+        // both spellings: left for the schema to refuse by name
+        let mut t: toml::Table = toml::from_str("rho_kg_m3 = 1.0\ndensity_kg_m3 = 2.0\n").unwrap();
+        rename_old_keys(&mut t, "s.toml");
+        assert!(t.contains_key("rho_kg_m3"));
+    }
+}
