@@ -4,13 +4,16 @@
 
 use nalgebra::Vector3;
 use porelab::brownian::capture::{CaptureSet, CylinderBody};
+use porelab::brownian::driver::run_steps;
 use porelab::brownian::forces::WithUniform;
-use porelab::brownian::integrator::{Magnetic, StepGuard};
 use porelab::brownian::magnetization::{
     cylinder_demag_factors, stoner_wohlfarth_magnet, StonerWohlfarth, THESIS_SATURATION,
 };
-use porelab::brownian::{run_rng, LangevinMoment, Params, Particles, Simulation};
+use porelab::brownian::{
+    run_rng, Fluid, LangevinMoment, Magnetic, Particles, Setup, Simulation, StepGuard,
+};
 use porelab::consts::MU0;
+use porelab::driver::Hooks;
 use porelab::magnetics::Cylinder;
 
 const D_CYL: f64 = 600e-6;
@@ -75,33 +78,40 @@ fn side_particles_are_captured_and_stay_fixed() {
         .collect();
     pos.push(Vector3::new(0.0, 0.0, 10.0 * D_CYL + 500e-6)); // far above the cap
     let particles = Particles::new(pos, a).unwrap();
-    let mut capture = CaptureSet::new(vec![body], particles.len());
-    capture.check_initial(&particles).unwrap();
-    let mut sim = Simulation::new(particles, Params::new(298.0, 1e-3, 5e-5).unwrap()).unwrap();
-    sim.magnetic = Some(Magnetic {
+    let n = particles.len();
+    let fluid = Fluid::new(298.0, 1e-3).unwrap();
+    let mut setup = Setup::new(particles, fluid, 5e-5).unwrap();
+    setup.magnetic = Some(Magnetic {
         source: Box::new(WithUniform { h0, source: magnet }),
         moment: LangevinMoment::fixed(0.870e-16).unwrap(),
         dipole_pairs: false,
         cutoff: 30.0 * a,
     });
-    sim.guard = StepGuard::Substep {
+    setup.guard = StepGuard::Substep {
         max_fraction: 0.1,
         max_halvings: 12,
     };
-    let mut rng = run_rng(4120, 0);
-    let mut deepest = f64::INFINITY;
-    for _ in 0..1000 {
-        sim.step(&mut rng).unwrap();
-        for i in capture.apply(&mut sim.particles.positions, a, sim.time) {
-            deepest = deepest.min(body.signed_distance(&sim.particles.positions[i]) / a);
-        }
-        for i in 0..sim.particles.len() {
-            if let Some(c) = capture.capture(i) {
-                assert_eq!(sim.particles.positions[i], c.position);
+    setup.capture = Some(CaptureSet::new(vec![body], n));
+    let mut sim = Simulation::new(setup, run_rng(4120, 0)).unwrap();
+    /// After every step: every captured particle sits where it was captured.
+    struct StayFixed;
+    impl Hooks<Simulation> for StayFixed {
+        fn progress(&mut self, sim: &Simulation, _: Option<f64>, _: &str) {
+            let capture = sim.capture().unwrap();
+            for (i, p) in sim.particles().positions.iter().enumerate() {
+                if let Some(c) = capture.capture(i) {
+                    assert_eq!(*p, c.position);
+                }
             }
         }
     }
-    let times: Vec<String> = (0..sim.particles.len())
+    run_steps(&mut sim, 1000, &mut StayFixed).unwrap();
+    let capture = sim.capture().unwrap();
+    let deepest = (0..n)
+        .filter_map(|i| capture.capture(i))
+        .map(|c| body.signed_distance(&c.position) / a)
+        .fold(f64::INFINITY, f64::min);
+    let times: Vec<String> = (0..n)
         .map(|i| match capture.capture(i) {
             Some(c) => format!("{:.4} s", c.time),
             None => "-".into(),

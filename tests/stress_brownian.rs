@@ -6,22 +6,26 @@
 //! `cargo test --release --test stress_brownian -- --nocapture`
 
 use nalgebra::Vector3;
+use porelab::brownian::driver::run_steps;
 use porelab::brownian::forces::WithUniform;
-use porelab::brownian::integrator::{Magnetic, StepGuard};
 use porelab::brownian::{
-    mobility_matrix, run_rng, Hydrodynamics, LangevinMoment, Mie, NoiseGenerator, NoiseMethod,
-    Params, Particles, Simulation,
+    mobility_matrix, run_rng, Fluid, Hydrodynamics, LangevinMoment, Magnetic, Mie, NoiseGenerator,
+    NoiseMethod, Particles, Setup, Simulation, StepGuard,
 };
 use porelab::consts::MU0;
+use porelab::driver::NoHooks;
 use porelab::magnetics::{Cylinder, Magnet};
 use rand::Rng;
 use rayon::prelude::*;
 
 const A: f64 = 75e-9;
 
-fn thesis_params() -> Params {
-    Params::new(298.0, 1.0e-3, 5e-5).unwrap()
+fn water() -> Fluid {
+    Fluid::new(298.0, 1.0e-3).unwrap()
 }
+
+/// The thesis time step (s).
+const THESIS_DT: f64 = 5e-5;
 
 /// n particles on a cubic lattice of spacing `spacing` x 2a.
 fn lattice(n: usize, spacing: f64) -> Vec<Vector3<f64>> {
@@ -30,49 +34,47 @@ fn lattice(n: usize, spacing: f64) -> Vec<Vector3<f64>> {
 
 #[test]
 fn too_large_step_is_refused_and_state_kept() {
-    let params = Params::new(298.0, 1.0e-3, 1e-2).unwrap();
     // Two particles just outside contact, deep in the Mie(30,15) repulsion.
     let p = Particles::new(
         vec![Vector3::zeros(), Vector3::new(2.0 * A * 1.0005, 0.0, 0.0)],
         A,
     )
     .unwrap();
-    let mut s = Simulation::new(p.clone(), params).unwrap();
-    s.repulsion = Some(Mie::thesis_default(params.kt(), A).unwrap());
-    let mut rng = run_rng(11, 0);
-    let e = s.step(&mut rng).unwrap_err().to_string();
+    let mut setup = Setup::new(p.clone(), water(), 1e-2).unwrap();
+    setup.repulsion = Some(Mie::thesis_default(water().kt(), A).unwrap());
+    let mut s = Simulation::new(setup, run_rng(11, 0)).unwrap();
+    let e = s.step().unwrap_err().to_string();
     println!("refusal: {e}");
     assert!(
         e.contains("time step too large") && e.contains("particle"),
         "{e}"
     );
     assert!(e.contains("use dt <="), "{e}");
-    assert_eq!(s.particles, p, "a refused step must not move anything");
-    assert_eq!(s.time, 0.0);
+    assert_eq!(s.particles(), &p, "a refused step must not move anything");
+    assert_eq!(s.time_s(), 0.0);
 }
 
 fn dense_run(dt: f64, steps: usize) -> (Simulation, Result<(), String>, f64) {
-    let params = Params::new(298.0, 1.0e-3, dt).unwrap();
     // 64 particles at 1.02 diameters spacing, Mie(30,15) at 100 kT, RPY + TEA-HI, sub-stepping.
     let p = Particles::new(lattice(64, 1.02), A).unwrap();
-    let mut s = Simulation::new(p, params).unwrap();
-    s.repulsion = Some(Mie::thesis_default(params.kt(), A).unwrap());
-    s.hydrodynamics = Hydrodynamics::Rpy;
-    s.noise = NoiseMethod::TeaHi;
-    s.guard = StepGuard::Substep {
+    let mut setup = Setup::new(p, water(), dt).unwrap();
+    setup.repulsion = Some(Mie::thesis_default(water().kt(), A).unwrap());
+    setup.hydrodynamics = Hydrodynamics::Rpy;
+    setup.noise = NoiseMethod::TeaHi;
+    setup.guard = StepGuard::Substep {
         max_fraction: 0.1,
         max_halvings: 12,
     };
-    let mut rng = run_rng(12, 0);
+    let mut s = Simulation::new(setup, run_rng(12, 0)).unwrap();
     let mut min_sep = f64::INFINITY;
     for _ in 0..steps {
-        if let Err(e) = s.step(&mut rng) {
+        if let Err(e) = s.step() {
             return (s, Err(e.to_string()), min_sep);
         }
-        for i in 0..s.particles.len() {
-            for j in (i + 1)..s.particles.len() {
-                let r = (s.particles.positions[i] - s.particles.positions[j]).norm();
-                min_sep = min_sep.min(r);
+        let pos = &s.particles().positions;
+        for i in 0..pos.len() {
+            for j in (i + 1)..pos.len() {
+                min_sep = min_sep.min((pos[i] - pos[j]).norm());
             }
         }
     }
@@ -89,11 +91,11 @@ fn substepping_keeps_dense_particles_apart_and_finite() {
         min_sep / (2.0 * A)
     );
     assert!(s
-        .particles
+        .particles()
         .positions
         .iter()
         .all(|p| p.iter().all(|v| v.is_finite())));
-    assert!((s.time - 30.0 * 1e-7).abs() < 1e-18);
+    assert!((s.time_s() - 30.0 * 1e-7).abs() < 1e-18);
     assert!(min_sep > 0.95 * 2.0 * A, "{min_sep}");
 }
 
@@ -105,7 +107,7 @@ fn thesis_step_in_dense_packing_never_blows_up() {
     let (s, r, _) = dense_run(5e-5, 20);
     match r {
         Ok(()) => assert!(s
-            .particles
+            .particles()
             .positions
             .iter()
             .all(|p| p.iter().all(|v| v.is_finite()))),
@@ -120,7 +122,8 @@ fn thesis_step_in_dense_packing_never_blows_up() {
 fn initial_overlap_names_pair() {
     let mut pos = lattice(27, 1.5);
     pos[19] = pos[4] + Vector3::new(0.0, 1.9 * A, 0.0);
-    let e = Simulation::new(Particles::new(pos, A).unwrap(), thesis_params())
+    let setup = Setup::new(Particles::new(pos, A).unwrap(), water(), THESIS_DT).unwrap();
+    let e = Simulation::new(setup, run_rng(0, 0))
         .err()
         .unwrap()
         .to_string();
@@ -154,16 +157,13 @@ fn ensemble(threads: usize) -> Vec<Vec<Vector3<f64>>> {
         (0..8u64)
             .into_par_iter()
             .map(|run| {
-                let mut s = Simulation::new(
-                    Particles::new(lattice(20, 3.0), A).unwrap(),
-                    thesis_params(),
-                )
-                .unwrap();
-                s.hydrodynamics = Hydrodynamics::Rpy;
-                s.constant_force = Vector3::new(0.0, 0.0, -1e-15);
-                let mut rng = run_rng(2024, run);
-                s.run(&mut rng, 25).unwrap();
-                s.particles.positions
+                let p = Particles::new(lattice(20, 3.0), A).unwrap();
+                let mut setup = Setup::new(p, water(), THESIS_DT).unwrap();
+                setup.hydrodynamics = Hydrodynamics::Rpy;
+                setup.constant_force = Vector3::new(0.0, 0.0, -1e-15);
+                let mut s = Simulation::new(setup, run_rng(2024, run)).unwrap();
+                run_steps(&mut s, 25, &mut NoHooks).unwrap();
+                s.particles().positions.clone()
             })
             .collect()
     })
@@ -190,10 +190,9 @@ fn cylinder_attracts_particle_near_cap() {
         Vector3::new(985e3, 0.0, 0.0),
     )
     .unwrap();
-    let params = thesis_params();
     let x0 = Vector3::new(half + 20e-6, 50e-6, 0.0);
-    let mut s = Simulation::new(Particles::new(vec![x0], A).unwrap(), params).unwrap();
-    s.magnetic = Some(Magnetic {
+    let mut setup = Setup::new(Particles::new(vec![x0], A).unwrap(), water(), THESIS_DT).unwrap();
+    setup.magnetic = Some(Magnetic {
         source: Box::new(WithUniform {
             h0: Vector3::new(1.0 / MU0, 0.0, 0.0),
             source: magnet,
@@ -202,19 +201,16 @@ fn cylinder_attracts_particle_near_cap() {
         dipole_pairs: false,
         cutoff: 30.0 * A,
     });
+    let terms = setup.active_terms();
+    let mut s = Simulation::new(setup, run_rng(7, 0)).unwrap();
     let f = s.forces().unwrap()[0];
-    println!(
-        "force near the cap: {f:?} N; active terms: {:?}",
-        s.active_terms()
-    );
+    println!("force near the cap: {f:?} N; active terms: {terms:?}");
     assert!(f.x < 0.0 && f.iter().all(|v| v.is_finite()), "{f:?}");
     // A few hundred steps at the thesis time step move it towards the cap on average.
-    let mut rng = run_rng(7, 0);
-    s.run(&mut rng, 200).unwrap();
-    let moved = s.particles.positions[0] - x0;
-    println!("moved {moved:?} m in {} s", s.time);
+    run_steps(&mut s, 200, &mut NoHooks).unwrap();
+    let moved = s.particles().positions[0] - x0;
+    println!("moved {moved:?} m in {} s", s.time_s());
     assert!(moved.x < 0.0);
-    let _ = rng.gen::<u8>();
 }
 
 /// Prints the TEA-HI collective (centre-of-mass) diffusion against the exact RPY value for

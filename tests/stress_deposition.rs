@@ -8,7 +8,8 @@
 use porelab::contact::contact_ellipsoid_ellipsoid::pw_max;
 use porelab::contact::Pose;
 use porelab::deposition::Layer;
-use porelab::scene::deposition::parse_scene;
+use porelab::driver::NoHooks;
+use porelab::scene::deposition::{parse_scene, run_one};
 
 /// Deepest overlap found: (1 - sqrt(max F)) for pairs (0 if none), and the deepest substrate
 /// penetration relative to the particle's half height.
@@ -89,12 +90,12 @@ fn stress_runs_end_overlap_free_or_with_a_clear_error() {
     let mut failures = 0;
     for (name, text) in &cases {
         let s = parse_scene(text, name).unwrap_or_else(|e| panic!("{name}: scene refused: {e}"));
-        match s.run_one(0, |_, _, _| {}) {
+        match run_one(&s, 0, &mut NoHooks) {
             Ok(r) => {
-                let (pair, floor) = independent_overlap(&r.layer);
+                let (pair, floor) = independent_overlap(&r.deposit.layer);
                 println!(
                     "{name}: {} sweeps, converged {}, deepest pair overlap {pair:.2e}, floor {floor:.2e}",
-                    r.outcome.sweeps, r.outcome.converged
+                    r.deposit.outcome.sweeps, r.deposit.outcome.converged
                 );
                 // Touching pairs reach F = 1 to the PW tolerance (1e-10 in lambda).
                 assert!(pair < 1e-8, "{name}: overlapping deposit ({pair:e})");

@@ -3,7 +3,7 @@
 
 use porelab::analysis;
 use porelab::contact::ContactShape;
-use porelab::packing::{run, McmParams, Particles, Scheme};
+use porelab::packing::{run_to_end, ParticleShapes, Scheme, Setup};
 use std::time::Instant;
 
 fn env_f(name: &str, d: f64) -> f64 {
@@ -18,7 +18,7 @@ fn env_f(name: &str, d: f64) -> f64 {
 #[test]
 #[ignore = "exploration run driven by the MCM_* environment variables"]
 fn explore() {
-    let mut p = McmParams::new(
+    let mut p = Setup::new(
         env_f("MCM_N", 200.0) as usize,
         env_f("MCM_L", 0.0),
         env_f("MCM_SEED", 1.0) as u64,
@@ -33,7 +33,7 @@ fn explore() {
         p.scheme = Scheme::Original;
     }
     let t = Instant::now();
-    let mut r = run(&p).unwrap();
+    let mut r = run_to_end(p.clone()).unwrap();
     if env_f("MCM_H2", 0.0) > 0.0 {
         eprintln!(
             "stage 1: phi={:.4} steps={} tries={} secs={:.2}",
@@ -51,7 +51,7 @@ fn explore() {
         if env_f("MCM_REV2", 0.0) > 0.0 {
             q.scheme = Scheme::Revised;
         }
-        let r2 = porelab::packing::run_from(r.packing.clone(), &q).unwrap();
+        let r2 = porelab::packing::run_from(q.clone(), r.packing.clone()).unwrap();
         r = r2;
     }
     let secs = t.elapsed().as_secs_f64();
@@ -90,8 +90,8 @@ fn explore() {
 fn explore_superballs() {
     let n = env_f("SB_N", 50.0) as usize;
     let g = env_f("SB_GAMMA", 3.0);
-    let mut p = McmParams::new(n, 0.0, env_f("SB_SEED", 1.0) as u64);
-    p.particles = Some(Particles::mixture(&[(
+    let mut p = Setup::new(n, 0.0, env_f("SB_SEED", 1.0) as u64);
+    p.particles = Some(ParticleShapes::mixture(&[(
         ContactShape::Superquadric {
             semi_axes: [0.5; 3],
             exponents: [g; 3],
@@ -105,7 +105,7 @@ fn explore_superballs() {
     p.tries_per_particle = env_f("SB_TRIES", 100.0);
     p.overlap_tol = 1e-4;
     let t = Instant::now();
-    let r = run(&p).unwrap();
+    let r = run_to_end(p.clone()).unwrap();
     let secs = t.elapsed().as_secs_f64();
     let v = r.packing.view();
     let mut line = format!(
@@ -137,8 +137,8 @@ fn explore_superballs() {
 /// Rods too long for the periodic box: a clear error naming the rule, never a silent result.
 #[test]
 fn long_rods_in_small_box_are_an_error() {
-    let p = McmParams::new(50, 20.0, 1);
-    let e = run(&p).unwrap_err().to_string();
+    let p = Setup::new(50, 20.0, 1);
+    let e = run_to_end(p.clone()).unwrap_err().to_string();
     assert!(
         e.contains("box length") && e.contains("more particles"),
         "{e}"
@@ -149,10 +149,10 @@ fn long_rods_in_small_box_are_an_error() {
 /// monotone.
 #[test]
 fn tiny_delta_v_ends_overlap_free() {
-    let mut p = McmParams::new(64, 1.0, 2);
+    let mut p = Setup::new(64, 1.0, 2);
     p.delta_v_per_particle = 1e-9;
     p.max_steps = 20;
-    let r = run(&p).unwrap();
+    let r = run_to_end(p.clone()).unwrap();
     assert!(!r.jammed);
     assert_eq!(r.history.len(), 20);
     analysis::check_no_overlap(&r.packing.view(), p.overlap_tol * (1.0 + 1e-6)).unwrap();
@@ -161,8 +161,8 @@ fn tiny_delta_v_ends_overlap_free() {
 /// Runs `p` and asserts the stress contract: the run ends overlap-free (brute force, contact
 /// tolerance) or stops with the minimum-image error once the box is shorter than twice a rod;
 /// never a silently overlapping result.
-fn overlap_free_or_box_error(p: &McmParams, label: &str) {
-    match run(p) {
+fn overlap_free_or_box_error(p: &Setup, label: &str) {
+    match run_to_end(p.clone()) {
         Ok(r) => {
             analysis::check_no_overlap(&r.packing.view(), p.overlap_tol * (1.0 + 1e-6)).unwrap();
             eprintln!(
@@ -185,7 +185,7 @@ fn overlap_free_or_box_error(p: &McmParams, label: &str) {
 #[test]
 fn aspect_ten_ends_overlap_free() {
     for scheme in [Scheme::Original, Scheme::Relax] {
-        let mut p = McmParams::new(300, 10.0, 3);
+        let mut p = Setup::new(300, 10.0, 3);
         p.scheme = scheme;
         p.dt = 0.5;
         p.delta_v_per_particle = 0.5;
@@ -200,7 +200,7 @@ fn aspect_ten_ends_overlap_free() {
 #[test]
 fn aspect_hundred_ends_overlap_free_or_with_a_clear_error() {
     for scheme in [Scheme::Original, Scheme::Relax] {
-        let mut p = McmParams::new(600, 100.0, 4);
+        let mut p = Setup::new(600, 100.0, 4);
         p.scheme = scheme;
         p.dt = 1.0;
         p.phi0 = 0.005;
@@ -217,13 +217,13 @@ fn aspect_hundred_ends_overlap_free_or_with_a_clear_error() {
 /// final configuration is overlap-free and inside the wall (independent check).
 #[test]
 fn narrow_cylinder_ends_overlap_free_and_inside() {
-    let mut p = McmParams::new(40, 0.0, 6);
+    let mut p = Setup::new(40, 0.0, 6);
     p.scheme = Scheme::Original;
     p.container = porelab::packing::Container::Cylinder { diameter: 1.2 };
     p.delta_v_per_particle = 0.05;
     p.halvings = 4;
     p.tries_per_particle = 100.0;
-    let r = run(&p).unwrap();
+    let r = run_to_end(p.clone()).unwrap();
     analysis::check_no_overlap(&r.packing.view(), p.overlap_tol * (1.0 + 1e-6)).unwrap();
     // Centres lie within 0.1 of the axis, so neighbours along it are at least
     // sqrt(1 - 0.2^2) apart axially (lateral offset at most D_cyl - D = 0.2): at most one
@@ -254,13 +254,13 @@ fn tight_wedges_end_inside_and_overlap_free() {
         for eps in [1e-6, 1e-3, 1e-2] {
             for seed in 1..=3u64 {
                 let l_w = wedge_min_length(RADIUS, 0.0, a) + eps;
-                let mut p = McmParams::new(40, 0.0, seed);
+                let mut p = Setup::new(40, 0.0, seed);
                 p.scheme = Scheme::Original;
                 p.container = Container::Wedge {
                     length: l_w,
                     angle_rad: a,
                 };
-                let r = run(&p).unwrap();
+                let r = run_to_end(p.clone()).unwrap();
                 runs += 1;
                 let v = r.packing.view();
                 let ok = analysis::check_no_overlap(&v, p.overlap_tol * (1.0 + 1e-6));
@@ -292,12 +292,12 @@ fn work_precision() {
     eprintln!("beta,tries_per_particle,total_tries,seconds,phi");
     for beta in [0.5, 1.3] {
         for tries in [100.0, 300.0, 1000.0, 3000.0] {
-            let mut p = McmParams::new(n, 0.0, 1);
+            let mut p = Setup::new(n, 0.0, 1);
             p.scheme = Scheme::Original;
             p.beta = beta;
             p.tries_per_particle = tries;
             let t = Instant::now();
-            let r = run(&p).unwrap();
+            let r = run_to_end(p.clone()).unwrap();
             eprintln!(
                 "{beta},{tries},{},{:.2},{:.4}",
                 r.total_tries,

@@ -21,7 +21,7 @@ fn uniform_points(n: usize, box_length: f64, seed: u64) -> Vec<Vector3<f64>> {
 
 /// The species table of equal rods of radius 1/2 (leaked: test data only).
 fn mono_shape(length: f64) -> &'static [ContactShape] {
-    Vec::leak(crate::packing::Particles::monodisperse(1, length).shapes)
+    Vec::leak(crate::packing::ParticleShapes::monodisperse(1, length).shapes)
 }
 fn zeros(n: usize) -> &'static [usize] {
     Vec::leak(vec![0; n])
@@ -236,12 +236,12 @@ fn radial_distribution_of_lattice_and_ideal_gas() {
 /// bin edge r = 1), with 3 and 4 cells along the box, and a box of fewer than 3 cells.
 #[test]
 fn binned_pair_distances_equal_all_pairs() {
-    use crate::packing::{run, McmParams, Scheme};
+    use crate::packing::{run_to_end, Scheme, Setup};
     let (pos, ori) = spheres(&uniform_points(2000, 12.0, 5));
     let gas = sphere_rods(12.0, &pos, &ori);
-    let mut prm = McmParams::new(400, 0.0, 7);
+    let mut prm = Setup::new(400, 0.0, 7);
     prm.scheme = Scheme::Original;
-    let dense = run(&prm).unwrap().packing;
+    let dense = run_to_end(prm.clone()).unwrap().packing;
     let mut pairs = 0;
     for (r, r_max, bins) in [(&gas, 4.0, 40), (&gas, 3.0, 7), (&gas, 5.0, 10)] {
         let all = pair_distance_histogram(r, r_max, bins, false);
@@ -365,11 +365,11 @@ fn wedge_alignment_uses_the_nearest_walls() {
 /// from 0 to 1; and boxes that fit fewer than three reaches (the brute force itself).
 #[test]
 fn binned_pair_search_equals_the_brute_force() {
-    use crate::packing::{random_start, run, McmParams, Scheme};
+    use crate::packing::{random_start, run_to_end, Scheme, Setup};
     use rand::{Rng, SeedableRng};
-    let mut prm = McmParams::new(400, 0.0, 7);
+    let mut prm = Setup::new(400, 0.0, 7);
     prm.scheme = Scheme::Original;
-    let dense = run(&prm).unwrap().packing;
+    let dense = run_to_end(prm.clone()).unwrap().packing;
     let rods = random_start(300, 1.0, 0.3, 4).unwrap();
     let small = random_start(40, 0.0, 0.3, 4).unwrap();
     let mut checked = 0;

@@ -35,13 +35,15 @@
 //! external force; the whole force path (field source -> moment law -> mu0 G m -> update
 //! eq. 6.11) is exercised.
 
+use crate::brownian::driver::{run_sampled, run_steps};
 use crate::brownian::forces::{FieldSource, LangevinMoment, Mie, WithUniform};
-use crate::brownian::integrator::{Magnetic, Simulation, StepGuard};
 use crate::brownian::magnetization::stoner_wohlfarth_magnet;
 use crate::brownian::{
-    cubic_lattice, run_rng, stokes_mobility, Hydrodynamics, NoiseMethod, Params, Particles,
+    cubic_lattice, run_rng, stokes_mobility, Fluid, Hydrodynamics, Magnetic, NoiseMethod,
+    Particles, Setup, Simulation, StepGuard,
 };
 use crate::consts::{KB, MU0};
+use crate::driver::{Hooks, NoHooks};
 use crate::error::{invalid, Result};
 use crate::magnetics::kernel::Regime;
 use crate::magnetics::Cylinder;
@@ -95,8 +97,8 @@ impl Method {
             Method::RpyTeaHi => "RPY+TEA-HI",
         }
     }
-    fn apply(self, sim: &mut Simulation) {
-        (sim.hydrodynamics, sim.noise) = match self {
+    fn apply(self, setup: &mut Setup) {
+        (setup.hydrodynamics, setup.noise) = match self {
             Method::Free => (Hydrodynamics::FreeDraining, NoiseMethod::Cholesky),
             Method::RpyCholesky => (Hydrodynamics::Rpy, NoiseMethod::Cholesky),
             Method::RpyTeaHi => (Hydrodynamics::Rpy, NoiseMethod::TeaHi),
@@ -119,32 +121,45 @@ fn dilute_positions(n: usize, corner: Vector3<f64>, rng: &mut ChaCha8Rng) -> Vec
     p
 }
 
-/// A thesis-parameter simulation of the given particles: Mie(30, 15) repulsion, the given
+/// A thesis-parameter setup of the given particles: Mie(30, 15) repulsion, the given
 /// mobility/noise, and a sub-stepping guard (fresh forces and noise on each half step).
-fn thesis_sim(positions: Vec<Vector3<f64>>, method: Method) -> Result<Simulation> {
-    let params = Params::new(TEMPERATURE, VISCOSITY, DT)?;
-    let mut sim = Simulation::new(Particles::new(positions, RADIUS)?, params)?;
-    method.apply(&mut sim);
-    sim.repulsion = Some(Mie::thesis_default(params.kt(), RADIUS)?);
-    sim.guard = StepGuard::Substep {
+fn thesis_setup(positions: Vec<Vector3<f64>>, method: Method) -> Result<Setup> {
+    let fluid = Fluid::new(TEMPERATURE, VISCOSITY)?;
+    let mut setup = Setup::new(Particles::new(positions, RADIUS)?, fluid, DT)?;
+    method.apply(&mut setup);
+    setup.repulsion = Some(Mie::thesis_default(fluid.kt(), RADIUS)?);
+    setup.guard = StepGuard::Substep {
         max_fraction: 0.1,
         max_halvings: 30,
     };
-    Ok(sim)
+    Ok(setup)
+}
+
+/// Counts the steps and stops the run once `budget` seconds have passed.
+struct Budget {
+    t0: Instant,
+    budget: f64,
+    steps: u64,
+}
+
+impl Hooks<Simulation> for Budget {
+    fn progress(&mut self, _: &Simulation, _: Option<f64>, _: &str) {
+        self.steps += 1;
+    }
+    fn stop_requested(&mut self, _: &Simulation) -> bool {
+        self.t0.elapsed().as_secs_f64() >= self.budget
+    }
 }
 
 /// Steps until `budget` seconds have passed (at least one step): (steps, seconds).
-fn timed_steps(sim: &mut Simulation, rng: &mut ChaCha8Rng, budget: f64) -> Result<(u64, f64)> {
-    let t0 = Instant::now();
-    let mut steps = 0;
-    loop {
-        sim.step(rng)?;
-        steps += 1;
-        let secs = t0.elapsed().as_secs_f64();
-        if secs >= budget {
-            return Ok((steps, secs));
-        }
-    }
+fn timed_steps(sim: &mut Simulation, budget: f64) -> Result<(u64, f64)> {
+    let mut b = Budget {
+        t0: Instant::now(),
+        budget,
+        steps: 0,
+    };
+    run_steps(sim, u64::MAX, &mut b)?;
+    Ok((b.steps, b.t0.elapsed().as_secs_f64()))
 }
 
 /// A field source that counts its evaluations (to see sub-steps in the field share).
@@ -224,9 +239,9 @@ fn throughput(sizes: &[usize], budget: f64) -> Result<Vec<ThroughputRow>> {
     for &n in sizes {
         let pos = dilute_positions(n, Vector3::zeros(), &mut run_rng(SEED, n as u64));
         for method in [Method::Free, Method::RpyCholesky, Method::RpyTeaHi] {
-            let mut sim = thesis_sim(pos.clone(), method)?;
-            let mut rng = run_rng(SEED, 1000 + n as u64);
-            let (steps, seconds) = timed_steps(&mut sim, &mut rng, budget)?;
+            let setup = thesis_setup(pos.clone(), method)?;
+            let mut sim = Simulation::new(setup, run_rng(SEED, 1000 + n as u64))?;
+            let (steps, seconds) = timed_steps(&mut sim, budget)?;
             rows.push(ThroughputRow {
                 n,
                 method,
@@ -263,8 +278,8 @@ fn field_share(sizes: &[usize], budget: f64) -> Result<Vec<FieldRow>> {
         let pos = dilute_positions(n, corner, &mut run_rng(SEED, 2000 + n as u64));
         for method in [Method::Free, Method::RpyTeaHi] {
             let calls = Arc::new(AtomicU64::new(0));
-            let mut sim = thesis_sim(pos.clone(), method)?;
-            sim.magnetic = Some(Magnetic {
+            let mut setup = thesis_setup(pos.clone(), method)?;
+            setup.magnetic = Some(Magnetic {
                 source: Box::new(Counted {
                     inner: cylinder_field()?,
                     calls: calls.clone(),
@@ -273,11 +288,11 @@ fn field_share(sizes: &[usize], budget: f64) -> Result<Vec<FieldRow>> {
                 dipole_pairs: true,
                 cutoff: 30.0 * RADIUS,
             });
-            let mut rng = run_rng(SEED, 3000 + n as u64);
-            let (steps, seconds) = timed_steps(&mut sim, &mut rng, budget)?;
+            let mut sim = Simulation::new(setup, run_rng(SEED, 3000 + n as u64))?;
+            let (steps, seconds) = timed_steps(&mut sim, budget)?;
             let evals = calls.load(Ordering::Relaxed) as f64 / (n as f64 * steps as f64);
             // The field source alone on the same (final) positions, same object.
-            let source = match &sim.magnetic {
+            let source = match sim.magnetic() {
                 Some(m) => &m.source,
                 None => return invalid("field-share scene lost its field source"),
             };
@@ -285,7 +300,7 @@ fn field_share(sizes: &[usize], budget: f64) -> Result<Vec<FieldRow>> {
             let mut reps = 0u64;
             let mut sink = 0.0;
             while reps == 0 || t0.elapsed().as_secs_f64() < 0.25 * budget {
-                for p in &sim.particles.positions {
+                for p in &sim.particles().positions {
                     sink += source.h_and_gradient(p).1[(0, 0)];
                 }
                 reps += 1;
@@ -317,20 +332,27 @@ fn free_sweeps(n: usize, levels: u32, t_end: f64, force: f64) -> Result<Vec<Prec
         let steps = 1u64 << k;
         let dt = t_end / steps as f64;
         for (quantity, f) in [("MSD / (6 D t)", 0.0), ("drift / (mu F t)", force)] {
-            let mut sim = Simulation::new(
+            let mut setup = Setup::new(
                 Particles::new(p0.clone(), RADIUS)?,
-                Params::new(TEMPERATURE, VISCOSITY, dt)?,
+                Fluid::new(TEMPERATURE, VISCOSITY)?,
+                dt,
             )?;
-            sim.constant_force = Vector3::new(f, 0.0, 0.0);
+            setup.constant_force = Vector3::new(f, 0.0, 0.0);
             // No repulsion here: the guard protects nothing and must not refuse the drift.
-            sim.guard = StepGuard::Refuse {
+            setup.guard = StepGuard::Refuse {
                 max_fraction: f64::INFINITY,
             };
-            let mut rng = run_rng(SEED, 4000 + 2 * k as u64 + (f != 0.0) as u64);
+            let rng = run_rng(SEED, 4000 + 2 * k as u64 + (f != 0.0) as u64);
+            let mut sim = Simulation::new(setup, rng)?;
             let t0 = Instant::now();
-            sim.run(&mut rng, steps)?;
+            run_steps(&mut sim, steps, &mut NoHooks)?;
             let seconds = t0.elapsed().as_secs_f64();
-            let disp = sim.particles.positions.iter().zip(&p0).map(|(p, q)| p - q);
+            let disp = sim
+                .particles()
+                .positions
+                .iter()
+                .zip(&p0)
+                .map(|(p, q)| p - q);
             let (rel_error, std_error) = if f == 0.0 {
                 let msd = disp.map(|v| v.norm_squared()).sum::<f64>() / n as f64;
                 (
@@ -377,28 +399,29 @@ fn trap_sweep(n: usize, a_list: &[f64], sample_steps: u64) -> Result<Vec<Precisi
     let mut rows = Vec::new();
     for (i, &a) in a_list.iter().enumerate() {
         let dt = a / (mu * k);
-        let mut sim = Simulation::new(
+        let mut setup = Setup::new(
             Particles::new(p0.clone(), RADIUS)?,
-            Params::new(TEMPERATURE, VISCOSITY, dt)?,
+            Fluid::new(TEMPERATURE, VISCOSITY)?,
+            dt,
         )?;
-        sim.magnetic = Some(Magnetic::harmonic_trap(k)?);
+        setup.magnetic = Some(Magnetic::harmonic_trap(k)?);
         // No repulsion: the guard protects nothing (the recursion is stable for a < 2).
-        sim.guard = StepGuard::Refuse {
+        setup.guard = StepGuard::Refuse {
             max_fraction: f64::INFINITY,
         };
-        let mut rng = run_rng(SEED, 5000 + i as u64);
-        sim.run(&mut rng, (25.0 / a).ceil() as u64)?;
+        let mut sim = Simulation::new(setup, run_rng(SEED, 5000 + i as u64))?;
+        run_steps(&mut sim, (25.0 / a).ceil() as u64, &mut NoHooks)?;
         let t0 = Instant::now();
         let mut sum = 0.0;
-        for _ in 0..sample_steps {
-            sim.step(&mut rng)?;
+        run_sampled(&mut sim, sample_steps, 1, &mut NoHooks, |sim| {
             sum += sim
-                .particles
+                .particles()
                 .positions
                 .iter()
                 .map(|p| p.norm_squared())
                 .sum::<f64>();
-        }
+            Ok(())
+        })?;
         let seconds = t0.elapsed().as_secs_f64();
         let m = 3.0 * n as f64 * sample_steps as f64;
         let ratio = sum / m / (kt / k);

@@ -1,9 +1,11 @@
 //! `porelab bench deposition`: trial moves per second for spheres, platelets and needles, the
 //! share of pair tests settled by each prefilter, and seconds per run on one thread.
 
-use crate::deposition::engine::{deposit, DepositionParams};
+use crate::deposition::driver::run_layer;
 use crate::deposition::film::{build, Colour, FilmOptions};
 use crate::deposition::grain::Grain;
+use crate::deposition::{Deposition, Moves, StopRule};
+use crate::driver::Hooks;
 use crate::Result;
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
@@ -17,6 +19,19 @@ pub struct BenchArgs {
     /// Sweep guard per run (the stop rule usually ends the run first).
     #[arg(long, default_value_t = 20_000)]
     pub max_sweeps: u64,
+}
+
+/// (sweep, seconds since `t0`) after every sweep.
+struct Stamps {
+    t0: Instant,
+    stamps: Vec<(u64, f64)>,
+}
+
+impl Hooks<Deposition> for Stamps {
+    fn progress(&mut self, d: &Deposition, _: Option<f64>, _: &str) {
+        let sweep = d.outcome().sweeps;
+        self.stamps.push((sweep, self.t0.elapsed().as_secs_f64()));
+    }
 }
 
 pub fn run(args: &BenchArgs) -> Result<()> {
@@ -46,7 +61,7 @@ pub fn run(args: &BenchArgs) -> Result<()> {
             k_max_m2: 1e-14,
         };
         let t0 = Instant::now();
-        let mut layer = match build(grains, 5e-6, phi, &opts, &mut rng) {
+        let layer = match build(grains, 5e-6, phi, &opts, &mut rng) {
             Ok(l) => l,
             Err(e) => {
                 println!("{name},{},start failed: {e}", args.particles);
@@ -54,13 +69,14 @@ pub fn run(args: &BenchArgs) -> Result<()> {
             }
         };
         let start_s = t0.elapsed().as_secs_f64();
-        let p = DepositionParams::table_b1(args.max_sweeps);
-        let t1 = Instant::now();
-        let mut stamps = Vec::new();
-        let out = deposit(&mut layer, &p, &mut rng, |s, _, _| {
-            stamps.push((s, t1.elapsed().as_secs_f64()))
-        })?;
-        let dep_s = t1.elapsed().as_secs_f64();
+        let mut stamps = Stamps {
+            t0: Instant::now(),
+            stamps: Vec::new(),
+        };
+        let stop = StopRule::table_b1(args.max_sweeps);
+        let (_, out) = run_layer(layer, Moves::table_b1(), stop, rng, &mut stamps)?;
+        let dep_s = stamps.t0.elapsed().as_secs_f64();
+        let stamps = stamps.stamps;
         // The rate over the last tenth of the sweeps: the dense, jammed end of the deposit.
         let cut = stamps[stamps.len() * 9 / 10];
         let last = (out.sweeps - cut.0) as f64 * args.particles as f64 / (dep_s - cut.1).max(1e-9);

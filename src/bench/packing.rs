@@ -4,7 +4,7 @@
 //!
 //! Sections:
 //! 1. jamming: spheres with the jamming schedule of the built-in scene `packing-spheres`
-//!    ([`McmParams::jammed_spheres`], case 512: compacting stage, then collective relaxation
+//!    ([`Setup::jammed_spheres`], case 512: compacting stage, then collective relaxation
 //!    with a stage budget) for N = 250, 500, 1000 (and 2000, 5000, 10000, 20000, 40000 up to
 //!    `--max-n`), seeds 1..=`--seeds` each, the Gauss-Seidel-only schedule of case 506
 //!    (`spheres_gs`) at N = 250 and 1000 as the baseline, and spherocylinders L/D = 5 with the schedule of case
@@ -33,8 +33,9 @@
 //! `target/porelab/bench-packing-{jamming,work-precision,jamming-work-precision}.csv`.
 
 use crate::error::invalid;
-use crate::packing::{run, McmParams, Scheme};
-use crate::scene::packing::measure;
+use crate::packing::measure::measure;
+use crate::packing::{run_to_end, Scheme, Setup};
+
 use crate::Result;
 use std::time::Instant;
 
@@ -65,8 +66,8 @@ const CUTOFFS: [f64; 4] = [1e-8, 1e-7, 1e-6, 1e-5];
 
 /// Spherocylinders L/D = 5 with the schedule of case 504 (original scheme, Delta V = 0.05 N
 /// halved 3 times, 50 N tries).
-fn rods_aspect5(n: usize, seed: u64) -> McmParams {
-    let mut p = McmParams::new(n, 5.0, seed);
+fn rods_aspect5(n: usize, seed: u64) -> Setup {
+    let mut p = Setup::new(n, 5.0, seed);
     p.scheme = Scheme::Original;
     p.delta_v_per_particle = 0.05;
     p.halvings = 3;
@@ -142,14 +143,14 @@ impl OverSeeds {
     }
 }
 
-fn timed(prm: &McmParams, threads: usize) -> Result<Timed> {
+fn timed(prm: &Setup, threads: usize) -> Result<Timed> {
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(threads)
         .build()
         .map_err(|e| crate::Error::InvalidInput(format!("thread pool: {e}")))?;
     pool.install(|| {
         let (t, cpu) = (Instant::now(), process_cpu_seconds());
-        let r = run(prm)?;
+        let r = run_to_end(prm.clone())?;
         let engine_cpu_seconds = process_cpu_seconds() - cpu;
         let min_contacts = if prm.length == 0.0 { 4 } else { 5 };
         let m = measure(&r.packing, &CUTOFFS, min_contacts, 200)?;
@@ -253,7 +254,7 @@ pub fn run_bench(args: &BenchArgs) -> Result<()> {
     for &n in SIZES.iter().filter(|&&n| n <= args.max_n) {
         let mut runs = Vec::new();
         for seed in 1..=args.seeds {
-            let r = timed(&McmParams::jammed_spheres(n, seed), 1)?;
+            let r = timed(&Setup::jammed_spheres(n, seed), 1)?;
             row(&format!("spheres s{seed}"), n, 1, r);
             runs.push(r);
         }
@@ -261,7 +262,7 @@ pub fn run_bench(args: &BenchArgs) -> Result<()> {
         // relax::PARALLEL_MIN_PARTICLES (5000) on, so at N = 1000 the second thread serves the
         // analysis alone.
         if n == 1000 || n == 10000 {
-            let r2 = timed(&McmParams::jammed_spheres(n, SEED), 2)?;
+            let r2 = timed(&Setup::jammed_spheres(n, SEED), 2)?;
             row(&format!("spheres s{SEED}"), n, 2, r2);
         }
         let o = OverSeeds { runs };
@@ -290,7 +291,7 @@ pub fn run_bench(args: &BenchArgs) -> Result<()> {
     }
     // Baseline in the same run: the Gauss-Seidel-only schedule (case 506).
     for &n in [250, 1000].iter().filter(|&&n| n <= args.max_n) {
-        let r = timed(&McmParams::two_stage_spheres(n, SEED), 1)?;
+        let r = timed(&Setup::two_stage_spheres(n, SEED), 1)?;
         row("spheres_gs", n, 1, r);
     }
     if !args.spheres_only {
@@ -339,12 +340,12 @@ pub fn run_bench(args: &BenchArgs) -> Result<()> {
         let mut wp = String::from("beta,tries_per_particle,moves,seconds,packing_fraction\n");
         for beta in [0.5, 1.3] {
             for tries in [100.0, 300.0, 1000.0, 3000.0] {
-                let mut p = McmParams::new(500, 0.0, SEED);
+                let mut p = Setup::new(500, 0.0, SEED);
                 p.scheme = Scheme::Original;
                 p.beta = beta;
                 p.tries_per_particle = tries;
                 let t = Instant::now();
-                let r = run(&p)?;
+                let r = run_to_end(p)?;
                 let s = t.elapsed().as_secs_f64();
                 let phi = r.packing.packing_fraction();
                 println!(
@@ -389,7 +390,7 @@ fn jamming_work_precision(seeds: u64, out: &std::path::Path) -> Result<()> {
     for budget in JAM_BUDGETS {
         let mut runs = Vec::new();
         for seed in 1..=seeds {
-            let mut p = McmParams::jammed_spheres(N, seed);
+            let mut p = Setup::jammed_spheres(N, seed);
             if let Some(st) = p.final_stage.as_mut() {
                 st.stage_budget_per_particle = budget;
             }

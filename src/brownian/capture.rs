@@ -248,7 +248,7 @@ impl CaptureSet {
 mod tests {
     use super::*;
     use crate::brownian::run_rng;
-    use crate::brownian::{Params, Particles, Simulation};
+    use crate::brownian::{Fluid, Particles, Setup, Simulation};
 
     #[test]
     fn distance_basics() {
@@ -275,26 +275,25 @@ mod tests {
             a,
         )
         .unwrap();
-        let mut cs = CaptureSet::new(vec![body], 2);
-        cs.check_initial(&p).unwrap();
-        let mut sim = Simulation::new(p, Params::new(0.0, 1e-3, 1e-4).unwrap()).unwrap();
-        sim.constant_force = Vector3::new(-1e-14, 0.0, 0.0);
-        let mut rng = run_rng(1, 0);
+        let mut setup = Setup::new(p, Fluid::new(0.0, 1e-3).unwrap(), 1e-4).unwrap();
+        setup.constant_force = Vector3::new(-1e-14, 0.0, 0.0);
+        setup.capture = Some(CaptureSet::new(vec![body], 2));
+        let mut sim = Simulation::new(setup, run_rng(1, 0)).unwrap();
         let mut t_cap = None;
-        for k in 0..2000 {
-            sim.step(&mut rng).unwrap();
-            let new = cs.apply(&mut sim.particles.positions, a, k as f64);
-            if new.contains(&0) {
-                t_cap = Some(sim.particles.positions[0]);
+        for _ in 0..2000 {
+            sim.step().unwrap();
+            if t_cap.is_none() && sim.is_fixed(0) {
+                t_cap = Some(sim.particles().positions[0]);
             }
         }
         let fixed = t_cap.expect("particle 0 is captured");
-        assert_eq!(sim.particles.positions[0], fixed);
+        assert_eq!(sim.particles().positions[0], fixed);
         assert!(body.signed_distance(&fixed) <= a);
         assert!(
             body.signed_distance(&fixed)
                 > a - 1.1 * 1e-14 * 1e-4 / (6.0 * std::f64::consts::PI * 1e-3 * a)
         );
+        let cs = sim.capture().unwrap();
         assert!(!cs.is_captured(1));
         assert_eq!(cs.fraction(), 0.5);
         assert_eq!(cs.fraction_of(&[1]), 0.0);

@@ -22,13 +22,16 @@
 //! parallel; results depend only on (seed, run).
 
 use super::capture::{CaptureSet, CylinderBody};
+use super::driver::run_sampled;
 use super::forces::{LangevinMoment, Mie, WithUniform};
-use super::integrator::{Magnetic, Simulation, StepGuard};
 use super::magnetization::{saturated_at_angle, stoner_wohlfarth_magnet};
 use super::mobility::{stokes_mobility, Hydrodynamics};
 use super::noise::NoiseMethod;
-use super::{cubic_lattice, run_rng, Params, Particles};
+use super::setup::{Fluid, Magnetic, Setup, StepGuard};
+use super::Simulation;
+use super::{cubic_lattice, run_rng, Particles};
 use crate::consts::MU0;
+use crate::driver::Hooks;
 use crate::error::{invalid, require_positive, Result};
 use crate::magnetics::{Cylinder, Magnet};
 use nalgebra::Vector3;
@@ -275,7 +278,9 @@ pub enum Placement {
 /// A capture run: physics of the particles, the cylinder, and what to record.
 #[derive(Debug, Clone)]
 pub struct CaptureExperiment {
-    pub params: Params,
+    pub fluid: Fluid,
+    /// Time step (s).
+    pub dt_s: f64,
     pub particle_radius_m: f64,
     pub moment: LangevinMoment,
     pub placement: Placement,
@@ -335,10 +340,11 @@ impl CaptureExperiment {
         require_positive(self.sample_every_s, || {
             format!("sample interval {} s", self.sample_every_s)
         })?;
-        if self.sample_every_s < self.params.dt {
+        super::setup::check_time_step(self.dt_s)?;
+        if self.sample_every_s < self.dt_s {
             return invalid(format!(
                 "sample interval {} s is shorter than the time step {} s",
-                self.sample_every_s, self.params.dt
+                self.sample_every_s, self.dt_s
             ));
         }
         if !(self.bond_factor.is_finite() && self.bond_factor >= 1.0) {
@@ -358,11 +364,11 @@ impl CaptureExperiment {
 
     /// Number of time steps of a run.
     pub fn steps(&self) -> u64 {
-        (self.t_max_s / self.params.dt).round().max(1.0) as u64
+        (self.t_max_s / self.dt_s).round().max(1.0) as u64
     }
 
     fn steps_per_sample(&self) -> u64 {
-        (self.sample_every_s / self.params.dt).round().max(1.0) as u64
+        (self.sample_every_s / self.dt_s).round().max(1.0) as u64
     }
 
     /// The magnet for axis angle `alpha`.
@@ -441,27 +447,29 @@ impl CaptureExperiment {
         }
     }
 
-    /// The simulation of one run around `magnet`, from `positions`.
-    pub fn simulation(&self, magnet: Magnet, positions: Vec<Vector3<f64>>) -> Result<Simulation> {
+    /// The setup of one run around `magnet`, from `positions`: capture by the magnet's
+    /// cylinder, the field force on the particles' moments, dipole pairs and Mie repulsion as
+    /// the experiment says.
+    pub fn setup(&self, magnet: Magnet, positions: Vec<Vector3<f64>>) -> Result<Setup> {
         let body = CylinderBody::from_magnet(&magnet)?;
         let n = positions.len();
         let particles = Particles::new(positions, self.particle_radius_m)?;
-        let mut sim = Simulation::new(particles, self.params)?
-            .with_capture(CaptureSet::new(vec![body], n))?;
-        sim.hydrodynamics = self.hydrodynamics;
-        sim.noise = self.noise;
-        sim.guard = self.guard;
+        let mut s = Setup::new(particles, self.fluid, self.dt_s)?;
+        s.capture = Some(CaptureSet::new(vec![body], n));
+        s.hydrodynamics = self.hydrodynamics;
+        s.noise = self.noise;
+        s.guard = self.guard;
         // The guard protects the repulsion; the field force's step is an accuracy choice of dt.
-        sim.guard_field_force = false;
+        s.guard_field_force = false;
         if let Some((nn, mm, eps_kt)) = self.mie {
-            sim.repulsion = Some(Mie::new(
+            s.repulsion = Some(Mie::new(
                 nn,
                 mm,
-                eps_kt * self.params.kt(),
+                eps_kt * self.fluid.kt(),
                 2.0 * self.particle_radius_m,
             )?);
         }
-        sim.magnetic = Some(Magnetic {
+        s.magnetic = Some(Magnetic {
             source: Box::new(WithUniform {
                 h0: self.h0,
                 source: magnet,
@@ -470,44 +478,49 @@ impl CaptureExperiment {
             dipole_pairs: self.dipole_cutoff_m.is_some(),
             cutoff: self.dipole_cutoff_m.unwrap_or(0.0),
         });
-        Ok(sim)
+        Ok(s)
     }
 
     /// Free-particle diffusion coefficient kT / (6 pi eta R) (m^2/s), eq. 6.5.
     pub fn diffusion_coefficient(&self) -> Result<f64> {
-        Ok(self.params.kt() * stokes_mobility(self.params.viscosity, self.particle_radius_m)?)
+        Ok(self.fluid.kt() * stokes_mobility(self.fluid.viscosity_pa_s(), self.particle_radius_m)?)
     }
 
-    /// Run number `run` of the experiment seeded with `seed`; `tick(steps)` is called as steps
-    /// complete (for a progress bar).
-    pub fn run(&self, seed: u64, run: u64, tick: &(dyn Fn(u64) + Sync)) -> Result<RunResult> {
+    /// Run number `run` of the experiment seeded with `seed` (stream [`run_rng`]`(seed, run)`:
+    /// the placement, then the noise); the hooks hear every step (a progress bar moves with
+    /// every step, not once per sample interval: with 1e5 particles one interval of a few
+    /// hundred steps takes minutes).
+    pub fn run(
+        &self,
+        seed: u64,
+        run: u64,
+        hooks: &mut impl Hooks<Simulation>,
+    ) -> Result<RunResult> {
         self.validate()?;
         let mut rng = run_rng(seed, run);
         let magnet = self.magnet(axis_at_angle(self.alpha))?;
         let body = CylinderBody::from_magnet(&magnet)?;
         let (initial, region_of) = self.place(&body, &mut rng)?;
-        let mut sim = self.simulation(magnet, initial.clone())?;
+        let mut sim = Simulation::new(self.setup(magnet, initial.clone())?, rng)?;
         let regions = present_regions(&region_of);
         let (steps, per_sample) = (self.steps(), self.steps_per_sample());
-        let mut samples = vec![self.sample(&sim, &regions, &region_of)];
-        let mut done = 0;
-        while done < steps {
-            let k = per_sample.min(steps - done);
-            run_ticking(&mut sim, &mut rng, k, tick).map_err(|e| {
-                crate::Error::InvalidInput(format!("run {run}, t = {:e} s: {e}", sim.time))
-            })?;
-            done += k;
-            samples.push(self.sample(&sim, &regions, &region_of));
-        }
-        let capture = sim.capture.as_ref().expect("built with capture");
+        let mut samples = vec![self.sample(&sim, &regions, &region_of)?];
+        run_sampled(&mut sim, steps, per_sample, hooks, |sim| {
+            samples.push(self.sample(sim, &regions, &region_of)?);
+            Ok(())
+        })
+        .map_err(|e| {
+            crate::Error::InvalidInput(format!("run {run}, t = {:e} s: {e}", sim.time_s()))
+        })?;
+        let capture = captures(&sim)?;
         let capture_time_s: Vec<Option<f64>> = (0..initial.len())
             .map(|i| capture.capture(i).map(|c| c.time))
             .collect();
-        let threshold = 2.0 * 6.0 * self.diffusion_coefficient()? * sim.time; // eq. 6.24
+        let threshold = 2.0 * 6.0 * self.diffusion_coefficient()? * sim.time_s(); // eq. 6.24
+        let last = sim.particles().positions.clone();
         let brownian = (0..initial.len())
             .map(|i| {
-                capture_time_s[i].is_none()
-                    && (sim.particles.positions[i] - initial[i]).norm_squared() < threshold
+                capture_time_s[i].is_none() && (last[i] - initial[i]).norm_squared() < threshold
             })
             .collect();
         Ok(RunResult {
@@ -515,7 +528,7 @@ impl CaptureExperiment {
             regions,
             region_of,
             initial,
-            last: sim.particles.positions.clone(),
+            last,
             capture_time_s,
             brownian,
             samples,
@@ -523,8 +536,8 @@ impl CaptureExperiment {
         })
     }
 
-    fn sample(&self, sim: &Simulation, regions: &[Region], region_of: &[Region]) -> Sample {
-        let capture = sim.capture.as_ref().expect("built with capture");
+    fn sample(&self, sim: &Simulation, regions: &[Region], region_of: &[Region]) -> Result<Sample> {
+        let capture = captures(sim)?;
         let captured = regions
             .iter()
             .map(|r| {
@@ -534,15 +547,15 @@ impl CaptureExperiment {
                 capture.fraction_of(&members)
             })
             .collect();
-        Sample {
-            time_s: sim.time,
+        Ok(Sample {
+            time_s: sim.time_s(),
             captured,
             chains: chain_statistics(
-                &sim.particles.positions,
+                &sim.particles().positions,
                 self.particle_radius_m,
                 self.bond_factor,
             ),
-        }
+        })
     }
 
     /// Volumes (m^3) of the regions in `regions`, for the volume-weighted average: TOP and SIDE
@@ -561,26 +574,17 @@ impl CaptureExperiment {
     }
 }
 
+/// The captures of a simulation built by [`CaptureExperiment::setup`] (which always has them).
+fn captures(sim: &Simulation) -> Result<&CaptureSet> {
+    sim.capture()
+        .map_or_else(|| invalid("a capture run without capture (internal)"), Ok)
+}
+
 fn present_regions(region_of: &[Region]) -> Vec<Region> {
     [Region::Top, Region::Side, Region::Block]
         .into_iter()
         .filter(|r| region_of.contains(r))
         .collect()
-}
-
-/// Runs `runs` independent runs (0..runs) on `threads` worker threads (None: all cores).
-/// The results, in run order, depend only on `seed`, not on the thread count.
-pub fn run_ensemble<T: Send>(
-    runs: u64,
-    threads: Option<usize>,
-    one: impl Fn(u64) -> Result<T> + Sync + Send,
-) -> Result<Vec<T>> {
-    use rayon::prelude::*;
-    let pool = rayon::ThreadPoolBuilder::new()
-        .num_threads(threads.unwrap_or(0))
-        .build()
-        .map_err(|e| crate::Error::InvalidInput(format!("thread pool: {e}")))?;
-    pool.install(|| (0..runs).into_par_iter().map(one).collect())
 }
 
 /// Mean and standard error of the mean of `values` (standard error 0 for one value).
@@ -679,23 +683,9 @@ pub enum CascadeMode {
 /// One cascade run: `stages` stages of `stage_time_s` each; after each stage the free
 /// particles are placed afresh around a new cylinder (TOP and SIDE in the experiment's
 /// proportions, or uniform over both with [`Placement::Uniform`]). Returns (time (s),
-/// cumulative captured fraction) at every sample, starting at (0, 0). Uses the experiment's physics; its `alpha` and `t_max_s` are not used.
-/// `steps` steps of `sim`, with `tick(1)` after each: a progress bar moves with every step,
-/// not once per sample interval (with 1e5 particles one interval of a few hundred steps takes
-/// minutes). The steps and their random numbers are those of `sim.run(rng, steps)`.
-fn run_ticking<R: Rng + ?Sized>(
-    sim: &mut Simulation,
-    rng: &mut R,
-    steps: u64,
-    tick: &(dyn Fn(u64) + Sync),
-) -> Result<()> {
-    for _ in 0..steps {
-        sim.run(rng, 1)?;
-        tick(1);
-    }
-    Ok(())
-}
-
+/// cumulative captured fraction) at every sample, starting at (0, 0). Uses the experiment's
+/// physics; its `alpha` and `t_max_s` are not used. One random stream ([`run_rng`]`(seed,
+/// run)`) draws every stage's axis, placement and noise in turn; the hooks hear every step.
 pub fn run_cascade(
     exp: &CaptureExperiment,
     mode: CascadeMode,
@@ -703,7 +693,7 @@ pub fn run_cascade(
     stage_time_s: f64,
     seed: u64,
     run: u64,
-    tick: &(dyn Fn(u64) + Sync),
+    hooks: &mut impl Hooks<Simulation>,
 ) -> Result<Vec<(f64, f64)>> {
     exp.validate()?;
     require_positive(stage_time_s, || {
@@ -743,7 +733,7 @@ pub fn run_cascade(
     }
     let mut rng = run_rng(seed, run);
     let per_sample = exp.steps_per_sample();
-    let stage_steps = (stage_time_s / exp.params.dt).round().max(1.0) as u64;
+    let stage_steps = (stage_time_s / exp.dt_s).round().max(1.0) as u64;
     let mut free = n_total;
     let mut out = vec![(0.0, 0.0)];
     let mut t0 = 0.0;
@@ -762,18 +752,15 @@ pub fn run_cascade(
             ..exp.clone()
         };
         let (pos, _) = stage.place(&body, &mut rng)?;
-        let mut sim = stage.simulation(magnet, pos)?;
-        let mut done = 0;
-        while done < stage_steps {
-            let k = per_sample.min(stage_steps - done);
-            run_ticking(&mut sim, &mut rng, k, tick)?;
-            done += k;
-            let captured_now = sim.capture.as_ref().map_or(0, |c| c.count());
-            let total_captured = n_total - free + captured_now;
-            out.push((t0 + sim.time, total_captured as f64 / n_total as f64));
-        }
-        free -= sim.capture.as_ref().map_or(0, |c| c.count());
-        t0 += sim.time;
+        let mut sim = Simulation::new(stage.setup(magnet, pos)?, rng)?;
+        run_sampled(&mut sim, stage_steps, per_sample, hooks, |sim| {
+            let total_captured = n_total - free + captures(sim)?.count();
+            out.push((t0 + sim.time_s(), total_captured as f64 / n_total as f64));
+            Ok(())
+        })?;
+        free -= captures(&sim)?.count();
+        t0 += sim.time_s();
+        rng = sim.into_stream();
     }
     Ok(out)
 }
@@ -983,7 +970,8 @@ mod tests {
     /// A small experiment whose fields the tests override.
     fn test_experiment() -> CaptureExperiment {
         CaptureExperiment {
-            params: Params::new(298.0, 1e-3, 1e-4).unwrap(),
+            fluid: Fluid::new(298.0, 1e-3).unwrap(),
+            dt_s: 1e-4,
             particle_radius_m: 1e-7,
             moment: LangevinMoment::fixed(1e-16).unwrap(),
             placement: Placement::Uniform {
@@ -1009,16 +997,24 @@ mod tests {
         }
     }
 
-    /// The progress callback hears of every step, not once per sample interval: ten steps
-    /// in one interval are ten ticks of one step.
+    /// The progress hook hears of every step, not once per sample interval: ten steps in
+    /// one interval are ten calls.
     #[test]
     fn progress_ticks_every_step() {
         let exp = test_experiment();
         assert_eq!((exp.steps(), exp.steps_per_sample()), (10, 10));
-        let ticks = std::sync::Mutex::new(Vec::new());
-        let r = exp.run(7, 0, &|k| ticks.lock().unwrap().push(k)).unwrap();
+        /// The fractions of each interval the progress hook hears.
+        struct Ticks(Vec<f64>);
+        impl Hooks<Simulation> for Ticks {
+            fn progress(&mut self, _: &Simulation, done: Option<f64>, _: &str) {
+                self.0.push(done.unwrap_or(f64::NAN));
+            }
+        }
+        let mut ticks = Ticks(Vec::new());
+        let r = exp.run(7, 0, &mut ticks).unwrap();
         assert_eq!(r.steps, 10);
-        assert_eq!(ticks.into_inner().unwrap(), vec![1; 10]);
+        let tenths: Vec<f64> = (1..=10).map(|k| k as f64 / 10.0).collect();
+        assert_eq!(ticks.0, tenths);
     }
 
     #[test]

@@ -168,6 +168,13 @@ impl LangevinMoment {
         }
         Ok(LangevinMoment::Fixed(moment))
     }
+    /// The saturated moment (A m^2): the fixed moment, or the saturation moment m_s.
+    pub fn saturation(&self) -> f64 {
+        match *self {
+            LangevinMoment::Fixed(m) => m,
+            LangevinMoment::Langevin { saturation, .. } => saturation,
+        }
+    }
     /// Magnitude of the moment (A m^2) in a field of magnitude `h` (A/m) at thermal energy `kt` (J).
     pub fn magnitude(&self, h: f64, kt: f64) -> f64 {
         match *self {

@@ -28,152 +28,104 @@
 //! change nothing but the capture time by less than one step.
 
 use super::capture::CaptureSet;
-use super::forces::{
-    dipole_force, magnetic_dipole_force, FieldFn, FieldSource, LangevinMoment, Mie,
-};
+use super::forces::{dipole_force, magnetic_dipole_force, Mie};
 use super::mobility::{mobility_matrix, stokes_mobility, Hydrodynamics};
 use super::noise::{NoiseGenerator, NoiseMethod};
-use super::{standard_normal, Params, Particles};
-use crate::consts::MU0;
-use crate::error::{invalid, require_positive, Result};
-use nalgebra::{DVector, Matrix3, Vector3};
-use rand::Rng;
+use super::setup::{check_time_step, Fluid, Magnetic, Setup, StepGuard};
+use super::{standard_normal, Particles};
+use crate::error::{invalid, Result};
+use nalgebra::{DVector, Vector3};
+use rand_chacha::ChaCha8Rng;
 
 /// One force (N) per particle.
 type Forces = Vec<Vector3<f64>>;
 
-/// What to do when the deterministic displacement of a step is too large for the repulsion.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub enum StepGuard {
-    /// Refuse with an Err when any |M F dt| > max_fraction * R.
-    Refuse { max_fraction: f64 },
-    /// Halve the step until |M F dt| <= max_fraction * R, at most `max_halvings` times.
-    Substep {
-        max_fraction: f64,
-        max_halvings: u32,
-    },
-}
-
-impl Default for StepGuard {
-    fn default() -> Self {
-        StepGuard::Refuse { max_fraction: 0.1 }
-    }
-}
-
-/// Magnetic terms: a field source, the moment law, and the dipole–dipole cut-off (m; default
-/// 30 R in the thesis). `dipole_pairs = false` leaves out the particle–particle dipole forces.
-pub struct Magnetic {
-    pub source: Box<dyn FieldSource>,
-    pub moment: LangevinMoment,
-    pub dipole_pairs: bool,
-    pub cutoff: f64,
-}
-
-/// Moment (A m^2) and field (A/m) used by [`Magnetic::harmonic_trap`]; any non-zero values give the
-/// same force.
-const TRAP_MOMENT: f64 = 1e-16;
-const TRAP_FIELD: f64 = 1e5;
-
-impl Magnetic {
-    /// The magnetic terms that make the force on every particle F = -k r (N), r its position (m),
-    /// `stiffness` k in N/m (no dipole pairs).
-    pub fn harmonic_trap(stiffness: f64) -> Result<Self> {
-        require_positive(stiffness, || format!("trap stiffness k = {stiffness} N/m"))?;
-        let c = -stiffness / (MU0 * TRAP_MOMENT);
-        let source = FieldFn(move |p: &Vector3<f64>| {
-            let mut g = Matrix3::zeros();
-            g.set_column(0, &(p * c));
-            (Vector3::new(TRAP_FIELD, 0.0, 0.0), g)
-        });
-        Ok(Magnetic {
-            source: Box::new(source),
-            moment: LangevinMoment::fixed(TRAP_MOMENT)?,
-            dipole_pairs: false,
-            cutoff: 0.0,
-        })
-    }
-}
-
-/// A Brownian-dynamics simulation of identical spheres.
+/// A Brownian-dynamics run of identical spheres: the terms its [`Setup`] built, the current
+/// positions and time, the captures so far, and the run's random stream.
 pub struct Simulation {
-    pub particles: Particles,
-    pub params: Params,
-    pub hydrodynamics: Hydrodynamics,
-    /// Used only when `hydrodynamics` is not free-draining.
-    pub noise: NoiseMethod,
-    pub repulsion: Option<Mie>,
-    pub magnetic: Option<Magnetic>,
-    /// A constant force (N) on every particle.
-    pub constant_force: Vector3<f64>,
-    pub guard: StepGuard,
-    /// Whether the guard counts the external-field force (default true; see module docs).
-    pub guard_field_force: bool,
-    /// Capture by cylinders (None: no capture). Built for the same number of particles.
-    pub capture: Option<CaptureSet>,
+    particles: Particles,
+    fluid: Fluid,
+    dt_s: f64,
+    hydrodynamics: Hydrodynamics,
+    noise: NoiseMethod,
+    repulsion: Option<Mie>,
+    magnetic: Option<Magnetic>,
+    constant_force: Vector3<f64>,
+    guard: StepGuard,
+    guard_field_force: bool,
+    capture: Option<CaptureSet>,
+    /// The run's random stream (noise).
+    rng: ChaCha8Rng,
     /// Elapsed time (s).
-    pub time: f64,
+    time: f64,
 }
 
 impl Simulation {
-    /// Free particles (no forces), free-draining, default guard. Rejects initial overlaps
-    /// (centre distance < 2R), naming the first pair found.
-    pub fn new(particles: Particles, params: Params) -> Result<Simulation> {
-        check_overlaps(&particles)?;
+    /// The run of `setup`, its noise drawn from `stream` (one stream per run, e.g.
+    /// [`super::run_rng`], continued as it is). Rejects initial overlaps (centre distance < 2R,
+    /// naming the first pair found) and any particle that starts in contact with or inside a
+    /// capturing cylinder (naming particle and cylinder).
+    pub fn new(setup: Setup, stream: ChaCha8Rng) -> Result<Simulation> {
+        check_time_step(setup.dt_s)?;
+        check_overlaps(&setup.particles)?;
+        if let Some(c) = &setup.capture {
+            c.check_initial(&setup.particles)?;
+        }
         Ok(Simulation {
-            particles,
-            params,
-            hydrodynamics: Hydrodynamics::FreeDraining,
-            noise: NoiseMethod::Cholesky,
-            repulsion: None,
-            magnetic: None,
-            constant_force: Vector3::zeros(),
-            guard: StepGuard::default(),
-            guard_field_force: true,
-            capture: None,
+            particles: setup.particles,
+            fluid: setup.fluid,
+            dt_s: setup.dt_s,
+            hydrodynamics: setup.hydrodynamics,
+            noise: setup.noise,
+            repulsion: setup.repulsion,
+            magnetic: setup.magnetic,
+            constant_force: setup.constant_force,
+            guard: setup.guard,
+            guard_field_force: setup.guard_field_force,
+            capture: setup.capture,
+            rng: stream,
             time: 0.0,
         })
     }
 
-    /// Adds capture by the cylinders of `capture`: rejects (naming particle and cylinder) any
-    /// particle that starts in contact with or inside a cylinder.
-    pub fn with_capture(mut self, capture: CaptureSet) -> Result<Simulation> {
-        capture.check_initial(&self.particles)?;
-        self.capture = Some(capture);
-        Ok(self)
+    /// The particles: current positions (m) and the radius (m).
+    pub fn particles(&self) -> &Particles {
+        &self.particles
+    }
+
+    pub fn fluid(&self) -> &Fluid {
+        &self.fluid
+    }
+
+    /// The time step (s).
+    pub fn dt_s(&self) -> f64 {
+        self.dt_s
+    }
+
+    /// Elapsed time (s).
+    pub fn time_s(&self) -> f64 {
+        self.time
+    }
+
+    /// The magnetic terms (None without them).
+    pub fn magnetic(&self) -> Option<&Magnetic> {
+        self.magnetic.as_ref()
+    }
+
+    /// The captures so far (None without capture).
+    pub fn capture(&self) -> Option<&CaptureSet> {
+        self.capture.as_ref()
+    }
+
+    /// The random stream, as far as the steps have drawn it (the next stage of a cascade
+    /// continues it).
+    pub fn into_stream(self) -> ChaCha8Rng {
+        self.rng
     }
 
     /// Whether particle `i` is captured (always false without capture).
     pub fn is_fixed(&self, i: usize) -> bool {
         self.capture.as_ref().is_some_and(|c| c.is_captured(i))
-    }
-
-    /// Human-readable list of the terms that are built and used.
-    pub fn active_terms(&self) -> Vec<String> {
-        let mut t = vec![format!("mobility: {}", self.hydrodynamics.scene_name())];
-        if self.params.temperature > 0.0 {
-            t.push(match self.hydrodynamics {
-                Hydrodynamics::FreeDraining => "noise: independent (no HI)".to_string(),
-                _ => format!("noise: {:?}", self.noise),
-            });
-        } else {
-            t.push("noise: off (T = 0)".into());
-        }
-        if self.constant_force != Vector3::zeros() {
-            t.push(format!("constant force {:?} N", self.constant_force));
-        }
-        if let Some(m) = &self.repulsion {
-            t.push(format!("Mie({}, {}) repulsion", m.n, m.m));
-        }
-        if let Some(c) = &self.capture {
-            t.push(format!("capture by {} cylinder(s)", c.bodies.len()));
-        }
-        if let Some(m) = &self.magnetic {
-            t.push("external field force".into());
-            if m.dipole_pairs {
-                t.push(format!("dipole-dipole (cut-off {:e} m)", m.cutoff));
-            }
-        }
-        t
     }
 
     /// Total force (N) on every particle at the current positions; zero on captured ones.
@@ -198,7 +150,7 @@ impl Simulation {
             }
         }
         if let Some(mag) = &self.magnetic {
-            let kt = self.params.kt();
+            let kt = self.fluid.kt();
             let mut moments = vec![Vector3::zeros(); n];
             for i in 0..n {
                 // A captured particle needs its moment only for the dipole pairs.
@@ -240,35 +192,27 @@ impl Simulation {
         Ok((f, f_field))
     }
 
-    /// One step of length `params.dt` (possibly sub-stepped, see [`StepGuard`]).
+    /// One step of length `dt_s` (possibly sub-stepped, see [`StepGuard`]).
     /// A refused step (or sub-step) leaves positions, time and captures as they were before it.
-    pub fn step<R: Rng + ?Sized>(&mut self, rng: &mut R) -> Result<()> {
-        let dt = self.params.dt;
+    pub fn step(&mut self) -> Result<()> {
+        let dt = self.dt_s;
         let before = (
             self.particles.positions.clone(),
             self.time,
             self.capture.clone(),
         );
-        let result = self.advance(rng, dt, 0);
+        let result = self.advance(dt, 0);
         if result.is_err() {
             (self.particles.positions, self.time, self.capture) = before;
         }
         result
     }
 
-    /// `steps` steps.
-    pub fn run<R: Rng + ?Sized>(&mut self, rng: &mut R, steps: u64) -> Result<()> {
-        for _ in 0..steps {
-            self.step(rng)?;
-        }
-        Ok(())
-    }
-
-    fn advance<R: Rng + ?Sized>(&mut self, rng: &mut R, dt: f64, depth: u32) -> Result<()> {
+    fn advance(&mut self, dt: f64, depth: u32) -> Result<()> {
         let n = self.particles.len();
         let a = self.particles.radius;
         let (f, f_field) = self.forces_and_field_part()?;
-        let mu0 = stokes_mobility(self.params.viscosity, a)?;
+        let mu0 = stokes_mobility(self.fluid.viscosity_pa_s(), a)?;
         let stack = |forces: &[Vector3<f64>]| {
             let mut v = DVector::<f64>::zeros(3 * n);
             for (i, fi) in forces.iter().enumerate() {
@@ -283,7 +227,7 @@ impl Simulation {
                 kind,
                 &self.particles.positions,
                 a,
-                self.params.viscosity,
+                self.fluid.viscosity_pa_s(),
             )?),
         };
         let velocity = match &mobility {
@@ -327,8 +271,8 @@ impl Simulation {
             .fold((0, 0.0f64), |acc, x| if x.1 > acc.1 { x } else { acc });
         if vmax * dt > max_fraction * a {
             if depth < max_halvings {
-                self.advance(rng, 0.5 * dt, depth + 1)?;
-                return self.advance(rng, 0.5 * dt, depth + 1);
+                self.advance(0.5 * dt, depth + 1)?;
+                return self.advance(0.5 * dt, depth + 1);
             }
             return invalid(format!(
                 "time step too large for the forces: particle {worst} would move {:e} m in \
@@ -346,8 +290,9 @@ impl Simulation {
             ));
         }
         let mut dx = velocity * dt;
-        let kt = self.params.kt();
+        let kt = self.fluid.kt();
         if kt > 0.0 {
+            let rng = &mut self.rng;
             let g = DVector::from_fn(3 * n, |_, _| standard_normal(rng));
             match &mobility {
                 None => dx += g * (2.0 * kt * mu0 * dt).sqrt(),
@@ -398,6 +343,10 @@ mod tests {
     use super::*;
     use crate::brownian::run_rng;
 
+    fn water() -> Fluid {
+        Fluid::new(298.0, 1e-3).unwrap()
+    }
+
     #[test]
     fn trap_force_is_minus_k_r() {
         let k = 3e-7;
@@ -405,12 +354,10 @@ mod tests {
             Vector3::new(1e-7, -2e-7, 3e-7),
             Vector3::new(-4e-7, 0.0, 5e-8),
         ];
-        let mut sim = Simulation::new(
-            Particles::new(p.clone(), 1e-8).unwrap(),
-            Params::new(298.0, 1e-3, 1e-6).unwrap(),
-        )
-        .unwrap();
-        sim.magnetic = Some(Magnetic::harmonic_trap(k).unwrap());
+        let mut setup =
+            Setup::new(Particles::new(p.clone(), 1e-8).unwrap(), water(), 1e-6).unwrap();
+        setup.magnetic = Some(Magnetic::harmonic_trap(k).unwrap());
+        let sim = Simulation::new(setup, run_rng(0, 0)).unwrap();
         for (f, r) in sim.forces().unwrap().iter().zip(&p) {
             assert!((f + r * k).norm() <= 1e-15 * k * r.norm(), "{f:?} {r:?}");
         }
@@ -433,7 +380,8 @@ mod tests {
             1e-7,
         )
         .unwrap();
-        let e = Simulation::new(p, Params::new(298.0, 1e-3, 1e-6).unwrap())
+        let setup = Setup::new(p, water(), 1e-6).unwrap();
+        let e = Simulation::new(setup, run_rng(0, 0))
             .err()
             .unwrap()
             .to_string();
@@ -442,21 +390,27 @@ mod tests {
 
     #[test]
     fn big_step_refused_or_substepped() {
-        let params = Params::new(298.0, 1e-3, 1e-3).unwrap();
-        let mut s = Simulation::new(pair(2.0e-7 * 1.001), params).unwrap();
-        s.repulsion = Some(Mie::thesis_default(params.kt(), 1e-7).unwrap());
-        let before = s.particles.clone();
-        let e = s.step(&mut run_rng(1, 0)).unwrap_err().to_string();
+        let fluid = water();
+        let pair_setup = |fluid: Fluid, guard: StepGuard| {
+            let mut s = Setup::new(pair(2.0e-7 * 1.001), fluid, 1e-3).unwrap();
+            s.repulsion = Some(Mie::thesis_default(water().kt(), 1e-7).unwrap());
+            s.guard = guard;
+            Simulation::new(s, run_rng(1, 0)).unwrap()
+        };
+        let mut s = pair_setup(fluid, StepGuard::default());
+        let before = s.particles().clone();
+        let e = s.step().unwrap_err().to_string();
         assert!(e.contains("time step too large"), "{e}");
-        assert_eq!(s.particles, before);
-        s.guard = StepGuard::Substep {
+        assert_eq!(s.particles(), &before);
+        let substep = StepGuard::Substep {
             max_fraction: 0.1,
             max_halvings: 30,
         };
-        s.params.temperature = 0.0;
-        s.step(&mut run_rng(1, 0)).unwrap();
-        let r = (s.particles.positions[1] - s.particles.positions[0]).norm();
+        let mut s = pair_setup(Fluid::new(0.0, 1e-3).unwrap(), substep);
+        s.step().unwrap();
+        let p = &s.particles().positions;
+        let r = (p[1] - p[0]).norm();
         assert!(r > 2e-7 && r.is_finite(), "{r}");
-        assert!((s.time - 1e-3).abs() < 1e-15);
+        assert!((s.time_s() - 1e-3).abs() < 1e-15);
     }
 }

@@ -13,67 +13,37 @@
 //!   dipole in an external field, constant forces;
 //! - [`integrator`]: the update itself, with a time-step guard and initial-overlap check.
 //!
+//! The door: a [`Setup`] (`setup.rs`) describes a run; [`Simulation::new`] checks its start
+//! and takes the run's random stream; [`Simulation::step`] is one step; [`driver`] runs a
+//! simulation for a number of steps, sampling at intervals, with progress and stop hooks
+//! ([`crate::driver::Hooks`]). The capture experiments of section 6.4 ([`experiment`]) are
+//! built on these.
+//!
 //! Randomness: one `ChaCha8Rng` stream per independent run, derived from (seed, run index) by
 //! [`run_rng`], so results do not depend on how runs are spread over threads.
 
 pub mod capture;
+pub mod driver;
 pub mod experiment;
 pub mod forces;
 pub mod integrator;
 pub mod magnetization;
 pub mod mobility;
 pub mod noise;
+mod setup;
 
 pub use forces::{
     dipole_energy, dipole_force, langevin, magnetic_dipole_force, FieldSource, LangevinMoment, Mie,
 };
-pub use integrator::{Simulation, StepGuard};
+pub use integrator::Simulation;
 pub use mobility::{mobility_matrix, stokes_mobility, Hydrodynamics};
 pub use noise::{NoiseGenerator, NoiseMethod};
+pub use setup::{Fluid, Magnetic, Setup, StepGuard};
 
-use crate::consts::KB;
 use crate::error::{invalid, Result};
 use nalgebra::Vector3;
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
-
-/// Physical parameters of a run: temperature (K), solvent viscosity (Pa s), time step (s).
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Params {
-    pub temperature: f64,
-    pub viscosity: f64,
-    pub dt: f64,
-}
-
-impl Params {
-    /// temperature >= 0 (0 switches the noise off), viscosity > 0, dt > 0, all finite.
-    pub fn new(temperature: f64, viscosity: f64, dt: f64) -> Result<Params> {
-        if !(temperature.is_finite() && temperature >= 0.0) {
-            return invalid(format!(
-                "temperature = {temperature} K: must be finite and >= 0"
-            ));
-        }
-        if !(viscosity.is_finite() && viscosity > 0.0) {
-            return invalid(format!(
-                "viscosity = {viscosity} Pa s: must be positive and finite"
-            ));
-        }
-        if !(dt.is_finite() && dt > 0.0) {
-            return invalid(format!(
-                "time step dt = {dt} s: must be positive and finite"
-            ));
-        }
-        Ok(Params {
-            temperature,
-            viscosity,
-            dt,
-        })
-    }
-    /// Thermal energy kB T (J).
-    pub fn kt(&self) -> f64 {
-        KB * self.temperature
-    }
-}
 
 /// Identical spheres: centres (m) and the common radius (m).
 #[derive(Debug, Clone, PartialEq)]
@@ -145,10 +115,12 @@ mod tests {
     use rand::Rng;
 
     #[test]
-    fn params_reject_bad_values() {
-        assert!(Params::new(-1.0, 1e-3, 1e-5).is_err());
-        assert!(Params::new(298.0, 0.0, 1e-5).is_err());
-        let e = Params::new(298.0, 1e-3, f64::NAN).unwrap_err().to_string();
+    fn setup_rejects_bad_values() {
+        assert!(Fluid::new(-1.0, 1e-3).is_err());
+        assert!(Fluid::new(298.0, 0.0).is_err());
+        let water = Fluid::new(298.0, 1e-3).unwrap();
+        let one = Particles::new(vec![Vector3::zeros()], 1e-7).unwrap();
+        let e = Setup::new(one, water, f64::NAN).err().unwrap().to_string();
         assert!(e.contains("dt"), "{e}");
         assert!(Particles::new(vec![Vector3::zeros()], 0.0).is_err());
         let e = Particles::new(

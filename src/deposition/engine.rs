@@ -1,98 +1,27 @@
-//! The deposition loop (seed 000, Fig. 1): sweeps of one trial move per particle, in index
-//! order, until the mean displacement per sweep falls below `stop_fraction` of the first
-//! sweep's.
+//! The deposition loop (seed 000, Fig. 1): [`Deposition::step`] is one sweep of one trial move
+//! per particle, in index order; the driver (`driver.rs`) sweeps until the mean displacement
+//! per sweep falls below `stop.fraction` of the first sweep's.
 //!
 //! The drainage speed V of a sweep is the mean displacement of the previous sweep (rejected
 //! moves count 0) divided by the time unit (a scene parameter; V = 0 in the first sweep).
 //! The mean displacement is that of the centres, |dr| averaged over all N trials. The stop
-//! rule compares the mean over the last `stop_window` sweeps (default 10) with the first
+//! rule compares the mean over the last `stop.window` sweeps (default 10) with the first
 //! sweep's: with a few hundred particles and a few per cent accepted, a single sweep can move
 //! nothing by chance while the layer is still settling, and the seed's rule read on one sweep
 //! would stop there.
 
-use super::energy::{accept, EnergyTerms};
+use super::cells::{wrap_xy, Cells};
+use super::energy::accept;
 use super::grain::GrainPose;
 use super::moves;
 use super::overlap::PrefilterCounts;
-use super::Layer;
+use super::setup::{Moves, Setup, StopRule};
+use super::{film, Layer};
 use crate::error::{invalid, Result};
 use nalgebra::Vector3;
 use rand::Rng;
+use rand_chacha::ChaCha8Rng;
 use serde::Serialize;
-
-/// The parameters of a deposition run.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct DepositionParams {
-    /// Maximum kinetic-energy constraint K_max, m^2 (Table B1: 1e-14).
-    pub k_max_m2: f64,
-    pub energy: EnergyTerms,
-    /// The time unit over which the previous sweep's mean displacement gives V, s.
-    pub time_unit_s: f64,
-    /// kT, J (0: the seed's T = 0).
-    pub kt_j: f64,
-    /// Stop when the mean displacement per sweep, averaged over the last `stop_window`
-    /// sweeps, is below this fraction of the first sweep's.
-    pub stop_fraction: f64,
-    /// Sweeps averaged by the stop rule (1: the last sweep alone).
-    pub stop_window: u64,
-    /// Guard: stop after this many sweeps (reported as not converged).
-    pub max_sweeps: u64,
-}
-
-impl DepositionParams {
-    /// Table B1 (mu = 0.01 Pa s, K_max = 1e-14 m^2, T = 0), buoyant gravity and drag on, a
-    /// time unit of 1 s, the stop rule at 1e-3 over 10 sweeps, `max_sweeps` as the guard.
-    pub fn table_b1(max_sweeps: u64) -> DepositionParams {
-        DepositionParams {
-            k_max_m2: 1e-14,
-            energy: EnergyTerms {
-                gravity: true,
-                drag: true,
-                viscosity_pa_s: 0.01,
-            },
-            time_unit_s: 1.0,
-            kt_j: 0.0,
-            stop_fraction: 1e-3,
-            stop_window: 10,
-            max_sweeps,
-        }
-    }
-
-    /// Checks every value, naming it.
-    pub fn check(&self) -> Result<()> {
-        let pos = |name: &str, v: f64| -> Result<()> {
-            if v.is_finite() && v > 0.0 {
-                Ok(())
-            } else {
-                invalid(format!("{name} = {v}: must be positive and finite"))
-            }
-        };
-        pos("k_max_m2", self.k_max_m2)?;
-        pos("time_unit_s", self.time_unit_s)?;
-        if self.energy.drag {
-            pos("viscosity_pa_s", self.energy.viscosity_pa_s)?;
-        }
-        if !(self.kt_j.is_finite() && self.kt_j >= 0.0) {
-            return invalid(format!("kT = {} J: must be >= 0 and finite", self.kt_j));
-        }
-        if !(self.stop_fraction > 0.0 && self.stop_fraction < 1.0) {
-            return invalid(format!(
-                "stop_fraction = {}: must be in (0, 1)",
-                self.stop_fraction
-            ));
-        }
-        if self.stop_window == 0 || self.stop_window > 10_000_000 {
-            return invalid(format!(
-                "stop_window = {}: must be 1 to 10000000",
-                self.stop_window
-            ));
-        }
-        if self.max_sweeps == 0 {
-            return invalid("max_sweeps = 0: must be at least 1");
-        }
-        Ok(())
-    }
-}
 
 /// One sweep's record.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
@@ -120,49 +49,133 @@ pub struct DepositionOutcome {
     pub history: Vec<SweepRecord>,
 }
 
-/// Deposits `layer` in place. `progress(sweep, mean displacement, stop value)` is called after
-/// every sweep.
-pub fn deposit<R: Rng>(
-    layer: &mut Layer,
-    params: &DepositionParams,
-    rng: &mut R,
-    mut progress: impl FnMut(u64, f64, f64),
-) -> Result<DepositionOutcome> {
-    params.check()?;
-    let n = layer.grains.len();
-    if n == 0 {
-        return invalid("the layer holds no particles");
+/// A deposit in progress: the layer, how its grains move, when it stops, its random stream,
+/// and what the sweeps so far did.
+pub struct Deposition {
+    layer: Layer,
+    moves: Moves,
+    stop: StopRule,
+    rng: ChaCha8Rng,
+    cells: Cells,
+    positions: Vec<Vector3<f64>>,
+    /// Drainage speed V of the next sweep, m/s.
+    v: f64,
+    /// Sum of the mean displacements of the last `stop.window` sweeps, m.
+    window_sum: f64,
+    /// Their mean after the last sweep, m.
+    recent_m: f64,
+    outcome: DepositionOutcome,
+}
+
+impl Deposition {
+    /// Run `run` of `setup`: the grains (sizes drawn) and the start of the film built from the
+    /// run's random stream ([`Setup::run_rng`]), which the moves then continue.
+    pub fn new(setup: &Setup, run: usize) -> Result<Deposition> {
+        setup.check()?;
+        let mut rng = setup.run_rng(run);
+        let grains = setup.grains(&mut rng)?;
+        let phi = setup.pigment_volume_fraction()?;
+        let layer = film::build(grains, setup.box_side_m, phi, &setup.start, &mut rng)?;
+        Deposition::from_layer(layer, setup.moves, setup.stop, rng)
     }
-    if params.energy.gravity {
-        if let Some((i, g)) = layer
-            .grains
-            .iter()
-            .enumerate()
-            .find(|(_, g)| g.buoyant_weight_n.is_nan() || g.buoyant_weight_n <= 0.0)
-        {
+
+    /// The deposit of a given `layer`, its moves drawn from `rng` (continued as it is).
+    pub fn from_layer(
+        layer: Layer,
+        moves: Moves,
+        stop: StopRule,
+        rng: ChaCha8Rng,
+    ) -> Result<Deposition> {
+        moves.check()?;
+        stop.check()?;
+        if layer.grains.is_empty() {
+            return invalid("the layer holds no particles");
+        }
+        if moves.energy.gravity {
+            if let Some((i, g)) = layer
+                .grains
+                .iter()
+                .enumerate()
+                .find(|(_, g)| g.buoyant_weight_n.is_nan() || g.buoyant_weight_n <= 0.0)
+            {
+                return invalid(format!(
+                    "particle {i} (species {}) is not heavier than the fluid (buoyant weight {} \
+                     N): it would never settle",
+                    g.species, g.buoyant_weight_n
+                ));
+            }
+        } else if !moves.energy.drag {
+            return invalid("neither gravity nor drag is on: no move can lower the energy");
+        }
+        let cells = layer.cells();
+        let positions = layer.poses.iter().map(|p| p.position).collect();
+        Ok(Deposition {
+            layer,
+            moves,
+            stop,
+            rng,
+            cells,
+            positions,
+            v: 0.0,
+            window_sum: 0.0,
+            recent_m: 0.0,
+            outcome: DepositionOutcome {
+                sweeps: 0,
+                moves: 0,
+                accepted: 0,
+                converged: false,
+                first_displacement_m: 0.0,
+                prefilters: PrefilterCounts::default(),
+                history: Vec::new(),
+            },
+        })
+    }
+
+    /// The layer as it is now.
+    pub fn layer(&self) -> &Layer {
+        &self.layer
+    }
+
+    /// What the sweeps so far did.
+    pub fn outcome(&self) -> &DepositionOutcome {
+        &self.outcome
+    }
+
+    /// The mean displacement per sweep over the stop rule's window after the last sweep, m.
+    pub fn recent_displacement_m(&self) -> f64 {
+        self.recent_m
+    }
+
+    /// The stop value: `stop.fraction` times the first sweep's mean displacement, m.
+    pub fn stop_displacement_m(&self) -> f64 {
+        self.stop.fraction * self.outcome.first_displacement_m
+    }
+
+    /// True when the stop rule was met or `max_sweeps` sweeps are done.
+    pub fn is_done(&self) -> bool {
+        self.outcome.converged || self.outcome.sweeps >= self.stop.max_sweeps
+    }
+
+    /// The final layer and the record of the run.
+    pub fn into_parts(self) -> (Layer, DepositionOutcome) {
+        (self.layer, self.outcome)
+    }
+
+    /// One sweep: a trial move of every particle in index order, accepted iff it lowers the
+    /// energy (eq. A2, A11; Metropolis at T > 0) and creates no overlap. A first sweep that
+    /// moves nothing is an error (the start is jammed).
+    pub fn step(&mut self) -> Result<SweepRecord> {
+        if self.is_done() {
             return invalid(format!(
-                "particle {i} (species {}) is not heavier than the fluid (buoyant weight {} N): \
-                 it would never settle",
-                g.species, g.buoyant_weight_n
+                "the deposit stopped after {} sweeps: no further sweep",
+                self.outcome.sweeps
             ));
         }
-    } else if !params.energy.drag {
-        return invalid("neither gravity nor drag is on: no move can lower the energy");
-    }
-    let mut cells = layer.cells();
-    let mut positions: Vec<Vector3<f64>> = layer.poses.iter().map(|p| p.position).collect();
-    let mut out = DepositionOutcome {
-        sweeps: 0,
-        moves: 0,
-        accepted: 0,
-        converged: false,
-        first_displacement_m: 0.0,
-        prefilters: PrefilterCounts::default(),
-        history: Vec::new(),
-    };
-    let mut v = 0.0f64;
-    let mut window_sum = 0.0f64;
-    for sweep in 1..=params.max_sweeps {
+        let layer = &mut self.layer;
+        let (params, rng, v) = (&self.moves, &mut self.rng, self.v);
+        let out = &mut self.outcome;
+        let n = layer.grains.len();
+        let sweep = out.sweeps + 1;
         let mut displacement = 0.0f64;
         let mut accepted = 0u64;
         for j in 0..n {
@@ -189,10 +202,10 @@ pub fn deposit<R: Rng>(
             if !accept(de, params.kt_j, || rng.gen::<f64>()) {
                 continue;
             }
-            super::cells::wrap_xy(&mut trial.position, layer.box_side_m);
+            wrap_xy(&mut trial.position, layer.box_side_m);
             if !layer.fits(
-                &cells,
-                &positions,
+                &self.cells,
+                &self.positions,
                 j,
                 &trial,
                 1.0,
@@ -203,8 +216,8 @@ pub fn deposit<R: Rng>(
                 continue;
             }
             layer.poses[j] = trial;
-            positions[j] = trial.position;
-            cells.moved(j, &trial.position);
+            self.positions[j] = trial.position;
+            self.cells.moved(j, &trial.position);
             accepted += 1;
             displacement += t.norm();
         }
@@ -212,12 +225,13 @@ pub fn deposit<R: Rng>(
         out.sweeps = sweep;
         out.moves += n as u64;
         out.accepted += accepted;
-        out.history.push(SweepRecord {
+        let record = SweepRecord {
             sweep,
             mean_displacement_m: mean,
             acceptance: accepted as f64 / n as f64,
             drainage_speed_m_s: v,
-        });
+        };
+        out.history.push(record);
         if sweep == 1 {
             out.first_displacement_m = mean;
             if mean == 0.0 {
@@ -227,27 +241,26 @@ pub fn deposit<R: Rng>(
                 );
             }
         }
-        let stop = params.stop_fraction * out.first_displacement_m;
+        let stop = self.stop.fraction * out.first_displacement_m;
         // Running sum over the window (exact re-summation every 4096 sweeps against drift).
-        window_sum += mean;
-        if sweep > params.stop_window {
-            window_sum -=
-                out.history[(sweep - params.stop_window - 1) as usize].mean_displacement_m;
+        let window = self.stop.window;
+        self.window_sum += mean;
+        if sweep > window {
+            self.window_sum -= out.history[(sweep - window - 1) as usize].mean_displacement_m;
         }
-        let w = params.stop_window.min(sweep) as usize;
-        if sweep % 4096 == 0 {
-            window_sum = out.history[out.history.len() - w..]
+        let w = window.min(sweep) as usize;
+        if sweep.is_multiple_of(4096) {
+            self.window_sum = out.history[out.history.len() - w..]
                 .iter()
                 .map(|h| h.mean_displacement_m)
                 .sum::<f64>();
         }
-        let recent = window_sum / w as f64;
-        progress(sweep, recent, stop);
-        if sweep >= params.stop_window.max(2) && recent < stop {
+        self.recent_m = self.window_sum / w as f64;
+        if sweep >= window.max(2) && self.recent_m < stop {
             out.converged = true;
-            break;
+        } else {
+            self.v = mean / self.moves.time_unit_s;
         }
-        v = mean / params.time_unit_s;
+        Ok(record)
     }
-    Ok(out)
 }

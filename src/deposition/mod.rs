@@ -7,14 +7,20 @@
 //! a move is accepted iff it creates no overlap ([`overlap`]) and lowers the total energy
 //! ([`energy`]): buoyant gravity plus the drag potential E_d = sum C_j mu V z_j (eq. A2, A3,
 //! A11), with V the mean displacement of the previous sweep per time unit. The run stops when
-//! the mean displacement per sweep falls below a fraction of the first sweep's ([`engine`]).
+//! the mean displacement per sweep falls below a fraction of the first sweep's ([`engine`],
+//! [`driver`]).
 //! The start is built by [`film`]: the pigment volume fraction from the solids content
 //! (Table B1), random sequential addition, and above its limit, growth of the particles by
 //! hard-core Monte Carlo without gravity.
 //!
 //! Lengths in metres, energies in joules, everywhere.
+//!
+//! The door: a [`Setup`] (`setup.rs`) describes the runs; [`Deposition::new`] builds run k's
+//! start; [`Deposition::step`] is one sweep; [`driver::run`] sweeps to the end with progress
+//! and stop hooks ([`crate::driver::Hooks`]) and [`driver::run_one`] does a whole run.
 
 pub mod cells;
+pub mod driver;
 pub mod energy;
 pub mod engine;
 pub mod film;
@@ -22,6 +28,10 @@ pub mod grain;
 pub mod measure;
 pub mod moves;
 pub mod overlap;
+mod setup;
+
+pub use engine::{Deposition, DepositionOutcome, SweepRecord};
+pub use setup::{run_seed, Moves, Setup, SizeLaw, Species, StopRule};
 
 use cells::Cells;
 use grain::{Grain, GrainPose};

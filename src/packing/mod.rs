@@ -5,8 +5,8 @@
 //! cylinder of length L (= aspect L/D) between its hemisphere centres; L = 0 is a sphere.
 //!
 //! The algorithm (sec. 2.2.1, 3.2): a dilute random overlap-free start (random sequential
-//! addition at `phi0`, fixed seed, ChaCha8) in a periodic cubic box or a hard cylinder
-//! ([`Container`]; wall overlaps through virtual particles, sec. 2.2.4, for ellipsoids and
+//! addition at `phi0`, fixed seed, ChaCha8) in a periodic cubic box, a hard cylinder or a hard
+//! wedge ([`Container`]; wall overlaps through virtual particles, sec. 2.2.4, for ellipsoids and
 //! superquadrics through the support point beyond the wall's tangent plane); the volume is reduced
 //! by Delta V and positions are scaled (orientations kept); overlaps deeper than
 //! `overlap_tol` are removed by translating and rotating the overlapping particles
@@ -14,13 +14,19 @@
 //! overlaps cannot be removed within `tries_per_particle * N` particle moves, the run reverts
 //! to the last overlap-free configuration and halves Delta V, at most `halvings` times; the
 //! last overlap-free configuration is the result. An optional final stage
-//! ([`McmParams::final_stage`]) continues from there with its own schedule and scheme.
+//! ([`Setup::final_stage`]) continues from there with its own schedule and scheme.
 //!
 //! Overlap removal visits the particles in index order (Gauss-Seidel: each move sees the moves
-//! before it), with neighbour (Verlet) lists built by the periodic cell list
-//! ([`crate::contact::CellList`]; slabs along the axis in the cylinder) and rebuilt when a particle end has moved half the skin; a
-//! particle is rechecked only when it or a neighbour moved. Each move counts as one try. Runs
-//! are deterministic for a given seed.
+//! before it), with per-particle neighbour (Verlet) lists (module `neighbours`: built from a
+//! cell grid over the container, periodic along the periodic directions, clamped across the
+//! walls; a particle's list is rebuilt when a point of its axis has moved a quarter of the
+//! skin); a particle is rechecked only when it or a neighbour moved. Each move counts as one
+//! try. Runs are deterministic for a given seed.
+//!
+//! The door: a [`Setup`] (`setup.rs`) describes the run; [`Mcm::new`] checks it and makes the
+//! random start; [`Mcm::step`] is one compression step; [`driver::run`] runs the engine to
+//! its end with progress, checkpoint and stop hooks ([`crate::driver::Hooks`]), and
+//! [`driver::run_to_end`] does so without them.
 
 use crate::contact::{closest_points_segments, ContactShape};
 use crate::error::invalid;
@@ -34,302 +40,9 @@ use rand_chacha::ChaCha8Rng;
 /// Particle radius in reduced units (diameter 1).
 pub const RADIUS: f64 = 0.5;
 
-/// Which overlap-removal scheme moves the particles.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum Scheme {
-    /// Thesis ch. 3 (eq. 3.2-3.13): Lagrange multiplier with the kinetic-energy constraint
-    /// (mass = volume, full inertia tensor), step delta_min * dt, Rodrigues rotation.
-    Revised,
-    /// Thesis ch. 2 (eq. 2.4-2.10): velocities sum_j delta_ij k_ij (unit mass), rotation rate
-    /// divided by xi = I_xy / m (the moment of inertia per unit mass, sec. 2.3), step
-    /// beta * min_j delta_ij / (removal rate), axis renormalised.
-    Original,
-    /// Collective relaxation (module `relax`): all particles move at once down the gradient of the
-    /// harmonic overlap energy (FIRE minimiser), as in the molecular-dynamics settling that
-    /// Wouterse, Luding & Philipse (Granular Matter 11, 169, 2009; thesis ref. \[15\]) combine
-    /// with the MCM; step `dt` is FIRE's initial time step. Same acceptance rule as the
-    /// others: no overlap deeper than `overlap_tol`.
-    Relax,
-}
-
-/// Parameters of an MCM run (reduced units, see the module docs).
-#[derive(Debug, Clone)]
-pub struct McmParams {
-    /// Number of particles (>= 2).
-    pub n: usize,
-    /// Cylinder length L between the hemisphere centres in diameters (0 = spheres); used
-    /// when `particles` is None.
-    pub length: f64,
-    /// Per-particle shapes (mixtures, polydispersity, superquadrics); None: `n` equal
-    /// particles of radius 1/2 and cylinder length `length` ([`Particles::monodisperse`]).
-    pub particles: Option<Particles>,
-    /// Packing fraction of the random start (0 < phi0 <= 0.2; thesis: 0.05).
-    pub phi0: f64,
-    /// Initial volume step per particle: Delta V = `delta_v_per_particle` * N (D^3).
-    pub delta_v_per_particle: f64,
-    /// How many times Delta V is halved after a failed step (thesis: typically 4).
-    pub halvings: u32,
-    /// Allowed particle moves per compression step, per particle (thesis: about 200).
-    pub tries_per_particle: f64,
-    /// Allowed particle moves over the whole stage (accepted and failed steps), per particle.
-    /// None: unbounded, the thesis' schedule (a stage ends only when its halvings are spent).
-    /// When the stage's budget runs out, the step in progress fails and the stage ends as if
-    /// its halvings were spent; it keeps the moves per particle from growing with N.
-    pub stage_budget_per_particle: Option<f64>,
-    /// Overlaps not deeper than this count as removed (thesis sec. 2.2.6: 1e-4).
-    pub overlap_tol: f64,
-    /// Revised scheme: time step (thesis: 0.1).
-    pub dt: f64,
-    /// Revised scheme: kinetic-energy constant c of eq. 3.4 (thesis: 1).
-    pub energy: f64,
-    /// Original scheme: beta of eq. 2.10 (thesis: about 0.5).
-    pub beta: f64,
-    pub scheme: Scheme,
-    pub seed: u64,
-    /// Safety limit on accepted compression steps.
-    pub max_steps: usize,
-    /// Optional second stage, run from the configuration where the first one stopped, with
-    /// its own Delta V, halvings, tries and step parameters (e.g. a compacting first stage with
-    /// beta > 1 (original scheme), then a settling stage with the revised scheme, whose step
-    /// delta_min dt approaches contact gradually, thesis sec. 3.5.2, and small Delta V).
-    pub final_stage: Option<Stage>,
-    /// The container (default: periodic cubic box).
-    pub container: Container,
-}
-
-/// The schedule and step parameters of a further MCM stage (see [`McmParams::final_stage`]).
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Stage {
-    /// Overlap-removal scheme of this stage.
-    pub scheme: Scheme,
-    pub delta_v_per_particle: f64,
-    pub halvings: u32,
-    pub tries_per_particle: f64,
-    /// See [`McmParams::stage_budget_per_particle`].
-    pub stage_budget_per_particle: Option<f64>,
-    /// Original scheme: beta of eq. 2.10.
-    pub beta: f64,
-    /// Revised scheme: time step of eq. 3.9 and 3.12.
-    pub dt: f64,
-}
-
-impl McmParams {
-    /// Spheres (L = 0) or spherocylinders of cylinder length `length` with the defaults above.
-    pub fn new(n: usize, length: f64, seed: u64) -> McmParams {
-        McmParams {
-            n,
-            length,
-            particles: None,
-            phi0: 0.05,
-            delta_v_per_particle: 0.01,
-            halvings: 6,
-            tries_per_particle: 200.0,
-            stage_budget_per_particle: None,
-            overlap_tol: 1e-4,
-            dt: 0.1,
-            energy: 1.0,
-            beta: 0.5,
-            scheme: Scheme::Revised,
-            seed,
-            max_steps: 1_000_000,
-            final_stage: None,
-            container: Container::Periodic,
-        }
-    }
-
-    /// The Gauss-Seidel-only two-stage sphere schedule of case 506 (`porelab bench packing`
-    /// baseline `spheres_gs`): stage 1 as in `McmParams::compacting_spheres` with Delta V
-    /// halved 6 times and 3000 N tries; stage 2 revised scheme (eq. 3.6-3.13), dt = 0.1,
-    /// Delta V = 0.001 N halved 6 times, 1000 N tries.
-    pub fn two_stage_spheres(n: usize, seed: u64) -> McmParams {
-        let settle = Stage {
-            scheme: Scheme::Revised,
-            delta_v_per_particle: 0.001,
-            halvings: 6,
-            tries_per_particle: 1000.0,
-            stage_budget_per_particle: None,
-            beta: 0.5,
-            dt: 0.1,
-        };
-        McmParams::compacting_spheres(n, seed, 6, 3000.0, settle)
-    }
-
-    /// The jamming schedule for spheres (built-in scene `packing-spheres`, case 512, `porelab
-    /// bench packing`): stage 1 as in `McmParams::compacting_spheres` with 1000 N tries and
-    /// Delta V halved twice, which compacts to about phi = 0.624; stage 2 the collective
-    /// relaxation ([`Scheme::Relax`], FIRE initial step 0.1) from Delta V = 0.001 N halved 4
-    /// times with 2000 N tries per step and at most 25000 N moves in all, which settles the
-    /// contact network. The stage budget bounds the moves per particle, which otherwise grow with
-    /// N as the relaxation creeps on near jamming (README.md at commit 2c48ccd, "Creep near jamming").
-    pub fn jammed_spheres(n: usize, seed: u64) -> McmParams {
-        let relax = Stage {
-            scheme: Scheme::Relax,
-            delta_v_per_particle: 0.001,
-            halvings: 4,
-            tries_per_particle: 2000.0,
-            stage_budget_per_particle: Some(25000.0),
-            beta: 1.3, // unused by the relaxation; as stage 1 (what a scene file inherits)
-            dt: 0.1,
-        };
-        McmParams::compacting_spheres(n, seed, 2, 1000.0, relax)
-    }
-
-    /// Spheres with a compacting first stage (original scheme, eq. 2.7-2.10, beta = 1.3:
-    /// over-relaxation; Delta V = 0.01 N halved `halvings` times, `tries` N tries per step;
-    /// contact tolerance 1e-4) followed by `last`.
-    fn compacting_spheres(
-        n: usize,
-        seed: u64,
-        halvings: u32,
-        tries: f64,
-        last: Stage,
-    ) -> McmParams {
-        let mut p = McmParams::new(n, 0.0, seed);
-        p.scheme = Scheme::Original;
-        p.delta_v_per_particle = 0.01;
-        p.halvings = halvings;
-        p.overlap_tol = 1e-4;
-        p.beta = 1.3;
-        p.tries_per_particle = tries;
-        p.final_stage = Some(last);
-        p
-    }
-
-    /// Checks every parameter; the message names the value and the rule.
-    pub fn validate(&self) -> Result<()> {
-        if self.n < 2 {
-            return invalid(format!("n = {}: need at least 2 particles", self.n));
-        }
-        if !(self.length.is_finite() && self.length >= 0.0) {
-            return invalid(format!(
-                "length = {}: cylinder length must be finite and >= 0 (0 = spheres)",
-                self.length
-            ));
-        }
-        if !(self.phi0.is_finite() && self.phi0 > 0.0 && self.phi0 <= 0.2) {
-            return invalid(format!(
-                "phi0 = {}: start packing fraction must be in (0, 0.2]",
-                self.phi0
-            ));
-        }
-        for (name, v) in [
-            ("delta_v_per_particle", self.delta_v_per_particle),
-            ("tries_per_particle", self.tries_per_particle),
-            ("overlap_tol", self.overlap_tol),
-            ("dt", self.dt),
-            ("energy", self.energy),
-            ("beta", self.beta),
-        ] {
-            if !(v.is_finite() && v > 0.0) {
-                return invalid(format!("{name} = {v}: must be positive and finite"));
-            }
-        }
-        // eq. 2.10: a move by beta times an overlap leaves |1 - beta| of it, so from beta = 2 on
-        // no move reduces an overlap and a "jammed" end would mean no compression at all.
-        if self.beta >= 2.0 {
-            return invalid(format!(
-                "beta = {}: must be below 2 (a move of beta times the overlap leaves |1 - beta| \
-                 of it; eq. 2.10, typically 0.5, over-relaxation up to about 1.5)",
-                self.beta
-            ));
-        }
-        if let Some(b) = self.stage_budget_per_particle {
-            if !(b.is_finite() && b >= self.tries_per_particle) {
-                return invalid(format!(
-                    "stage_budget_per_particle = {b}: must be finite and at least \
-                     tries_per_particle = {} (one step's budget)",
-                    self.tries_per_particle
-                ));
-            }
-        }
-        if self.overlap_tol >= 0.1 {
-            return invalid(format!(
-                "overlap_tol = {}: must be below 0.1 diameters",
-                self.overlap_tol
-            ));
-        }
-        if self.halvings > 60 {
-            return invalid(format!("halvings = {}: at most 60", self.halvings));
-        }
-        if let Some(p) = &self.particles {
-            p.validate()?;
-            if p.n() != self.n {
-                return invalid(format!(
-                    "n = {} but the particle table has {} particles: must be equal",
-                    self.n,
-                    p.n()
-                ));
-            }
-            if p.has_superquadrics() {
-                let stages = [Some(self.scheme), self.final_stage.map(|s| s.scheme)];
-                if stages.contains(&Some(Scheme::Original)) {
-                    return invalid(
-                        "scheme = original: ellipsoids and superquadrics need the revised scheme \
-                         (the original one, eq. 2.4-2.10, moves rods by their axis segment; \
-                         thesis ch. 4 packs superquadrics with the revised MCM)",
-                    );
-                }
-            }
-        }
-        // One compression step must leave free volume: Delta V below the start box's volume
-        // minus the particles' volume (otherwise the first step, and every halving of it,
-        // fails and the run ends at phi0 having compressed nothing).
-        // (No per-particle table is built here: n may be refused for its memory later.)
-        let mean_volume = match &self.particles {
-            Some(p) => p.total_volume().unwrap_or(f64::NAN) / self.n as f64,
-            None => particle_volume(self.length),
-        };
-        let free_per_particle = mean_volume * (1.0 / self.phi0 - 1.0);
-        if self.delta_v_per_particle >= free_per_particle {
-            return invalid(format!(
-                "delta_v_per_particle = {} D^3: must be below the free volume per particle of \
-                 the start, {free_per_particle:.4} D^3 (mean particle volume x (1/phi0 - 1), \
-                 phi0 = {})",
-                self.delta_v_per_particle, self.phi0
-            ));
-        }
-        if self.final_stage.is_some() {
-            self.stage_params(1)
-                .validate()
-                .map_err(|e| crate::Error::InvalidInput(format!("final stage: {e}")))?;
-        }
-        Ok(())
-    }
-
-    /// The parameters in force in stage `stage` (0: the main stage, 1: the final stage).
-    pub fn stage_params(&self, stage: u32) -> McmParams {
-        match (stage, &self.final_stage) {
-            (1, Some(st)) => McmParams {
-                scheme: st.scheme,
-                delta_v_per_particle: st.delta_v_per_particle,
-                halvings: st.halvings,
-                tries_per_particle: st.tries_per_particle,
-                stage_budget_per_particle: st.stage_budget_per_particle,
-                beta: st.beta,
-                dt: st.dt,
-                final_stage: None,
-                ..self.clone()
-            },
-            _ => self.clone(),
-        }
-    }
-
-    /// The particles of the run: `particles`, or `n` equal ones of cylinder length `length`.
-    pub fn particles(&self) -> Particles {
-        self.particles
-            .clone()
-            .unwrap_or_else(|| Particles::monodisperse(self.n, self.length))
-    }
-
-    /// Number of stages (1 or 2).
-    pub fn stages(&self) -> u32 {
-        1 + self.final_stage.is_some() as u32
-    }
-}
-
 /// Volume of one particle (R = 1/2, cylinder length L; thesis eq. 2.2).
 pub fn particle_volume(length: f64) -> f64 {
-    let s = Particles::monodisperse(1, length).shapes[0];
+    let s = ParticleShapes::monodisperse(1, length).shapes[0];
     crate::shape::volume_of(&s).unwrap_or(f64::NAN)
 }
 
@@ -350,7 +63,7 @@ pub fn rod_inertia(r: f64, l: f64, mass: f64) -> (f64, f64) {
     (ixy, iz)
 }
 
-/// A configuration: particles of per-particle shape ([`Particles`]) in a [`Container`]: a
+/// A configuration: particles of per-particle shape ([`ParticleShapes`]) in a [`Container`]: a
 /// periodic cubic box [0, L)^3, or a cylinder about the z axis, periodic in z over [0, L).
 #[derive(Debug, Clone)]
 pub struct Packing {
@@ -358,7 +71,7 @@ pub struct Packing {
     /// Side of the periodic box, or period along the cylinder axis.
     pub box_length: f64,
     /// The shape of every particle.
-    pub particles: Particles,
+    pub particles: ParticleShapes,
     pub positions: Vec<Vector3<f64>>,
     /// Orientation (body -> world); a rod's axis is the body z axis.
     pub orientations: Vec<UnitQuaternion<f64>>,
@@ -429,25 +142,6 @@ pub struct StepRecord {
     pub delta_v: f64,
     /// Particle moves needed to remove the overlaps of this step.
     pub tries: u64,
-}
-
-/// The result of an MCM run.
-#[derive(Debug, Clone)]
-pub struct McmResult {
-    /// The last overlap-free configuration.
-    pub packing: Packing,
-    /// Accepted compression steps, in order.
-    pub history: Vec<StepRecord>,
-    /// Failed (reverted) compression steps.
-    pub failed_steps: usize,
-    /// Total particle moves over the run.
-    pub total_tries: u64,
-    /// True when the run stopped because all halvings were spent (jammed) or the last stage's
-    /// budget ran out, false when it hit `max_steps`.
-    pub jammed: bool,
-    /// True when the last stage ended because its `stage_budget_per_particle` ran out (its
-    /// last step got less than a full step's budget and failed).
-    pub stage_budget_spent: bool,
 }
 
 /// Overlap of one pair, as seen from particle i.
@@ -541,7 +235,7 @@ fn move_revised(
     ov: &[Overlap],
     q: &UnitQuaternion<f64>,
     body: &species::Props,
-    prm: &McmParams,
+    prm: &Setup,
 ) -> (Vector3<f64>, Option<UnitQuaternion<f64>>) {
     let (sphere, mass) = (body.sphere, body.mass);
     let sum_n: Vector3<f64> = ov.iter().map(|o| o.normal).sum();
@@ -582,7 +276,7 @@ fn move_original(
     q: &UnitQuaternion<f64>,
     sphere: bool,
     xi: f64,
-    prm: &McmParams,
+    prm: &Setup,
 ) -> (Vector3<f64>, Option<UnitQuaternion<f64>>) {
     let ez = q * Vector3::z();
     // Sign: k_ij points from i to j, so moving along -k removes the overlap.
@@ -879,7 +573,7 @@ fn neighbour_lists(
 /// Each move counts as one try.
 fn remove_overlaps(
     p: &mut Packing,
-    prm: &McmParams,
+    prm: &Setup,
     budget: u64,
 ) -> Result<std::result::Result<u64, u64>> {
     let props = species::props_of(&p.particles)?;
@@ -890,7 +584,7 @@ fn remove_overlaps(
 fn remove_overlaps_with(
     p: &mut Packing,
     props: &[species::Props],
-    prm: &McmParams,
+    prm: &Setup,
     budget: u64,
 ) -> Result<std::result::Result<u64, u64>> {
     if prm.scheme == Scheme::Relax {
@@ -1001,7 +695,12 @@ pub fn random_start_in(
     phi0: f64,
     seed: u64,
 ) -> Result<Packing> {
-    random_start_of(container, Particles::monodisperse(n, length), phi0, seed)
+    random_start_of(
+        container,
+        ParticleShapes::monodisperse(n, length),
+        phi0,
+        seed,
+    )
 }
 
 /// A random overlap-free start: random sequential addition of the particles at packing
@@ -1013,7 +712,7 @@ pub fn random_start_in(
 /// (`Z_ORDER_MIN_PARTICLES`).
 pub fn random_start_of(
     container: Container,
-    particles: Particles,
+    particles: ParticleShapes,
     phi0: f64,
     seed: u64,
 ) -> Result<Packing> {
@@ -1027,7 +726,7 @@ pub fn random_start_of(
 /// The placement of [`random_start_of`], in the caller's numbering.
 fn random_sequential_addition(
     container: Container,
-    particles: Particles,
+    particles: ParticleShapes,
     phi0: f64,
     seed: u64,
 ) -> Result<Packing> {
@@ -1153,189 +852,18 @@ fn compress(p: &Packing, dv: f64) -> Option<Packing> {
     Some(q)
 }
 
-/// Runs the mechanical contraction method from a random start (see the module docs).
-pub fn run(prm: &McmParams) -> Result<McmResult> {
-    prm.validate()?;
-    let start = random_start_of(prm.container, prm.particles(), prm.phi0, prm.seed)?;
-    run_from(start, prm)
-}
-
-/// Runs the MCM from a given overlap-free configuration.
-pub fn run_from(start: Packing, prm: &McmParams) -> Result<McmResult> {
-    let mut state = McmState::new(start, prm)?;
-    while !state.is_done() {
-        state.step(prm)?;
-    }
-    Ok(state.into_result())
-}
-
-/// The complete state of an MCM run between two compression steps: everything the next step
-/// depends on (the run uses no random numbers after the start), so a run continued from a
-/// saved state gives bitwise the same result as an uninterrupted one.
-#[derive(Debug, Clone)]
-pub struct McmState {
-    /// The last overlap-free configuration.
-    pub packing: Packing,
-    /// Current volume step Delta V (D^3).
-    pub delta_v: f64,
-    /// Halvings of Delta V still allowed.
-    pub halvings_left: u32,
-    /// Accepted compression steps, in order.
-    pub history: Vec<StepRecord>,
-    /// Failed (reverted) compression steps.
-    pub failed_steps: usize,
-    /// Total particle moves over the run.
-    pub total_tries: u64,
-    /// Particle moves in the stage running (against its `stage_budget_per_particle`).
-    pub stage_tries: u64,
-    /// The last stage ended because its budget ran out (see [`McmResult::stage_budget_spent`]).
-    pub stage_budget_spent: bool,
-    /// The stage running (0: main, 1: final; see [`McmParams::final_stage`]).
-    pub stage: u32,
-    /// None while running; Some(true) when jammed (halvings of the last stage spent),
-    /// Some(false) at `max_steps`.
-    pub finished: Option<bool>,
-}
-
-/// What one call of [`McmState::step`] did.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum StepOutcome {
-    /// The compressed configuration was made overlap-free and accepted.
-    Accepted,
-    /// The overlaps could not be removed: reverted, Delta V halved.
-    Halved,
-    /// The run is over (see [`McmState::finished`]).
-    Finished,
-}
-
-impl McmState {
-    /// A run starting from an overlap-free configuration (checked against `prm`).
-    pub fn new(start: Packing, prm: &McmParams) -> Result<McmState> {
-        prm.validate()?;
-        if start.particles != prm.particles() || start.container != prm.container {
-            return invalid(format!(
-                "start configuration: {} particles ({} species) in {:?} do not match the {} \
-                 particles and container {:?} of the parameters",
-                start.n(),
-                start.particles.shapes.len(),
-                start.container,
-                prm.n,
-                prm.container
-            ));
-        }
-        let mut packing = start;
-        // The start must itself be overlap-free.
-        if remove_overlaps(&mut packing, prm, 0)?.is_err() {
-            return invalid("start configuration has overlaps deeper than overlap_tol");
-        }
-        Ok(McmState {
-            delta_v: prm.delta_v_per_particle * packing.n() as f64,
-            packing,
-            halvings_left: prm.halvings,
-            history: Vec::new(),
-            failed_steps: 0,
-            total_tries: 0,
-            stage_tries: 0,
-            stage_budget_spent: false,
-            stage: 0,
-            finished: None,
-        })
-    }
-
-    pub fn is_done(&self) -> bool {
-        self.finished.is_some()
-    }
-
-    /// One compression step (sec. 2.2.1, 3.2): compress by Delta V and remove the overlaps
-    /// within `tries_per_particle` N moves; on failure revert to the last overlap-free
-    /// configuration and halve Delta V, or finish when no halving is left.
-    pub fn step(&mut self, all: &McmParams) -> Result<StepOutcome> {
-        let prm = &all.stage_params(self.stage);
-        if self.is_done() {
-            return Ok(StepOutcome::Finished);
-        }
-        if self.history.len() >= prm.max_steps {
-            self.finished = Some(false);
-            return Ok(StepOutcome::Finished);
-        }
-        let n = self.packing.n() as f64;
-        let step_budget = (prm.tries_per_particle * n).ceil() as u64;
-        let stage_budget = prm
-            .stage_budget_per_particle
-            .map_or(u64::MAX, |b| (b * n).ceil() as u64);
-        let budget = step_budget.min(stage_budget.saturating_sub(self.stage_tries));
-        let vp = self.packing.particles.total_volume()?;
-        let props = species::props_of(&self.packing.particles)?;
-        let trial =
-            compress(&self.packing, self.delta_v).filter(|t| vp < t.container.volume(t.box_length));
-        let outcome = match trial {
-            None => None,
-            Some(mut t) if budget > 0 => {
-                check_box(&t.container, t.box_length, &props)?;
-                let r = remove_overlaps_with(&mut t, &props, prm, budget)?;
-                Some((t, r))
-            }
-            // The stage's budget is used up: a failed step without moves.
-            Some(_) => None,
-        };
-        match outcome {
-            Some((t, Ok(tries))) => {
-                self.total_tries += tries;
-                self.stage_tries += tries;
-                self.packing = t;
-                self.history.push(StepRecord {
-                    step: self.history.len() + 1,
-                    packing_fraction: self.packing.packing_fraction(),
-                    delta_v: self.delta_v,
-                    tries,
-                });
-                Ok(StepOutcome::Accepted)
-            }
-            other => {
-                if let Some((_, Err(tries))) = other {
-                    self.total_tries += tries;
-                    self.stage_tries += tries;
-                }
-                self.failed_steps += 1;
-                // Less than one step's budget was left for this step: the stage is over.
-                let budget_spent = budget < step_budget;
-                if self.halvings_left == 0 || budget_spent {
-                    if self.stage + 1 < all.stages() {
-                        self.stage += 1;
-                        self.stage_tries = 0;
-                        let next = all.stage_params(self.stage);
-                        self.delta_v = next.delta_v_per_particle * n;
-                        self.halvings_left = next.halvings;
-                        return Ok(StepOutcome::Halved);
-                    }
-                    self.stage_budget_spent = budget_spent;
-                    self.finished = Some(true);
-                    return Ok(StepOutcome::Finished);
-                }
-                self.halvings_left -= 1;
-                self.delta_v *= 0.5;
-                Ok(StepOutcome::Halved)
-            }
-        }
-    }
-
-    pub fn into_result(self) -> McmResult {
-        McmResult {
-            packing: self.packing,
-            history: self.history,
-            failed_steps: self.failed_steps,
-            total_tries: self.total_tries,
-            jammed: self.finished == Some(true),
-            stage_budget_spent: self.stage_budget_spent,
-        }
-    }
-}
-
 mod container;
+pub mod driver;
+mod engine;
+pub mod measure;
 mod neighbours;
 mod relax;
+mod setup;
 mod species;
-pub use species::Particles;
+pub use driver::{run_from, run_to_end};
+pub use engine::{Mcm, McmResult, McmState, StepOutcome};
+pub use setup::{Scheme, Setup, Stage};
+pub use species::ParticleShapes;
 
 #[cfg(test)]
 mod tests;

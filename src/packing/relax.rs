@@ -22,7 +22,7 @@
 //! force-balanced minimum whose overlaps are still deeper than the tolerance: the compressed
 //! configuration is jammed and no further iteration can remove them.
 
-use super::{list_gap_bound, neighbour_lists, overlaps_of, species, McmParams, Packing};
+use super::{list_gap_bound, neighbour_lists, overlaps_of, species, Packing, Setup};
 use crate::Result;
 use nalgebra::{UnitQuaternion, Vector3};
 use rayon::prelude::*;
@@ -81,7 +81,7 @@ const BALANCED: f64 = 1e-3;
 pub(super) fn relax_overlaps(
     p: &mut Packing,
     props: &[species::Props],
-    prm: &McmParams,
+    prm: &Setup,
     budget: u64,
 ) -> Result<std::result::Result<u64, u64>> {
     let order = z_order(&p.positions);
@@ -131,7 +131,7 @@ pub(super) fn z_order(x: &[Vector3<f64>]) -> Vec<usize> {
 fn relax_in_order(
     p: &mut Packing,
     props: &[species::Props],
-    prm: &McmParams,
+    prm: &Setup,
     budget: u64,
     parallel: bool,
 ) -> Result<std::result::Result<u64, u64>> {
@@ -467,7 +467,7 @@ fn inertia_world(p: &Packing, body: &species::Props, i: usize) -> nalgebra::Matr
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::packing::{random_start_of, Container, Particles};
+    use crate::packing::{random_start_of, Container, ParticleShapes};
 
     /// The pairwise sphere loop gives bitwise the generic loop's force for every particle and
     /// its deepest overlap and largest residual, with one index range and with several
@@ -477,11 +477,11 @@ mod tests {
     #[test]
     fn pairwise_sphere_loop_gives_bitwise_the_generic_load() {
         use crate::contact::ContactShape;
-        let two_sizes = Particles::mixture(&[
+        let two_sizes = ParticleShapes::mixture(&[
             (ContactShape::Sphere { radius: 0.5 }, 300),
             (ContactShape::Sphere { radius: 0.35 }, 300),
         ]);
-        for particles in [Particles::monodisperse(600, 0.0), two_sizes] {
+        for particles in [ParticleShapes::monodisperse(600, 0.0), two_sizes] {
             let mut p = random_start_of(Container::Periodic, particles, 0.1, 11).unwrap();
             let squeeze = (1.0f64 / 6.0).cbrt();
             p.box_length *= squeeze;
@@ -546,7 +546,7 @@ mod tests {
             .build()
             .unwrap();
         for length in [0.0, 1.5] {
-            let particles = Particles::monodisperse(600, length);
+            let particles = ParticleShapes::monodisperse(600, length);
             let mut start = random_start_of(Container::Periodic, particles, 0.1, 7).unwrap();
             let squeeze = 0.25f64.cbrt();
             start.box_length *= squeeze;
@@ -554,7 +554,7 @@ mod tests {
                 *x *= squeeze;
             }
             let props = species::props_of(&start.particles).unwrap();
-            let mut prm = McmParams::new(600, length, 7);
+            let mut prm = Setup::new(600, length, 7);
             prm.dt = 0.1;
             let budget = 150 * 600;
             let (mut serial, mut pooled) = (start.clone(), start.clone());

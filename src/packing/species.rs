@@ -15,17 +15,17 @@ use nalgebra::Vector3;
 
 /// The shapes of the particles of a packing (see the module docs).
 #[derive(Debug, Clone, PartialEq)]
-pub struct Particles {
+pub struct ParticleShapes {
     /// Species table.
     pub shapes: Vec<ContactShape>,
     /// Species of each particle (index into `shapes`).
     pub species: Vec<usize>,
 }
 
-impl Particles {
+impl ParticleShapes {
     /// N equal particles of radius R = 1/2: spheres (L = 0) or spherocylinders of cylinder
     /// length L (the MCM's reduced units, diameter 1).
-    pub fn monodisperse(n: usize, length: f64) -> Particles {
+    pub fn monodisperse(n: usize, length: f64) -> ParticleShapes {
         let shape = if length == 0.0 {
             ContactShape::Sphere {
                 radius: super::RADIUS,
@@ -36,7 +36,7 @@ impl Particles {
                 length,
             }
         };
-        Particles {
+        ParticleShapes {
             shapes: vec![shape],
             species: vec![0; n],
         }
@@ -44,21 +44,21 @@ impl Particles {
 
     /// A mixture: `count` particles of each shape, in the order given (particle indices in
     /// blocks).
-    pub fn mixture(parts: &[(ContactShape, usize)]) -> Particles {
+    pub fn mixture(parts: &[(ContactShape, usize)]) -> ParticleShapes {
         let mut species = Vec::new();
         for (k, (_, c)) in parts.iter().enumerate() {
             species.extend(std::iter::repeat_n(k, *c));
         }
-        Particles {
+        ParticleShapes {
             shapes: parts.iter().map(|(s, _)| *s).collect(),
             species,
         }
     }
 
     /// One species per particle (polydisperse).
-    pub fn per_particle(shapes: Vec<ContactShape>) -> Particles {
+    pub fn per_particle(shapes: Vec<ContactShape>) -> ParticleShapes {
         let species = (0..shapes.len()).collect();
-        Particles { shapes, species }
+        ParticleShapes { shapes, species }
     }
 
     pub fn n(&self) -> usize {
@@ -221,7 +221,7 @@ fn sq_props(
 
 /// The props of every species (for a sphere among superquadrics the contact solver treats it
 /// as a superquadric with exponents 2).
-pub(super) fn props_of(p: &Particles) -> Result<Vec<Props>> {
+pub(super) fn props_of(p: &ParticleShapes) -> Result<Vec<Props>> {
     let sq = p.has_superquadrics();
     p.shapes
         .iter()

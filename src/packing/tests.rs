@@ -2,16 +2,8 @@ use super::*;
 use crate::analysis;
 
 /// Parameters of a short test run: scheme, Delta V per particle, halvings, tries per particle.
-fn quick(
-    n: usize,
-    length: f64,
-    seed: u64,
-    scheme: Scheme,
-    dv: f64,
-    h: u32,
-    tries: f64,
-) -> McmParams {
-    let mut prm = McmParams::new(n, length, seed);
+fn quick(n: usize, length: f64, seed: u64, scheme: Scheme, dv: f64, h: u32, tries: f64) -> Setup {
+    let mut prm = Setup::new(n, length, seed);
     prm.scheme = scheme;
     prm.delta_v_per_particle = dv;
     prm.halvings = h;
@@ -29,18 +21,21 @@ fn inertia_of_sphere_and_volume() {
 
 #[test]
 fn bad_parameters_are_errors() {
-    let mut p = McmParams::new(10, 0.0, 1);
+    let mut p = Setup::new(10, 0.0, 1);
     p.phi0 = 0.5;
-    assert!(run(&p).unwrap_err().to_string().contains("phi0"));
-    let mut p = McmParams::new(1, 0.0, 1);
+    assert!(run_to_end(p.clone())
+        .unwrap_err()
+        .to_string()
+        .contains("phi0"));
+    let mut p = Setup::new(1, 0.0, 1);
     assert!(p.validate().is_err());
-    p = McmParams::new(10, -1.0, 1);
+    p = Setup::new(10, -1.0, 1);
     assert!(p.validate().unwrap_err().to_string().contains("length"));
-    p = McmParams::new(10, 0.0, 1);
+    p = Setup::new(10, 0.0, 1);
     p.dt = f64::NAN;
     assert!(p.validate().unwrap_err().to_string().contains("dt"));
     for bad in [f64::NAN, f64::INFINITY, -1.0, 100.0] {
-        p = McmParams::new(10, 0.0, 1);
+        p = Setup::new(10, 0.0, 1);
         p.stage_budget_per_particle = Some(bad);
         let e = p.validate().unwrap_err().to_string();
         assert!(e.contains("stage_budget_per_particle"), "{bad}: {e}");
@@ -67,9 +62,9 @@ fn random_start_is_overlap_free_and_deterministic() {
 #[test]
 fn large_starts_are_numbered_along_the_z_order_curve() {
     use crate::contact::ContactShape;
-    let rod = Particles::monodisperse(1, 1.0).shapes[0];
+    let rod = ParticleShapes::monodisperse(1, 1.0).shapes[0];
     for (n, renumbered) in [(Z_ORDER_MIN_PARTICLES, true), (400, false)] {
-        let particles = Particles::mixture(&[
+        let particles = ParticleShapes::mixture(&[
             (ContactShape::Sphere { radius: 0.5 }, n / 2),
             (ContactShape::Sphere { radius: 0.35 }, n / 4),
             (rod, n - n / 2 - n / 4),
@@ -109,11 +104,11 @@ fn two_overlapping_spheres_are_separated() {
         let mut p = Packing {
             container: Container::Periodic,
             box_length: 10.0,
-            particles: Particles::monodisperse(2, 0.0),
+            particles: ParticleShapes::monodisperse(2, 0.0),
             positions: vec![Vector3::new(5.0, 5.0, 5.0), Vector3::new(5.9, 5.0, 5.0)],
             orientations: vec![UnitQuaternion::identity(); 2],
         };
-        let mut prm = McmParams::new(2, 0.0, 1);
+        let mut prm = Setup::new(2, 0.0, 1);
         prm.scheme = scheme;
         let r = remove_overlaps(&mut p, &prm, 10_000).unwrap();
         assert!(r.is_ok(), "{scheme:?}: {r:?}");
@@ -137,11 +132,11 @@ fn crossed_rods_are_separated_with_rotation() {
         let mut p = Packing {
             container: Container::Periodic,
             box_length: 12.0,
-            particles: Particles::monodisperse(2, 3.0),
+            particles: ParticleShapes::monodisperse(2, 3.0),
             positions: vec![Vector3::new(6.0, 6.0, 6.0), Vector3::new(6.8, 6.5, 6.6)],
             orientations: vec![q0, q1],
         };
-        let mut prm = McmParams::new(2, 3.0, 1);
+        let mut prm = Setup::new(2, 3.0, 1);
         prm.scheme = scheme;
         let r = remove_overlaps(&mut p, &prm, 100_000).unwrap();
         assert!(r.is_ok(), "{scheme:?}: {r:?}");
@@ -159,8 +154,8 @@ fn crossed_rods_are_separated_with_rotation() {
 #[test]
 fn small_sphere_run_is_overlap_free_dense_and_deterministic() {
     let prm = quick(40, 0.0, 3, Scheme::Original, 0.02, 3, 50.0);
-    let a = run(&prm).unwrap();
-    let b = run(&prm).unwrap();
+    let a = run_to_end(prm.clone()).unwrap();
+    let b = run_to_end(prm.clone()).unwrap();
     assert_eq!(a.packing.positions, b.packing.positions);
     assert!(a.jammed);
     analysis::check_no_overlap(&a.packing.view(), prm.overlap_tol).unwrap();
@@ -181,7 +176,7 @@ fn small_sphere_run_is_overlap_free_dense_and_deterministic() {
 fn small_rod_run_is_overlap_free() {
     for scheme in [Scheme::Revised, Scheme::Original] {
         let prm = quick(40, 1.0, 5, scheme, 0.05, 3, 100.0);
-        let a = run(&prm).unwrap();
+        let a = run_to_end(prm.clone()).unwrap();
         analysis::check_no_overlap(&a.packing.view(), prm.overlap_tol).unwrap();
         let phi = a.packing.packing_fraction();
         assert!(phi > 0.3, "{scheme:?}: phi = {phi}");
@@ -205,13 +200,13 @@ fn wall_overlaps_are_removed_by_virtual_particles() {
             let mut p = Packing {
                 container: Container::Cylinder { diameter: 3.0 },
                 box_length: 10.0,
-                particles: Particles::monodisperse(1, length),
+                particles: ParticleShapes::monodisperse(1, length),
                 positions: vec![x],
                 orientations: vec![q],
             };
             let before = analysis::wall_penetration(&p.view()).unwrap().unwrap().1;
             assert!(before > 0.1, "{scheme:?} L = {length}: {before}");
-            let mut prm = McmParams::new(1, length, 1);
+            let mut prm = Setup::new(1, length, 1);
             prm.scheme = scheme;
             let r = remove_overlaps(&mut p, &prm, 10_000).unwrap();
             assert!(r.is_ok(), "{scheme:?} L = {length}: {r:?}");
@@ -231,8 +226,8 @@ fn cylinder_run_is_overlap_free_and_inside() {
     for (length, scheme) in [(0.0, Scheme::Original), (1.0, Scheme::Original)] {
         let mut prm = quick(60, length, 8, scheme, 0.05, 3, 100.0);
         prm.container = Container::Cylinder { diameter: 3.5 };
-        let a = run(&prm).unwrap();
-        let b = run(&prm).unwrap();
+        let a = run_to_end(prm.clone()).unwrap();
+        let b = run_to_end(prm.clone()).unwrap();
         assert_eq!(a.packing.positions, b.packing.positions);
         // Independent check: all pairs over the z images, and every end point inside.
         analysis::check_no_overlap(&a.packing.view(), prm.overlap_tol * (1.0 + 1e-6)).unwrap();
@@ -241,9 +236,9 @@ fn cylinder_run_is_overlap_free_and_inside() {
         assert_eq!(phi, analysis::packing_fraction(&a.packing.view()).unwrap());
     }
     // A cylinder narrower than a particle is refused, naming the rule.
-    let mut prm = McmParams::new(10, 0.0, 1);
+    let mut prm = Setup::new(10, 0.0, 1);
     prm.container = Container::Cylinder { diameter: 0.9 };
-    let e = run(&prm).unwrap_err().to_string();
+    let e = run_to_end(prm.clone()).unwrap_err().to_string();
     assert!(e.contains("cylinder diameter 0.9"), "{e}");
 }
 
@@ -281,8 +276,8 @@ fn mixtures_pack_overlap_free_with_both_schemes() {
             let n = parts.iter().map(|(_, c)| c).sum();
             let mut prm = quick(n, 0.0, 5, scheme, 0.02, 3, 100.0);
             prm.dt = 0.5;
-            prm.particles = Some(Particles::mixture(&parts));
-            let r = run(&prm).unwrap();
+            prm.particles = Some(ParticleShapes::mixture(&parts));
+            let r = run_to_end(prm.clone()).unwrap();
             let p = &r.packing;
             analysis::check_no_overlap(&p.view(), prm.overlap_tol).unwrap();
             let phi = vol / p.box_length.powi(3);
@@ -293,7 +288,7 @@ fn mixtures_pack_overlap_free_with_both_schemes() {
             );
             assert!(phi > 0.4, "{scheme:?}: compressed only to {phi}");
             // The large particles were placed first and every particle kept its species.
-            assert_eq!(p.particles, Particles::mixture(&parts));
+            assert_eq!(p.particles, ParticleShapes::mixture(&parts));
         }
     }
 }
@@ -303,8 +298,11 @@ fn mixtures_pack_overlap_free_with_both_schemes() {
 fn one_species_table_is_the_monodisperse_run() {
     let a = quick(40, 0.6, 8, Scheme::Original, 0.02, 2, 50.0);
     let mut b = a.clone();
-    b.particles = Some(Particles::monodisperse(40, 0.6));
-    let (ra, rb) = (run(&a).unwrap(), run(&b).unwrap());
+    b.particles = Some(ParticleShapes::monodisperse(40, 0.6));
+    let (ra, rb) = (
+        run_to_end(a.clone()).unwrap(),
+        run_to_end(b.clone()).unwrap(),
+    );
     assert_eq!(ra.packing.positions, rb.packing.positions);
     assert_eq!(ra.packing.orientations, rb.packing.orientations);
 }
@@ -313,16 +311,16 @@ fn one_species_table_is_the_monodisperse_run() {
 #[test]
 fn bad_particle_tables_are_errors() {
     use crate::contact::ContactShape as C;
-    let mut p = McmParams::new(3, 0.0, 1);
-    p.particles = Some(Particles::mixture(&[(C::Sphere { radius: 0.5 }, 2)]));
+    let mut p = Setup::new(3, 0.0, 1);
+    p.particles = Some(ParticleShapes::mixture(&[(C::Sphere { radius: 0.5 }, 2)]));
     assert!(p.validate().unwrap_err().to_string().contains("n = 3"));
-    p.particles = Some(Particles::mixture(&[(C::Sphere { radius: -0.5 }, 3)]));
+    p.particles = Some(ParticleShapes::mixture(&[(C::Sphere { radius: -0.5 }, 3)]));
     assert!(p.validate().unwrap_err().to_string().contains("radius"));
     let sb = C::Superquadric {
         semi_axes: [0.5; 3],
         exponents: [3.0; 3],
     };
-    p.particles = Some(Particles::mixture(&[(sb, 3)]));
+    p.particles = Some(ParticleShapes::mixture(&[(sb, 3)]));
     p.scheme = Scheme::Original;
     assert!(p.validate().unwrap_err().to_string().contains("revised"));
 }
@@ -349,9 +347,9 @@ fn small_superball_packing_is_overlap_free_by_the_sampled_check() {
     };
     let mut prm = quick(24, 0.0, 4, Scheme::Revised, 0.05, 1, 50.0);
     prm.dt = 0.5;
-    prm.particles = Some(Particles::mixture(&[(sb, 24)]));
+    prm.particles = Some(ParticleShapes::mixture(&[(sb, 24)]));
     let t = std::time::Instant::now();
-    let r = run(&prm).unwrap();
+    let r = run_to_end(prm.clone()).unwrap();
     let p = &r.packing;
     let (deepest, spacing) = assert_sampled_overlap_free(p, prm.overlap_tol);
     let phi = p.packing_fraction();
@@ -380,7 +378,7 @@ fn dense_polydisperse_spheres_end_overlap_free() {
         .collect();
     let mut prm = quick(n, 0.0, 6, Scheme::Original, 0.02, 3, 200.0);
     prm.beta = 1.3;
-    prm.particles = Some(Particles::per_particle(shapes));
+    prm.particles = Some(ParticleShapes::per_particle(shapes));
     // Also with the collective relaxation as final stage (forces of unequal spheres).
     let relax = Stage {
         scheme: Scheme::Relax,
@@ -393,7 +391,7 @@ fn dense_polydisperse_spheres_end_overlap_free() {
     };
     for last in [None, Some(relax)] {
         prm.final_stage = last;
-        let r = run(&prm).unwrap();
+        let r = run_to_end(prm.clone()).unwrap();
         analysis::check_no_overlap(&r.packing.view(), prm.overlap_tol).unwrap();
         assert!(
             r.packing.packing_fraction() > 0.55,
@@ -413,7 +411,7 @@ fn relax_separates_a_pair_and_keeps_the_centre_of_mass() {
     let mk = || Packing {
         container: Container::Periodic,
         box_length: 6.0,
-        particles: Particles::monodisperse(2, 0.0),
+        particles: ParticleShapes::monodisperse(2, 0.0),
         positions: vec![Vector3::new(2.6, 3.0, 3.0), Vector3::new(3.4, 3.1, 2.9)],
         orientations: vec![UnitQuaternion::identity(); 2],
     };
@@ -448,7 +446,7 @@ fn relax_detects_a_balanced_jammed_configuration() {
     let mut p = Packing {
         container: Container::Periodic,
         box_length: l,
-        particles: Particles::monodisperse(4, 0.0),
+        particles: ParticleShapes::monodisperse(4, 0.0),
         positions: (0..4)
             .map(|k| Vector3::new(k as f64 * l / 4.0, 0.5, 0.5))
             .collect(),
@@ -474,8 +472,8 @@ fn relax_stage_packs_spherocylinders_overlap_free() {
         beta: 0.5,
         dt: 0.2,
     });
-    let a = run(&prm).unwrap();
-    let b = run(&prm).unwrap();
+    let a = run_to_end(prm.clone()).unwrap();
+    let b = run_to_end(prm.clone()).unwrap();
     assert_eq!(a.packing.orientations, b.packing.orientations);
     analysis::check_no_overlap(&a.packing.view(), prm.overlap_tol).unwrap();
     assert!(
@@ -489,8 +487,8 @@ fn relax_stage_packs_spherocylinders_overlap_free() {
 /// with at least 5.5 contacts per non-rattler (extrapolated to zero cut-off, sec. 2.2.5).
 #[test]
 fn jammed_spheres_schedule_settles_contacts() {
-    let prm = McmParams::jammed_spheres(200, 3);
-    let r = run(&prm).unwrap();
+    let prm = Setup::jammed_spheres(200, 3);
+    let r = run_to_end(prm.clone()).unwrap();
     let v = r.packing.view();
     analysis::check_no_overlap(&v, prm.overlap_tol).unwrap();
     let gaps = analysis::pair_gaps(&v, 1e-5).unwrap();
@@ -511,20 +509,16 @@ fn jammed_spheres_schedule_settles_contacts() {
 #[test]
 fn stage_budget_bounds_the_moves_and_cuts_the_run_short() {
     let n = 200;
-    let mut free = McmParams::jammed_spheres(n, 3);
+    let mut free = Setup::jammed_spheres(n, 3);
     free.final_stage.as_mut().unwrap().stage_budget_per_particle = None;
-    let full = run(&free).unwrap();
+    let full = run_to_end(free.clone()).unwrap();
     assert!(!full.stage_budget_spent);
     // Stage 2's moves in the unbudgeted run: everything after stage 1's last step.
-    let mut state = McmState::new(
-        random_start_of(free.container, free.particles(), free.phi0, free.seed).unwrap(),
-        &free,
-    )
-    .unwrap();
-    while state.stage == 0 {
-        state.step(&free).unwrap();
+    let mut state = Mcm::new(free.clone()).unwrap();
+    while state.state().stage == 0 {
+        state.step().unwrap();
     }
-    let stage1_tries = state.total_tries;
+    let stage1_tries = state.state().total_tries;
     let stage2_full = full.total_tries - stage1_tries;
     // Half of it, but at least one step's budget.
     let budget_pp = (stage2_full as f64 / n as f64 / 2.0).max(2000.0);
@@ -534,7 +528,7 @@ fn stage_budget_bounds_the_moves_and_cuts_the_run_short() {
         .as_mut()
         .unwrap()
         .stage_budget_per_particle = Some(budget_pp);
-    let cut = run(&capped).unwrap();
+    let cut = run_to_end(capped.clone()).unwrap();
     assert!(cut.stage_budget_spent && cut.jammed);
     let stage2_cut = cut.total_tries - stage1_tries;
     assert!(

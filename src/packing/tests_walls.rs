@@ -14,7 +14,7 @@ fn one(c: Container, s: C, x: Vector3<f64>, q: UnitQuaternion<f64>) -> Packing {
     Packing {
         container: c,
         box_length: 10.0,
-        particles: Particles::mixture(&[(s, 1)]),
+        particles: ParticleShapes::mixture(&[(s, 1)]),
         positions: vec![x],
         orientations: vec![q],
     }
@@ -309,17 +309,17 @@ fn superballs_pack_inside_cylinder_and_wedge() {
     };
     let cyl = Container::Cylinder { diameter: 4.0 };
     for (c, last) in [(cyl, None), (wedge, Some(relax))] {
-        let mut prm = McmParams::new(n, 0.0, 3);
+        let mut prm = Setup::new(n, 0.0, 3);
         prm.scheme = Scheme::Revised;
         prm.delta_v_per_particle = 0.05;
         prm.halvings = 1;
         prm.tries_per_particle = 50.0;
         prm.dt = 0.5;
-        prm.particles = Some(Particles::mixture(&[(sb, n)]));
+        prm.particles = Some(ParticleShapes::mixture(&[(sb, n)]));
         prm.container = c;
         prm.final_stage = last;
         let t = std::time::Instant::now();
-        let r = run(&prm).unwrap();
+        let r = run_to_end(prm.clone()).unwrap();
         let secs = t.elapsed().as_secs_f64();
         let p = &r.packing;
         let wall = sampled_wall_penetration(p, a, g);
@@ -337,7 +337,7 @@ fn superballs_pack_inside_cylinder_and_wedge() {
         );
         assert!(phi > 0.35, "{c:?}: phi = {phi}");
         if last.is_none() {
-            let again = run(&prm).unwrap();
+            let again = run_to_end(prm.clone()).unwrap();
             assert_eq!(again.packing.positions, p.positions);
         }
     }
@@ -389,17 +389,17 @@ fn superball_far_outside_a_wall_is_pushed_back() {
             assert!((-o.normal).dot(&inward(&x)) > 0.0, "{c:?}: {o:?}");
         }
         // Never accepted outside: a start with the escaped particle (and one inside) is refused.
-        let mut prm = McmParams::new(2, 0.0, 1);
-        prm.particles = Some(Particles::mixture(&[(sb, 2)]));
+        let mut prm = Setup::new(2, 0.0, 1);
+        prm.particles = Some(ParticleShapes::mixture(&[(sb, 2)]));
         prm.container = c;
         let mut two = p0.clone();
-        two.particles = Particles::mixture(&[(sb, 2)]);
+        two.particles = ParticleShapes::mixture(&[(sb, 2)]);
         two.positions.push(match c {
             Container::Cylinder { .. } => Vector3::new(0.3, 0.2, 1.0),
             _ => Vector3::new(3.3, 1.2, 1.0),
         });
         two.orientations.push(q);
-        let e = McmState::new(two, &prm).unwrap_err().to_string();
+        let e = Mcm::from_start(prm.clone(), two).unwrap_err().to_string();
         assert!(e.contains("overlaps"), "{e}");
         for scheme in [Scheme::Revised, Scheme::Relax] {
             prm.scheme = scheme;
@@ -424,8 +424,8 @@ fn superquadrics_in_walls_refuse_unsupported_setups() {
         semi_axes: [0.5; 3],
         exponents: [3.0; 3],
     };
-    let mut prm = McmParams::new(10, 0.0, 1);
-    prm.particles = Some(Particles::mixture(&[(sb, 10)]));
+    let mut prm = Setup::new(10, 0.0, 1);
+    prm.particles = Some(ParticleShapes::mixture(&[(sb, 10)]));
     prm.container = Container::Cylinder { diameter: 4.0 };
     prm.scheme = Scheme::Original;
     assert!(prm.validate().unwrap_err().to_string().contains("revised"));
@@ -433,7 +433,7 @@ fn superquadrics_in_walls_refuse_unsupported_setups() {
     prm.validate().unwrap();
     // Bounding diameter 3^(1/6) = 1.20 > 1.15.
     prm.container = Container::Cylinder { diameter: 1.15 };
-    let e = run(&prm).unwrap_err().to_string();
+    let e = run_to_end(prm.clone()).unwrap_err().to_string();
     assert!(e.contains("cylinder diameter 1.15"), "{e}");
 }
 

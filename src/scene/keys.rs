@@ -45,6 +45,22 @@ fn rename_in(table: &mut toml::Table, origin: &str, path: &str) {
     }
 }
 
+/// `text` (a scene file read from `origin`) deserialised as `T` after [`rename_old_keys`]:
+/// from the text itself when no key was renamed, so that errors show the line.
+pub fn parse_renamed<T: serde::de::DeserializeOwned>(
+    text: &str,
+    origin: &str,
+) -> Result<T, toml::de::Error> {
+    let table: toml::Table = toml::from_str(text)?;
+    let mut renamed = table.clone();
+    rename_old_keys(&mut renamed, origin);
+    if renamed == table {
+        toml::from_str(text)
+    } else {
+        toml::Value::Table(renamed).try_into()
+    }
+}
+
 /// Notes already printed in this process: a sweep that checks a thousand jobs of one scene
 /// prints each note once.
 static PRINTED: Mutex<Vec<String>> = Mutex::new(Vec::new());
@@ -78,5 +94,22 @@ mod tests {
         let mut t: toml::Table = toml::from_str("rho_kg_m3 = 1.0\ndensity_kg_m3 = 2.0\n").unwrap();
         rename_old_keys(&mut t, "s.toml");
         assert!(t.contains_key("rho_kg_m3"));
+    }
+
+    /// Without an old spelling the text itself is read (errors show the line); with one, the
+    /// renamed table.
+    #[test]
+    fn parse_renamed_reads_old_spellings_and_keeps_lines_in_errors() {
+        #[derive(serde::Deserialize, Debug)]
+        #[serde(deny_unknown_fields)]
+        struct F {
+            viscosity_pa_s: f64,
+        }
+        let f: F = parse_renamed("viscosity_Pa_s = 2.0\n", "s.toml").unwrap();
+        assert_eq!(f.viscosity_pa_s, 2.0);
+        let e = parse_renamed::<F>("\nviscosity = 2.0\n", "s.toml")
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("line 2") && e.contains("viscosity"), "{e}");
     }
 }

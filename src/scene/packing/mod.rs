@@ -49,8 +49,10 @@
 //! s4_trials = 2000                 # trial directions of the S4 maximisation (eq. 4.17)
 //! ```
 //!
-//! The scene's schema and its checks are in `schema.rs`, the run loop with its checkpoints in
-//! `run.rs`, the measures and output files in `outputs.rs`.
+//! The scene's schema (a serde mirror of [`crate::packing::Setup`]) and its checks are in
+//! `schema.rs`; `run.rs` builds the engine ([`crate::packing::Mcm`]) and runs its driver with
+//! this scene's progress, checkpoint and stop hooks; `outputs.rs` writes the files and the
+//! checkpoint.
 //!
 //! Outputs in the output folder (README, "Output formats"): `final.xyz` (extended XYZ),
 //! `summary.json`, `phi_history.csv`, `gr.csv`, and `checkpoint.json`, written atomically after
@@ -86,7 +88,6 @@ impl super::Scene for Kind {
 #[cfg(test)]
 mod tests;
 
-pub use outputs::{measure, Measures};
 pub use run::run_scene;
 pub use schema::{parse_scene, PackingScene};
 

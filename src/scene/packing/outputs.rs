@@ -1,21 +1,25 @@
-//! What a finished (or interrupted) run writes: the measures of the final configuration and
-//! the files `final.xyz`, `summary.json`, `phi_history.csv`, `gr.csv`, the orientation
-//! histogram and the plots.
+//! What a run writes: the files of a finished run (`final.xyz`, `summary.json`,
+//! `phi_history.csv`, `gr.csv`, the orientation histogram and the plots) with the measures of
+//! [`packing::measure`], and `checkpoint.json`, the state of an unfinished one.
 
 use super::schema::PackingScene;
 use crate::analysis;
 use crate::contact::ContactShape;
 use crate::error::Error;
+use crate::io::csv_table::CsvTable;
 use crate::io::plot::CsvPlot;
 use crate::io::{write_atomic, xyz};
-use crate::packing::{self, Container, McmState, Packing, Particles};
+use crate::packing::measure::{measure, Measures};
+use crate::packing::{Container, McmState, Packing, ParticleShapes, StepRecord};
 use crate::Result;
-use serde::Serialize;
+use nalgebra::{Quaternion, UnitQuaternion, Vector3};
+use serde::{Deserialize, Serialize};
+use std::fmt::Display;
 use std::path::Path;
 
 /// One line per species kind: "1000 sphere d = 1", "750 superquadric a = [..] g = [..]"; a
 /// polydisperse species (one particle per table entry) is summarised by its diameter range.
-pub(super) fn describe_particles(p: &Particles) -> String {
+pub(super) fn describe_particles(p: &ParticleShapes) -> String {
     let counts = p.counts();
     if p.shapes.len() > 8 {
         let d: Vec<f64> = p
@@ -82,95 +86,6 @@ fn xyz_columns(s: &ContactShape) -> (&'static str, [f64; 3], f64, f64, [f64; 2])
     }
 }
 
-/// Observables of a final configuration (thesis sec. 2.2.5, 3.3, eq. 2.11, 4.17).
-#[derive(Debug, Clone, Serialize)]
-pub struct Measures {
-    pub packing_fraction: f64,
-    /// Deepest overlap (>= 0) by the analysis' pair search ([`analysis::pair_gaps`], independent
-    /// of the engine; equal to the brute force over all pairs and images).
-    pub deepest_overlap: f64,
-    pub contact_cutoffs: Vec<f64>,
-    /// Mean contacts at each cut-off, all particles.
-    pub contacts_at_cutoffs: Vec<f64>,
-    /// Linear extrapolation to zero cut-off, all particles counted (rattlers included).
-    pub contacts_extrapolated: f64,
-    /// The same with rattlers removed repeatedly (fewer than `rattler_min_contacts`); `None`
-    /// (JSON null) when that removes every particle at some cut-off, as it does for hypostatic
-    /// packings (superballs with the default threshold 5): there is no mean to report.
-    pub contacts_extrapolated_no_rattlers: Option<f64>,
-    pub rattler_min_contacts: usize,
-    /// Rattlers at the smallest cut-off.
-    pub rattlers: usize,
-    pub nematic_s: f64,
-    pub cubatic_s4: f64,
-    /// Cylinder and wedge: fraction of the particles within D of a wall whose axis is
-    /// tangential to it within 4 degrees (thesis sec. 2.2.5, Fig. 2.6, 2.14), and how many are
-    /// in that layer.
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub wall_aligned_fraction: Option<f64>,
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub wall_layer_particles: Option<usize>,
-    /// Ellipsoids / superquadrics only: deepest penetration proven by the solver-free sampled
-    /// check ([`analysis::sampled_overlap`], 0 when no sample lies inside another particle)
-    /// and the sample spacing, its resolution.
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub sampled_deepest_overlap: Option<f64>,
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub sample_spacing: Option<f64>,
-}
-
-/// Measures a configuration with [`crate::analysis`].
-pub fn measure(
-    p: &Packing,
-    cutoffs: &[f64],
-    min_contacts: usize,
-    s4_trials: usize,
-) -> Result<Measures> {
-    let v = p.view();
-    let dmax = cutoffs.iter().cloned().fold(0.0, f64::max);
-    let gaps = analysis::pair_gaps(&v, dmax)?;
-    let deepest = gaps.iter().map(|g| -g.gap).fold(0.0f64, f64::max);
-    let contacts_at: Vec<f64> = cutoffs
-        .iter()
-        .map(|&d| analysis::mean_contacts(v.n(), &gaps, d, None).0)
-        .collect();
-    let (c0, _) = analysis::extrapolated_contacts(v.n(), &gaps, cutoffs, None)?;
-    let c0r = if analysis::cutoff_where_all_rattle(v.n(), &gaps, cutoffs, min_contacts).is_some() {
-        None
-    } else {
-        Some(analysis::extrapolated_contacts(v.n(), &gaps, cutoffs, Some(min_contacts))?.0)
-    };
-    let dmin = cutoffs.iter().cloned().fold(f64::INFINITY, f64::min);
-    let (_, rattlers) = analysis::mean_contacts(v.n(), &gaps, dmin, Some(min_contacts));
-    let wall = match p.container {
-        Container::Periodic => None,
-        Container::Cylinder { .. } | Container::Wedge { .. } => Some(
-            analysis::wall_aligned_fraction(&v, 2.0 * packing::RADIUS, 4f64.to_radians())?,
-        ),
-    };
-    let sampled = if p.particles.has_superquadrics() {
-        Some(analysis::sampled_overlap(&v, analysis::OVERLAP_SAMPLES)?)
-    } else {
-        None
-    };
-    Ok(Measures {
-        sampled_deepest_overlap: sampled.map(|s| s.worst.map_or(0.0, |w| w.2)),
-        sample_spacing: sampled.map(|s| s.spacing),
-        packing_fraction: p.packing_fraction(),
-        deepest_overlap: deepest,
-        contact_cutoffs: cutoffs.to_vec(),
-        contacts_at_cutoffs: contacts_at,
-        contacts_extrapolated: c0,
-        contacts_extrapolated_no_rattlers: c0r,
-        rattler_min_contacts: min_contacts,
-        rattlers,
-        nematic_s: analysis::nematic_order(&p.axes())?,
-        cubatic_s4: analysis::cubatic_order(&p.orientations, s4_trials)?,
-        wall_aligned_fraction: wall.map(|w| w.0),
-        wall_layer_particles: wall.map(|w| w.1),
-    })
-}
-
 #[derive(Serialize)]
 struct Summary<'a> {
     scene: &'a str,
@@ -206,13 +121,9 @@ pub(super) fn write_outputs(
     seconds: f64,
 ) -> Result<(String, bool)> {
     let p = &state.packing;
-    let prm = &scene.params;
-    let m = measure(
-        p,
-        &scene.cutoffs,
-        scene.rattler_min_contacts,
-        scene.s4_trials,
-    )?;
+    let prm = &scene.setup;
+    let a = &scene.analysis;
+    let m = measure(p, &a.cutoffs, a.rattler_min_contacts, a.s4_trials)?;
     let parts: Vec<xyz::XyzParticle> = (0..p.n())
         .map(|i| {
             let (name, shape, radius, cylinder_length, roundness) =
@@ -250,14 +161,16 @@ pub(super) fn write_outputs(
             ("seed", format!("{}", prm.seed)),
         ],
     )?;
-    let mut csv = String::from("step,delta_v_D3,packing_fraction,tries\n");
+    let mut csv = CsvTable::new(&["step", "delta_v_D3", "packing_fraction", "tries"]);
     for h in &state.history {
-        csv.push_str(&format!(
-            "{},{},{},{}\n",
-            h.step, h.delta_v, h.packing_fraction, h.tries
-        ));
+        csv.row([
+            &h.step as &dyn Display,
+            &h.delta_v,
+            &h.packing_fraction,
+            &h.tries,
+        ]);
     }
-    write_atomic(&out.join("phi_history.csv"), csv.as_bytes())?;
+    csv.write(&out.join("phi_history.csv"))?;
     CsvPlot {
         title: "Packing fraction after each accepted compression step",
         x: "step",
@@ -266,15 +179,15 @@ pub(super) fn write_outputs(
         y_label: "packing fraction",
         ..Default::default()
     }
-    .write_or_warn(&out.join("phi_history.svg"), &csv);
+    .write_or_warn(&out.join("phi_history.svg"), csv.as_str());
     if p.container == Container::Periodic {
-        let rmax = scene.gr_r_max.unwrap_or(3.0).min(0.5 * p.box_length);
-        let g = analysis::radial_distribution(&p.view(), rmax, scene.gr_bins)?;
-        let mut gcsv = String::from("r_D,g\n");
+        let rmax = a.gr_r_max.unwrap_or(3.0).min(0.5 * p.box_length);
+        let g = analysis::radial_distribution(&p.view(), rmax, a.gr_bins)?;
+        let mut gcsv = CsvTable::new(&["r_D", "g"]);
         for (rc, v) in g {
-            gcsv.push_str(&format!("{rc},{v}\n"));
+            gcsv.row([rc, v]);
         }
-        write_atomic(&out.join("gr.csv"), gcsv.as_bytes())?;
+        gcsv.write(&out.join("gr.csv"))?;
         CsvPlot {
             title: "Radial distribution function of the centres",
             x: "r_D",
@@ -283,22 +196,23 @@ pub(super) fn write_outputs(
             y_label: "g(r)",
             ..Default::default()
         }
-        .write_or_warn(&out.join("gr.svg"), &gcsv);
+        .write_or_warn(&out.join("gr.svg"), gcsv.as_str());
     }
     let h = analysis::orientation_histogram(&p.axes(), 9, 18)?;
-    let mut hcsv = String::from("theta_lo_deg,theta_hi_deg,phi_lo_deg,phi_hi_deg,count\n");
+    let mut hcsv = CsvTable::new(&[
+        "theta_lo_deg",
+        "theta_hi_deg",
+        "phi_lo_deg",
+        "phi_hi_deg",
+        "count",
+    ]);
     for (kt, row) in h.iter().enumerate() {
         for (kp, c) in row.iter().enumerate() {
-            hcsv.push_str(&format!(
-                "{},{},{},{},{c}\n",
-                kt * 10,
-                (kt + 1) * 10,
-                kp * 10,
-                (kp + 1) * 10
-            ));
+            let bin = [kt * 10, (kt + 1) * 10, kp * 10, (kp + 1) * 10];
+            hcsv.row([&bin[0] as &dyn Display, &bin[1], &bin[2], &bin[3], c]);
         }
     }
-    write_atomic(&out.join("orientation_histogram.csv"), hcsv.as_bytes())?;
+    hcsv.write(&out.join("orientation_histogram.csv"))?;
     let rattler_free_mean_defined = m.contacts_extrapolated_no_rattlers.is_some();
     let s = Summary {
         scene: origin,
@@ -327,4 +241,153 @@ pub(super) fn write_outputs(
     let json = serde_json::to_string_pretty(&s).map_err(|e| Error::InvalidInput(e.to_string()))?;
     write_atomic(&out.join("summary.json"), json.as_bytes())?;
     Ok((json, rattler_free_mean_defined))
+}
+
+/// The checkpoint: the scene fingerprint and the full [`McmState`], every f64 stored as its
+/// IEEE bits so the resumed run starts from bitwise the same state.
+#[derive(Serialize, Deserialize)]
+struct Checkpoint {
+    format: u32,
+    scene: String,
+    seconds: f64,
+    box_length: u64,
+    positions: Vec<[u64; 3]>,
+    /// Quaternion (w, i, j, k) bits.
+    orientations: Vec<[u64; 4]>,
+    delta_v: u64,
+    halvings_left: u32,
+    stage: u32,
+    /// (step, packing fraction bits, Delta V bits, tries) per accepted step.
+    history: Vec<(usize, u64, u64, u64)>,
+    failed_steps: usize,
+    total_tries: u64,
+    /// Moves in the running stage (absent in checkpoints written before stage budgets: 0,
+    /// which is exact for their scenes, as they had no budget).
+    #[serde(default)]
+    stage_tries: u64,
+    #[serde(default)]
+    stage_budget_spent: bool,
+    finished: Option<bool>,
+}
+
+pub(super) fn write_checkpoint(
+    path: &Path,
+    scene: &PackingScene,
+    s: &McmState,
+    seconds: f64,
+) -> Result<()> {
+    let p = &s.packing;
+    let c = Checkpoint {
+        format: 2,
+        scene: scene.fingerprint.clone(),
+        seconds,
+        box_length: p.box_length.to_bits(),
+        positions: p
+            .positions
+            .iter()
+            .map(|x| [x.x.to_bits(), x.y.to_bits(), x.z.to_bits()])
+            .collect(),
+        orientations: p
+            .orientations
+            .iter()
+            .map(|q| {
+                let q = q.quaternion();
+                [q.w.to_bits(), q.i.to_bits(), q.j.to_bits(), q.k.to_bits()]
+            })
+            .collect(),
+        delta_v: s.delta_v.to_bits(),
+        halvings_left: s.halvings_left,
+        stage: s.stage,
+        history: s
+            .history
+            .iter()
+            .map(|h| {
+                (
+                    h.step,
+                    h.packing_fraction.to_bits(),
+                    h.delta_v.to_bits(),
+                    h.tries,
+                )
+            })
+            .collect(),
+        failed_steps: s.failed_steps,
+        total_tries: s.total_tries,
+        stage_tries: s.stage_tries,
+        stage_budget_spent: s.stage_budget_spent,
+        finished: s.finished,
+    };
+    let text = serde_json::to_vec(&c).map_err(|e| Error::InvalidInput(e.to_string()))?;
+    write_atomic(path, &text)
+}
+
+pub(super) fn read_checkpoint(path: &Path, scene: &PackingScene) -> Result<(McmState, f64)> {
+    let file_err = |msg: String| Error::File {
+        path: path.display().to_string(),
+        msg,
+    };
+    let text =
+        std::fs::read(path).map_err(|e| file_err(format!("cannot read the checkpoint: {e}")))?;
+    let c: Checkpoint = serde_json::from_slice(&text)
+        .map_err(|e| file_err(format!("not a packing checkpoint: {e}")))?;
+    if c.format != 2 {
+        return Err(file_err(format!(
+            "checkpoint format {}: this porelab reads format 2",
+            c.format
+        )));
+    }
+    if c.scene != scene.fingerprint {
+        return Err(file_err(
+            "written by a different scene (parameters differ): delete it to start afresh, or \
+             choose another output folder with --out"
+                .into(),
+        ));
+    }
+    let f = f64::from_bits;
+    if c.positions.len() != scene.setup.n || c.orientations.len() != scene.setup.n {
+        return Err(file_err(format!(
+            "{} positions, {} orientations: the scene has n = {}",
+            c.positions.len(),
+            c.orientations.len(),
+            scene.setup.n
+        )));
+    }
+    let packing = Packing {
+        container: scene.setup.container,
+        box_length: f(c.box_length),
+        particles: scene.setup.particles(),
+        positions: c
+            .positions
+            .iter()
+            .map(|b| Vector3::new(f(b[0]), f(b[1]), f(b[2])))
+            .collect(),
+        orientations: c
+            .orientations
+            .iter()
+            .map(|b| {
+                UnitQuaternion::new_unchecked(Quaternion::new(f(b[0]), f(b[1]), f(b[2]), f(b[3])))
+            })
+            .collect(),
+    };
+    let state = McmState {
+        packing,
+        delta_v: f(c.delta_v),
+        halvings_left: c.halvings_left,
+        history: c
+            .history
+            .iter()
+            .map(|h| StepRecord {
+                step: h.0,
+                packing_fraction: f(h.1),
+                delta_v: f(h.2),
+                tries: h.3,
+            })
+            .collect(),
+        failed_steps: c.failed_steps,
+        total_tries: c.total_tries,
+        stage_tries: c.stage_tries,
+        stage_budget_spent: c.stage_budget_spent,
+        stage: c.stage,
+        finished: c.finished,
+    };
+    Ok((state, c.seconds))
 }

@@ -1,9 +1,10 @@
-//! The packing scene file: its schema (serde, unknown keys refused by name) and the checks
-//! that turn it into a [`PackingScene`].
+//! The packing scene file: a serde mirror of [`packing::Setup`] (unknown keys refused by name,
+//! shapes, containers, schemes and size distributions as tagged enums) and its conversion into
+//! a [`PackingScene`], with errors that name the file, the key, the value and the rule.
 
 use crate::contact::ContactShape;
 use crate::error::{invalid, Error};
-use crate::packing::{Container, McmParams, Particles, Scheme, Stage};
+use crate::packing::{self, Container, ParticleShapes, Scheme, Stage};
 use crate::Result;
 use serde::{Deserialize, Serialize};
 
@@ -25,11 +26,13 @@ struct SceneFile {
     analysis: AnalysisSpec,
 }
 
+/// `[particles]`: equal spheres or spherocylinders by `shape`, `n` and
+/// `length_over_diameter`, or a table of species.
 #[derive(Debug, Clone, Default, Serialize, Deserialize, PartialEq)]
 #[serde(deny_unknown_fields)]
 struct ParticlesSpec {
     #[serde(default)]
-    shape: Option<String>,
+    shape: Option<EqualShape>,
     #[serde(default)]
     n: Option<usize>,
     #[serde(default)]
@@ -39,68 +42,141 @@ struct ParticlesSpec {
     species: Vec<SpeciesSpec>,
 }
 
-/// One `[[particles.species]]` entry.
+/// `particles.shape`: the shape of equal particles of diameter 1.
+#[derive(Debug, Clone, Copy, Serialize, Deserialize, PartialEq, Eq)]
+#[serde(rename_all = "kebab-case")]
+enum EqualShape {
+    Sphere,
+    Spherocylinder,
+}
+
+/// One `[[particles.species]]` entry, by its `shape`; each shape takes its own keys.
 #[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
-#[serde(deny_unknown_fields)]
-struct SpeciesSpec {
-    shape: String,
-    n: usize,
-    #[serde(default)]
-    diameter: Option<f64>,
-    #[serde(default)]
-    length: Option<f64>,
-    #[serde(default)]
-    semi_axes: Option<[f64; 3]>,
-    #[serde(default)]
-    exponents: Option<[f64; 3]>,
-    #[serde(default)]
-    half_width: Option<f64>,
-    #[serde(default)]
-    exponent: Option<f64>,
-    #[serde(default)]
-    polydisperse: Option<PolySpec>,
+#[serde(tag = "shape", rename_all = "kebab-case", deny_unknown_fields)]
+enum SpeciesSpec {
+    Sphere {
+        n: usize,
+        /// [1]
+        diameter: Option<f64>,
+        polydisperse: Option<PolySpec>,
+    },
+    Spherocylinder {
+        n: usize,
+        /// [1]
+        diameter: Option<f64>,
+        length: f64,
+        polydisperse: Option<PolySpec>,
+    },
+    Ellipsoid {
+        n: usize,
+        semi_axes: [f64; 3],
+    },
+    Superball {
+        n: usize,
+        /// [0.5]
+        half_width: Option<f64>,
+        exponent: f64,
+    },
+    Superquadric {
+        n: usize,
+        semi_axes: [f64; 3],
+        exponents: [f64; 3],
+    },
+}
+
+impl SpeciesSpec {
+    fn name(&self) -> &'static str {
+        match self {
+            SpeciesSpec::Sphere { .. } => "sphere",
+            SpeciesSpec::Spherocylinder { .. } => "spherocylinder",
+            SpeciesSpec::Ellipsoid { .. } => "ellipsoid",
+            SpeciesSpec::Superball { .. } => "superball",
+            SpeciesSpec::Superquadric { .. } => "superquadric",
+        }
+    }
+
+    fn n(&self) -> usize {
+        match *self {
+            SpeciesSpec::Sphere { n, .. }
+            | SpeciesSpec::Spherocylinder { n, .. }
+            | SpeciesSpec::Ellipsoid { n, .. }
+            | SpeciesSpec::Superball { n, .. }
+            | SpeciesSpec::Superquadric { n, .. } => n,
+        }
+    }
+
+    /// The shape at diameter `d` (spheres and spherocylinders; the others ignore it).
+    fn shape(&self, d: f64) -> ContactShape {
+        match *self {
+            SpeciesSpec::Sphere { .. } => ContactShape::Sphere { radius: 0.5 * d },
+            SpeciesSpec::Spherocylinder { length, .. } => ContactShape::Spherocylinder {
+                radius: 0.5 * d,
+                length,
+            },
+            SpeciesSpec::Ellipsoid { semi_axes, .. } => ContactShape::Ellipsoid { semi_axes },
+            SpeciesSpec::Superball {
+                half_width,
+                exponent,
+                ..
+            } => ContactShape::Superquadric {
+                semi_axes: [half_width.unwrap_or(0.5); 3],
+                exponents: [exponent; 3],
+            },
+            SpeciesSpec::Superquadric {
+                semi_axes,
+                exponents,
+                ..
+            } => ContactShape::Superquadric {
+                semi_axes,
+                exponents,
+            },
+        }
+    }
+
+    /// The diameter and the size distribution of a sphere or spherocylinder species.
+    fn sizes(&self) -> (f64, Option<&PolySpec>) {
+        match self {
+            SpeciesSpec::Sphere {
+                diameter,
+                polydisperse,
+                ..
+            }
+            | SpeciesSpec::Spherocylinder {
+                diameter,
+                polydisperse,
+                ..
+            } => (diameter.unwrap_or(1.0), polydisperse.as_ref()),
+            _ => (1.0, None),
+        }
+    }
 }
 
 /// `[particles.species.polydisperse]`: per-particle diameters of a sphere or spherocylinder
-/// species.
+/// species, drawn from a ChaCha8 stream seeded with `seed`.
 #[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
-#[serde(deny_unknown_fields)]
-struct PolySpec {
-    distribution: String,
-    #[serde(default)]
-    min: Option<f64>,
-    #[serde(default)]
-    max: Option<f64>,
-    #[serde(default)]
-    sigma: Option<f64>,
-    seed: u64,
+#[serde(tag = "distribution", rename_all = "kebab-case", deny_unknown_fields)]
+enum PolySpec {
+    /// Uniform in [min, max].
+    Uniform { min: f64, max: f64, seed: u64 },
+    /// Lognormal with the species' diameter as median and log-standard deviation sigma.
+    Lognormal { sigma: f64, seed: u64 },
 }
 
+/// `[container]`, by its `shape`.
 #[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
-#[serde(deny_unknown_fields)]
-struct ContainerSpec {
-    #[serde(default = "default_container")]
-    shape: String,
-    #[serde(default)]
-    diameter: Option<f64>,
-    /// Wedge: length l_w along x (particle diameters).
-    #[serde(default)]
-    length: Option<f64>,
-    /// Wedge: angle alpha in degrees (h_w = l_w tan(alpha)).
-    #[serde(default)]
-    angle_deg: Option<f64>,
+#[serde(tag = "shape", rename_all = "kebab-case", deny_unknown_fields)]
+enum ContainerSpec {
+    /// Periodic cubic box (a struct variant, so that a key of another shape is refused).
+    Periodic {},
+    /// Hard cylinder of diameter D_cyl (D) about z, periodic along z.
+    Cylinder { diameter: f64 },
+    /// Wedge: length l_w along x (D) and angle alpha in degrees (h_w = l_w tan(alpha)).
+    Wedge { length: f64, angle_deg: f64 },
 }
-fn default_container() -> String {
-    "periodic".into()
-}
+
 impl Default for ContainerSpec {
     fn default() -> Self {
-        ContainerSpec {
-            shape: default_container(),
-            diameter: None,
-            length: None,
-            angle_deg: None,
-        }
+        ContainerSpec::Periodic {}
     }
 }
 
@@ -108,7 +184,7 @@ impl Default for ContainerSpec {
 #[serde(deny_unknown_fields, default)]
 struct McmSpec {
     seed: u64,
-    scheme: String,
+    scheme: Scheme,
     phi0: f64,
     delta_v_per_particle: f64,
     halvings: u32,
@@ -124,10 +200,10 @@ struct McmSpec {
 }
 impl Default for McmSpec {
     fn default() -> Self {
-        let p = McmParams::new(2, 0.0, 1);
+        let p = packing::Setup::new(2, 0.0, 1);
         McmSpec {
             seed: 1,
-            scheme: "original".into(),
+            scheme: Scheme::Original,
             phi0: p.phi0,
             delta_v_per_particle: p.delta_v_per_particle,
             halvings: p.halvings,
@@ -145,7 +221,7 @@ impl Default for McmSpec {
 #[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
 #[serde(deny_unknown_fields)]
 struct FinalStageSpec {
-    scheme: Option<String>,
+    scheme: Option<Scheme>,
     delta_v_per_particle: f64,
     halvings: u32,
     tries_per_particle: Option<f64>,
@@ -177,16 +253,23 @@ impl Default for AnalysisSpec {
     }
 }
 
-/// A parsed and checked packing scene.
+/// What the final configuration is measured with (`[analysis]`).
 #[derive(Debug, Clone)]
-pub struct PackingScene {
-    pub title: String,
-    pub params: McmParams,
+pub struct Analysis {
+    /// Gap cut-offs of the contact-number extrapolation (sec. 2.2.5).
     pub cutoffs: Vec<f64>,
     pub rattler_min_contacts: usize,
     pub gr_r_max: Option<f64>,
     pub gr_bins: usize,
     pub s4_trials: usize,
+}
+
+/// A parsed and checked packing scene.
+#[derive(Debug, Clone)]
+pub struct PackingScene {
+    pub title: String,
+    pub setup: packing::Setup,
+    pub analysis: Analysis,
     /// Canonical JSON of the parsed file: a checkpoint must carry the same text to be resumed.
     pub(super) fingerprint: String,
 }
@@ -204,80 +287,19 @@ pub fn parse_scene(text: &str, origin: &str) -> Result<PackingScene> {
             f.kind
         ));
     }
-    let (n, length, particles) = parse_particles(&f.particles).or_else(bad_particles(origin))?;
-    let cs = &f.container;
-    let only = |key: &str, value: Option<f64>, shapes: &str| -> Result<()> {
-        match value {
-            Some(v) => crate::error::invalid(format!(
-                "{origin}: container.{key} = {v}: only a {shapes} has it"
-            )),
-            None => Ok(()),
-        }
+    let (n, length, particles) = match parse_particles(&f.particles) {
+        Ok(p) => p,
+        Err(e) => return bad(e),
     };
-    let container = match cs.shape.as_str() {
-        "periodic" => {
-            only("diameter", cs.diameter, "cylinder")?;
-            only("length", cs.length, "wedge")?;
-            only("angle_deg", cs.angle_deg, "wedge")?;
-            Container::Periodic
-        }
-        "cylinder" => {
-            only("length", cs.length, "wedge")?;
-            only("angle_deg", cs.angle_deg, "wedge")?;
-            let Some(diameter) = cs.diameter else {
-                return bad("container.diameter: required for shape = \"cylinder\"".into());
-            };
-            Container::Cylinder { diameter }
-        }
-        "wedge" => {
-            only("diameter", cs.diameter, "cylinder")?;
-            let (Some(length), Some(angle)) = (cs.length, cs.angle_deg) else {
-                return bad(
-                    "container.length and container.angle_deg: both required for shape = \"wedge\""
-                        .into(),
-                );
-            };
-            // Thesis Fig. 2.3: the right triangular prism 0 <= y <= x tan(alpha), x <= l_w.
-            if !(angle.is_finite() && angle > 0.0 && angle < 90.0) {
-                return bad(format!(
-                    "container.angle_deg = {angle}: must be in (0, 90) degrees (the wedge is the \
-                     right triangular prism 0 <= y <= x tan(alpha), thesis Fig. 2.3)"
-                ));
-            }
-            if !(length.is_finite() && length > 0.0) {
-                return bad(format!(
-                    "container.length = {length}: must be positive and finite (D)"
-                ));
-            }
-            Container::Wedge {
-                length,
-                angle_rad: angle.to_radians(),
-            }
-        }
-        other => {
-            return bad(format!(
-                "container.shape = \"{other}\": must be \"periodic\", \"cylinder\" or \"wedge\""
-            ))
-        }
+    let container = match container(&f.container) {
+        Ok(c) => c,
+        Err(e) => return bad(e),
     };
     let m = &f.mcm;
-    let scheme_of = |name: &str, key: &str| match name {
-        "original" => Ok(Scheme::Original),
-        "revised" => Ok(Scheme::Revised),
-        "relax" => Ok(Scheme::Relax),
-        other => invalid(format!(
-            "{origin}: {key} = \"{other}\": must be \"original\", \"revised\" or \"relax\""
-        )),
-    };
-    let scheme = scheme_of(&m.scheme, "mcm.scheme")?;
-    let final_scheme = match f.final_stage.as_ref().and_then(|s| s.scheme.as_deref()) {
-        Some(name) => scheme_of(name, "final_stage.scheme")?,
-        None => scheme,
-    };
-    let mut p = McmParams::new(n, length, m.seed);
+    let mut p = packing::Setup::new(n, length, m.seed);
     p.particles = particles;
     p.container = container;
-    p.scheme = scheme;
+    p.scheme = m.scheme;
     p.phi0 = m.phi0;
     p.delta_v_per_particle = m.delta_v_per_particle;
     p.halvings = m.halvings;
@@ -288,8 +310,9 @@ pub fn parse_scene(text: &str, origin: &str) -> Result<PackingScene> {
     p.dt = m.dt;
     p.energy = m.energy;
     p.max_steps = m.max_steps;
+    // The final stage inherits the scheme, tries, beta and dt of [mcm], not its budget.
     p.final_stage = f.final_stage.as_ref().map(|s| Stage {
-        scheme: final_scheme,
+        scheme: s.scheme.unwrap_or(m.scheme),
         delta_v_per_particle: s.delta_v_per_particle,
         halvings: s.halvings,
         tries_per_particle: s.tries_per_particle.unwrap_or(m.tries_per_particle),
@@ -299,9 +322,49 @@ pub fn parse_scene(text: &str, origin: &str) -> Result<PackingScene> {
     });
     p.validate()
         .map_err(|e| Error::InvalidInput(format!("{origin}: {e}")))?;
-    let a = &f.analysis;
+    let analysis = match analysis(&f.analysis, &p) {
+        Ok(a) => a,
+        Err(e) => return bad(e),
+    };
+    let fingerprint = serde_json::to_string(&f).map_err(|e| Error::InvalidInput(e.to_string()))?;
+    Ok(PackingScene {
+        title: f.title.clone(),
+        setup: p,
+        analysis,
+        fingerprint,
+    })
+}
+
+/// The container of `[container]`; Err: the message (key, value, rule).
+fn container(c: &ContainerSpec) -> std::result::Result<Container, String> {
+    Ok(match *c {
+        ContainerSpec::Periodic {} => Container::Periodic,
+        ContainerSpec::Cylinder { diameter } => Container::Cylinder { diameter },
+        ContainerSpec::Wedge { length, angle_deg } => {
+            // Thesis Fig. 2.3: the right triangular prism 0 <= y <= x tan(alpha), x <= l_w.
+            if !(angle_deg.is_finite() && angle_deg > 0.0 && angle_deg < 90.0) {
+                return Err(format!(
+                    "container.angle_deg = {angle_deg}: must be in (0, 90) degrees (the wedge is \
+                     the right triangular prism 0 <= y <= x tan(alpha), thesis Fig. 2.3)"
+                ));
+            }
+            if !(length.is_finite() && length > 0.0) {
+                return Err(format!(
+                    "container.length = {length}: must be positive and finite (D)"
+                ));
+            }
+            Container::Wedge {
+                length,
+                angle_rad: angle_deg.to_radians(),
+            }
+        }
+    })
+}
+
+/// The checked `[analysis]` of a scene whose setup is `p`; Err: the message.
+fn analysis(a: &AnalysisSpec, p: &packing::Setup) -> std::result::Result<Analysis, String> {
     if a.contact_cutoffs.len() < 2 {
-        return bad(format!(
+        return Err(format!(
             "analysis.contact_cutoffs has {} values: need at least 2 for the extrapolation",
             a.contact_cutoffs.len()
         ));
@@ -311,48 +374,40 @@ pub fn parse_scene(text: &str, origin: &str) -> Result<PackingScene> {
         .iter()
         .find(|d| !(d.is_finite() && **d > 0.0))
     {
-        return bad(format!(
+        return Err(format!(
             "analysis.contact_cutoffs: {d} must be positive and finite"
         ));
     }
     if a.gr_bins == 0 {
-        return bad("analysis.gr_bins = 0: need at least one bin".into());
+        return Err("analysis.gr_bins = 0: need at least one bin".into());
     }
     if let Some(r) = a.gr_r_max {
         if !(r.is_finite() && r > 0.0) {
-            return bad(format!(
+            return Err(format!(
                 "analysis.gr_r_max = {r}: must be positive and finite"
             ));
         }
     }
     if a.s4_trials < 10 {
-        return bad(format!(
+        return Err(format!(
             "analysis.s4_trials = {}: need at least 10",
             a.s4_trials
         ));
     }
-    let rattlers = a
-        .rattler_min_contacts
-        .unwrap_or(if all_spheres(&p) { 4 } else { 5 });
-    let fingerprint = serde_json::to_string(&f).map_err(|e| Error::InvalidInput(e.to_string()))?;
-    Ok(PackingScene {
-        title: f.title.clone(),
-        params: p,
+    Ok(Analysis {
         cutoffs: a.contact_cutoffs.clone(),
-        rattler_min_contacts: rattlers,
+        // Rattlers have fewer than 4 contacts among spheres, else fewer than 5.
+        rattler_min_contacts: a
+            .rattler_min_contacts
+            .unwrap_or(if all_spheres(p) { 4 } else { 5 }),
         gr_r_max: a.gr_r_max,
         gr_bins: a.gr_bins,
         s4_trials: a.s4_trials,
-        fingerprint,
     })
 }
 
-fn bad_particles(origin: &str) -> impl Fn(String) -> Result<(usize, f64, Option<Particles>)> + '_ {
-    move |msg| invalid(format!("{origin}: {msg}"))
-}
-
-/// True when every particle is a sphere (rattlers have fewer than 4 contacts, else 5).
-fn all_spheres(p: &McmParams) -> bool {
+/// True when every particle is a sphere.
+fn all_spheres(p: &packing::Setup) -> bool {
     match &p.particles {
         // Equal particles: no table of n entries is built before the memory check.
         None => p.length == 0.0,
@@ -363,36 +418,30 @@ fn all_spheres(p: &McmParams) -> bool {
     }
 }
 
-/// The particles of a scene: (n, cylinder length, None) for the single-shape keys
+/// The particles of a scene: (n, cylinder length, None) for the equal-particle keys
 /// `shape`/`n`/`length_over_diameter`, (n, 0, Some(table)) for `[[particles.species]]`.
 fn parse_particles(
     s: &ParticlesSpec,
-) -> std::result::Result<(usize, f64, Option<Particles>), String> {
+) -> std::result::Result<(usize, f64, Option<ParticleShapes>), String> {
     if s.species.is_empty() {
-        let shape = s.shape.as_deref().unwrap_or("sphere");
-        let length = match (shape, s.length_over_diameter) {
-            ("sphere", l) if l.unwrap_or(0.0) == 0.0 => 0.0,
-            ("sphere", Some(l)) => {
+        let length = match (s.shape.unwrap_or(EqualShape::Sphere), s.length_over_diameter) {
+            (EqualShape::Sphere, None) => 0.0,
+            (EqualShape::Sphere, Some(0.0)) => 0.0,
+            (EqualShape::Sphere, Some(l)) => {
                 return Err(format!(
                     "particles.length_over_diameter = {l}: a sphere has none (use shape = \"spherocylinder\")"
                 ))
             }
-            ("spherocylinder", Some(l)) if l.is_finite() && l > 0.0 => l,
-            ("spherocylinder", Some(l)) => {
+            (EqualShape::Spherocylinder, Some(l)) if l.is_finite() && l > 0.0 => l,
+            (EqualShape::Spherocylinder, Some(l)) => {
                 return Err(format!(
                     "particles.length_over_diameter = {l}: must be positive and finite for a spherocylinder"
                 ))
             }
-            ("spherocylinder", None) => {
+            (EqualShape::Spherocylinder, None) => {
                 return Err(
                     "particles.length_over_diameter: required for shape = \"spherocylinder\"".into(),
                 )
-            }
-            (other, _) => {
-                return Err(format!(
-                    "particles.shape = \"{other}\": must be \"sphere\" or \"spherocylinder\" (other \
-                     shapes and mixtures: [[particles.species]])"
-                ))
             }
         };
         return Ok((s.n.unwrap_or(1000), length, None));
@@ -412,81 +461,21 @@ fn parse_particles(
     let mut shapes = Vec::new();
     let mut species = Vec::new();
     for (k, sp) in s.species.iter().enumerate() {
-        let at = |msg: String| format!("particles.species[{k}] ({}): {msg}", sp.shape);
-        if sp.n == 0 {
+        let at = |msg: String| format!("particles.species[{k}] ({}): {msg}", sp.name());
+        if sp.n() == 0 {
             return Err(at("n = 0: need at least one particle".into()));
         }
-        let allowed: &[&str] = match sp.shape.as_str() {
-            "sphere" => &["diameter", "polydisperse"],
-            "spherocylinder" => &["diameter", "length", "polydisperse"],
-            "ellipsoid" => &["semi_axes"],
-            "superball" => &["half_width", "exponent"],
-            "superquadric" => &["semi_axes", "exponents"],
-            other => {
-                return Err(at(format!(
-                    "shape = \"{other}\": must be \"sphere\", \"spherocylinder\", \"ellipsoid\", \
-                     \"superball\" or \"superquadric\""
-                )))
-            }
-        };
-        for (key, set) in [
-            ("diameter", sp.diameter.is_some()),
-            ("length", sp.length.is_some()),
-            ("semi_axes", sp.semi_axes.is_some()),
-            ("exponents", sp.exponents.is_some()),
-            ("half_width", sp.half_width.is_some()),
-            ("exponent", sp.exponent.is_some()),
-            ("polydisperse", sp.polydisperse.is_some()),
-        ] {
-            if set && !allowed.contains(&key) {
-                return Err(at(format!(
-                    "key `{key}` does not apply to this shape (allowed: {})",
-                    allowed.join(", ")
-                )));
-            }
-        }
-        let need = |v: Option<f64>, key: &str| v.ok_or_else(|| at(format!("`{key}` is required")));
-        let d = sp.diameter.unwrap_or(1.0);
-        let make = |d: f64| -> std::result::Result<ContactShape, String> {
-            Ok(match sp.shape.as_str() {
-                "sphere" => ContactShape::Sphere { radius: 0.5 * d },
-                "spherocylinder" => ContactShape::Spherocylinder {
-                    radius: 0.5 * d,
-                    length: need(sp.length, "length")?,
-                },
-                "ellipsoid" => ContactShape::Ellipsoid {
-                    semi_axes: sp
-                        .semi_axes
-                        .ok_or_else(|| at("`semi_axes` is required".into()))?,
-                },
-                "superball" => {
-                    let a = sp.half_width.unwrap_or(0.5);
-                    let g = need(sp.exponent, "exponent")?;
-                    ContactShape::Superquadric {
-                        semi_axes: [a; 3],
-                        exponents: [g; 3],
-                    }
-                }
-                _ => ContactShape::Superquadric {
-                    semi_axes: sp
-                        .semi_axes
-                        .ok_or_else(|| at("`semi_axes` is required".into()))?,
-                    exponents: sp
-                        .exponents
-                        .ok_or_else(|| at("`exponents` is required".into()))?,
-                },
-            })
-        };
-        match &sp.polydisperse {
+        let (d, poly) = sp.sizes();
+        match poly {
             None => {
-                let shape = make(d)?;
+                let shape = sp.shape(d);
                 shape.validate().map_err(|e| at(e.to_string()))?;
-                species.extend(std::iter::repeat_n(shapes.len(), sp.n));
+                species.extend(std::iter::repeat_n(shapes.len(), sp.n()));
                 shapes.push(shape);
             }
             Some(pd) => {
-                for dk in polydisperse_diameters(pd, d, sp.n).map_err(&at)? {
-                    let shape = make(dk)?;
+                for dk in polydisperse_diameters(pd, d, sp.n()).map_err(&at)? {
+                    let shape = sp.shape(dk);
                     shape.validate().map_err(|e| at(e.to_string()))?;
                     species.push(shapes.len());
                     shapes.push(shape);
@@ -495,7 +484,7 @@ fn parse_particles(
         }
     }
     let n = species.len();
-    Ok((n, 0.0, Some(Particles { shapes, species })))
+    Ok((n, 0.0, Some(ParticleShapes { shapes, species })))
 }
 
 /// Per-particle diameters of a polydisperse species (ChaCha8 seeded with `seed`): uniform in
@@ -507,20 +496,25 @@ fn polydisperse_diameters(
     n: usize,
 ) -> std::result::Result<Vec<f64>, String> {
     use rand::{Rng, SeedableRng};
-    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(pd.seed);
-    match (pd.distribution.as_str(), pd.min, pd.max, pd.sigma) {
-        ("uniform", Some(lo), Some(hi), None) => {
+    match *pd {
+        PolySpec::Uniform {
+            min: lo,
+            max: hi,
+            seed,
+        } => {
             if !(lo.is_finite() && hi.is_finite() && lo > 0.0 && lo <= hi) {
                 return Err(format!(
                     "polydisperse min = {lo}, max = {hi}: need 0 < min <= max, finite"
                 ));
             }
+            let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
             Ok((0..n).map(|_| lo + (hi - lo) * rng.gen::<f64>()).collect())
         }
-        ("lognormal", None, None, Some(sigma)) => {
+        PolySpec::Lognormal { sigma, seed } => {
             if !(sigma > 0.0 && sigma <= 0.5) {
                 return Err(format!("polydisperse sigma = {sigma}: must be in (0, 0.5]"));
             }
+            let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
             let mut out = Vec::with_capacity(n);
             while out.len() < n {
                 // Box-Muller: z standard normal.
@@ -532,12 +526,5 @@ fn polydisperse_diameters(
             }
             Ok(out)
         }
-        (d @ ("uniform" | "lognormal"), ..) => Err(format!(
-            "polydisperse distribution = \"{d}\": uniform needs `min` and `max` (no `sigma`), \
-             lognormal needs `sigma` (no `min`/`max`; the median is `diameter`)"
-        )),
-        (other, ..) => Err(format!(
-            "polydisperse distribution = \"{other}\": must be \"uniform\" or \"lognormal\""
-        )),
     }
 }

@@ -1,12 +1,12 @@
 //! Tests of packing scenes: parsing, resuming, outputs.
 
-use super::run::{read_checkpoint, run_scene_limited};
+use super::outputs::read_checkpoint;
+use super::run::run_scene_limited;
 use super::*;
 use crate::analysis;
 use crate::io::xyz;
-use crate::packing::{Container, McmParams, Packing, Particles};
+use crate::packing::{ParticleShapes, Setup};
 use crate::scene::RunOptions;
-use nalgebra::{UnitQuaternion, Vector3};
 
 const SMALL: &str = r#"
 kind = "packing"
@@ -44,31 +44,6 @@ fn quiet() -> RunOptions {
         quiet: true,
         ..Default::default()
     }
-}
-
-/// Four touching spheres in a row have 1.5 contacts each on average. With the rattler
-/// threshold 2 the ends go, then the middle pair: nothing is left, and the rattler-free
-/// contact number is null, not 0. Threshold 1 keeps all four.
-#[test]
-fn rattler_free_contacts_are_null_when_every_particle_rattles() {
-    let p = Packing {
-        container: Container::Periodic,
-        box_length: 10.0,
-        particles: Particles::monodisperse(4, 0.0),
-        positions: (0..4)
-            .map(|k| Vector3::new(1.0 + k as f64, 5.0, 5.0))
-            .collect(),
-        orientations: vec![UnitQuaternion::identity(); 4],
-    };
-    let cut = [1e-6, 1e-5];
-    let all = measure(&p, &cut, 2, 10).unwrap();
-    assert_eq!(all.rattlers, 4);
-    assert_eq!(all.contacts_extrapolated_no_rattlers, None);
-    assert!((all.contacts_extrapolated - 1.5).abs() < 1e-12);
-    let kept = measure(&p, &cut, 1, 10).unwrap();
-    assert_eq!(kept.rattlers, 0);
-    let c0 = kept.contacts_extrapolated_no_rattlers.unwrap();
-    assert!((c0 - 1.5).abs() < 1e-12, "{c0}");
 }
 
 /// A run whose final stage ends on its budget resumes, one step at a time, to the same
@@ -151,7 +126,7 @@ fn interrupted_run_resumes_to_the_same_result() {
     let l = cell.lengths[0];
     let pos: Vec<_> = parts.iter().map(|p| p.position).collect();
     let ori: Vec<_> = parts.iter().map(|p| p.orientation).collect();
-    let mono = Particles::monodisperse(pos.len(), 0.5);
+    let mono = ParticleShapes::monodisperse(pos.len(), 0.5);
     let v = analysis::Rods {
         box_length: l,
         wall_diameter: None,
@@ -252,14 +227,14 @@ seed = 2
 #[test]
 fn species_tables_parse_and_bad_keys_are_named() {
     let sc = parse_scene(MIXTURE, "t").unwrap();
-    let p = sc.params.particles();
-    assert_eq!((sc.params.n, p.n(), p.shapes.len()), (80, 80, 51));
+    let p = sc.setup.particles();
+    assert_eq!((sc.setup.n, p.n(), p.shapes.len()), (80, 80, 51));
     assert_eq!(p.counts()[0], 30);
     for s in &p.shapes[1..] {
         let (r, _) = analysis::rod_parameters(s).unwrap();
         assert!((0.4..=0.6).contains(&r), "{r}");
     }
-    assert_eq!(sc.rattler_min_contacts, 4);
+    assert_eq!(sc.analysis.rattler_min_contacts, 4);
     let bad = |from: &str, to: &str, want: &str| {
         let e = parse_scene(&MIXTURE.replacen(from, to, 1), "t").unwrap_err();
         assert!(e.to_string().contains(want), "{e}");
@@ -267,7 +242,7 @@ fn species_tables_parse_and_bad_keys_are_named() {
     bad("diameter = 1.4", "diametre = 1.4", "diametre");
     bad("diameter = 1.4", "exponent = 3.0", "exponent");
     bad(r#""uniform""#, r#""gaussian""#, "gaussian");
-    bad("min = 0.8", "sigma = 0.2", "uniform needs");
+    bad("min = 0.8", "sigma = 0.2", "sigma");
     bad(
         "[[particles.species]]",
         "[particles]\nn = 5\n[[particles.species]]",
@@ -297,8 +272,8 @@ fn builtin_spheres_is_the_jamming_schedule() {
         .into_iter()
         .find(|b| b.name == "packing-spheres")
         .unwrap();
-    let got = parse_scene(b.toml, b.name).unwrap().params;
-    let want = McmParams::jammed_spheres(1000, 1);
+    let got = parse_scene(b.toml, b.name).unwrap().setup;
+    let want = Setup::jammed_spheres(1000, 1);
     assert_eq!(format!("{got:?}"), format!("{want:?}"));
 }
 

@@ -11,13 +11,15 @@
 //! * 408 drift at T = 0 (exact, free-draining and hydrodynamic pairs).
 
 use super::common::no_rows;
+use crate::brownian::driver::run_steps;
 use crate::brownian::forces::{FieldFn, WithUniform};
-use crate::brownian::integrator::Magnetic;
 use crate::brownian::{
-    dipole_energy, dipole_force, langevin, mobility_matrix, run_rng, standard_normal,
-    Hydrodynamics, LangevinMoment, Mie, NoiseGenerator, NoiseMethod, Params, Particles, Simulation,
+    dipole_energy, dipole_force, langevin, mobility_matrix, run_rng, standard_normal, Fluid,
+    Hydrodynamics, LangevinMoment, Magnetic, Mie, NoiseGenerator, NoiseMethod, Particles, Setup,
+    Simulation,
 };
 use crate::consts::{KB, MU0};
+use crate::driver::NoHooks;
 use crate::validation::{CaseContext, Row, Table};
 use crate::{Error, Result};
 use nalgebra::{DMatrix, DVector, Matrix3, Vector3};
@@ -118,15 +120,16 @@ fn run_specs(t: &Table, with_force: bool) -> Result<Vec<RunSpec>> {
 /// Runs one free-draining simulation; returns the displacements.
 fn displacements(spec: &RunSpec, seed: u64) -> Result<Vec<Vector3<f64>>> {
     let p0 = lattice(spec.n, spec.a);
-    let mut sim = Simulation::new(
+    let mut setup = Setup::new(
         Particles::new(p0.clone(), spec.a)?,
-        Params::new(spec.temp, spec.eta, spec.dt)?,
+        Fluid::new(spec.temp, spec.eta)?,
+        spec.dt,
     )?;
-    sim.constant_force = spec.force;
-    let mut rng = run_rng(seed, spec.run);
-    sim.run(&mut rng, spec.steps)?;
+    setup.constant_force = spec.force;
+    let mut sim = Simulation::new(setup, run_rng(seed, spec.run))?;
+    run_steps(&mut sim, spec.steps, &mut NoHooks)?;
     Ok(sim
-        .particles
+        .particles()
         .positions
         .iter()
         .zip(&p0)
@@ -290,16 +293,16 @@ pub fn case_404(ctx: &CaseContext) -> Result<Vec<Row>> {
         let n = usize_col(&t, i, "n_particles")?;
         let a = t.f64(i, "radius_m")?;
         let pos = config_positions(n, t.f64(i, "spacing_over_a")? * a);
-        let params = Params::new(
-            t.f64(i, "temperature_K")?,
-            t.f64(i, "viscosity_Pa_s")?,
-            t.f64(i, "dt_s")?,
-        )?;
+        let fluid = Fluid::new(t.f64(i, "temperature_K")?, t.f64(i, "viscosity_Pa_s")?)?;
+        let dt = t.f64(i, "dt_s")?;
+        if !(dt.is_finite() && dt > 0.0) {
+            return Err(Error::Validation(format!("dt_s = {dt}: must be positive")));
+        }
         let samples = usize_col(&t, i, "samples")?;
-        let m = mobility_matrix(kind, &pos, a, params.viscosity)?;
+        let m = mobility_matrix(kind, &pos, a, fluid.viscosity_pa_s())?;
         let gen = NoiseGenerator::new(NoiseMethod::Cholesky, &m)?;
-        let amp = (2.0 * params.kt() * params.dt).sqrt();
-        let sigma = &m * (2.0 * params.kt() * params.dt);
+        let amp = (2.0 * fluid.kt() * dt).sqrt();
+        let sigma = &m * (2.0 * fluid.kt() * dt);
         let dim = 3 * n;
         let mut acc = DMatrix::<f64>::zeros(dim, dim);
         let mut rng = run_rng(seed, usize_col(&t, i, "run")? as u64);
@@ -521,11 +524,11 @@ pub fn case_405(ctx: &CaseContext) -> Result<Vec<Row>> {
         (Vector3::new(hv[0].re, hv[1].re, hv[2].re), g)
     };
     let moment = LangevinMoment::fixed(0.870e-16)?;
-    let params = Params::new(298.0, 1e-3, 5e-5)?;
+    let fluid = Fluid::new(298.0, 1e-3)?;
     for k in 0..8 {
         let x = unit_random(&mut rng) * 1e-4 * (1.0 + rng.gen::<f64>());
-        let mut sim = Simulation::new(Particles::new(vec![x], 75e-9)?, params)?;
-        sim.magnetic = Some(Magnetic {
+        let mut setup = Setup::new(Particles::new(vec![x], 75e-9)?, fluid, 5e-5)?;
+        setup.magnetic = Some(Magnetic {
             source: Box::new(WithUniform {
                 h0,
                 source: FieldFn(field),
@@ -534,9 +537,9 @@ pub fn case_405(ctx: &CaseContext) -> Result<Vec<Row>> {
             dipole_pairs: false,
             cutoff: 30.0 * 75e-9,
         });
-        let got = sim.forces()?[0];
+        let got = Simulation::new(setup, run_rng(0, 0))?.forces()?[0];
         let (htot, _) = field(&x);
-        let mvec = moment.moment(&(htot + h0), params.kt());
+        let mvec = moment.moment(&(htot + h0), fluid.kt());
         let hh = 1e-30 * x.norm();
         let exp = Vector3::from_fn(|c, _| {
             let hc = dipole_h_c(&perturbed(&x, c, hh), &p_src);
@@ -667,13 +670,14 @@ pub fn case_408(ctx: &CaseContext) -> Result<Vec<Row>> {
         let p0: Vec<Vector3<f64>> = (0..n)
             .map(|k| Vector3::new(k as f64 * sep, 0.0, 0.0))
             .collect();
-        let mut sim = Simulation::new(Particles::new(p0.clone(), a)?, Params::new(0.0, eta, dt)?)?;
-        sim.hydrodynamics = kind;
-        sim.constant_force = f;
-        sim.run(&mut run_rng(0, 0), steps as u64)?;
+        let mut setup = Setup::new(Particles::new(p0.clone(), a)?, Fluid::new(0.0, eta)?, dt)?;
+        setup.hydrodynamics = kind;
+        setup.constant_force = f;
+        let mut sim = Simulation::new(setup, run_rng(0, 0))?;
+        run_steps(&mut sim, steps as u64, &mut NoHooks)?;
         let expected = f * (t.f64(i, "factor")? * steps as f64 * dt / (6.0 * PI * eta * a));
         let label = t.str(i, "label")?;
-        for (k, (p, q)) in sim.particles.positions.iter().zip(&p0).enumerate() {
+        for (k, (p, q)) in sim.particles().positions.iter().zip(&p0).enumerate() {
             let d = p - q;
             for c in 0..3 {
                 rows.push(Row::new(

@@ -17,12 +17,13 @@
 //! D from U(0, 1) has the Kolmogorov distribution.
 
 use super::common::{non_empty, required_seed};
-use crate::brownian::integrator::Magnetic;
+use crate::brownian::driver::{run_sampled, run_steps};
 use crate::brownian::{
-    cubic_lattice, mobility_matrix, run_rng, stokes_mobility, Hydrodynamics, NoiseMethod, Params,
-    Particles, Simulation, StepGuard,
+    cubic_lattice, mobility_matrix, run_rng, stokes_mobility, Fluid, Hydrodynamics, Magnetic,
+    NoiseMethod, Particles, Setup, Simulation, StepGuard,
 };
 use crate::consts::KB;
+use crate::driver::NoHooks;
 use crate::validation::{CaseContext, Row, Table};
 use crate::{Error, Result};
 use nalgebra::Vector3;
@@ -169,31 +170,33 @@ struct RunOut {
 /// Run `run` of row `s`: `snapshots` snapshots of all 3n coordinates, taken every `every` steps
 /// after `burn_in` steps, with the engine at temperature `temperature` (K).
 fn run_samples(s: &TrapSpec, temperature: f64, seed: u64, run: u64) -> Result<RunOut> {
-    let mut sim = Simulation::new(
+    let mut setup = Setup::new(
         Particles::new(start_positions(s), s.radius)?,
-        Params::new(temperature, s.viscosity, s.dt)?,
+        Fluid::new(temperature, s.viscosity)?,
+        s.dt,
     )?;
-    sim.hydrodynamics = s.hydrodynamics;
-    sim.noise = s.noise;
-    sim.magnetic = Some(Magnetic::harmonic_trap(s.stiffness)?);
-    sim.guard = StepGuard::Refuse {
+    setup.hydrodynamics = s.hydrodynamics;
+    setup.noise = s.noise;
+    setup.magnetic = Some(Magnetic::harmonic_trap(s.stiffness)?);
+    setup.guard = StepGuard::Refuse {
         max_fraction: s.guard,
     };
     let mu0 = stokes_mobility(s.viscosity, s.radius)?;
-    let mut rng = run_rng(seed, s.first_stream + run);
-    sim.run(&mut rng, s.burn_in)?;
+    let mut sim = Simulation::new(setup, run_rng(seed, s.first_stream + run))?;
+    run_steps(&mut sim, s.burn_in, &mut NoHooks)?;
     let mut x = Vec::with_capacity(3 * s.n * s.snapshots);
     let mut lambda = (1.0f64, 1.0f64);
-    for _ in 0..s.snapshots {
-        sim.run(&mut rng, s.every)?;
-        let pos = &sim.particles.positions;
+    let steps = s.snapshots as u64 * s.every;
+    run_sampled(&mut sim, steps, s.every, &mut NoHooks, |sim| {
+        let pos = &sim.particles().positions;
         x.extend(pos.iter().flat_map(|p| p.iter().copied()));
         if s.hydrodynamics != Hydrodynamics::FreeDraining {
             let ev = mobility_matrix(s.hydrodynamics, pos, s.radius, s.viscosity)?
                 .symmetric_eigenvalues();
             lambda = (lambda.0.min(ev.min() / mu0), lambda.1.max(ev.max() / mu0));
         }
-    }
+        Ok(())
+    })?;
     Ok(RunOut { x, lambda })
 }
 

@@ -11,12 +11,14 @@
 //! sided alpha = 1e-3).
 
 use super::common::{band_rows, required_seed};
+use crate::brownian::driver::run_ensemble;
 use crate::brownian::experiment::{
     CaptureExperiment, CylinderSetup, MagnetizationLaw, Placement, Region, RegionShape, RunResult,
     TABLE_6_1,
 };
-use crate::brownian::{Hydrodynamics, LangevinMoment, NoiseMethod, Params, StepGuard};
+use crate::brownian::{Fluid, Hydrodynamics, LangevinMoment, NoiseMethod, StepGuard};
 use crate::consts::MU0;
+use crate::driver::NoHooks;
 use crate::validation::{CaseContext, Row};
 use crate::Result;
 use nalgebra::Vector3;
@@ -38,7 +40,8 @@ fn experiment(
         .map(|(_, m)| m * 1e-16)
         .ok_or_else(|| crate::Error::Validation(format!("{radius_nm} nm not in Table 6.1")))?;
     Ok(CaptureExperiment {
-        params: Params::new(298.0, 1e-3, dt_s)?,
+        fluid: Fluid::new(298.0, 1e-3)?,
+        dt_s,
         particle_radius_m: radius_nm * 1e-9,
         moment: LangevinMoment::fixed(mu)?,
         placement: Placement::TopSide {
@@ -107,7 +110,7 @@ fn z_more(a: &Tally, b: &Tally) -> f64 {
 }
 
 fn runs(exp: &CaptureExperiment, seed: u64, n: u64) -> Result<Vec<RunResult>> {
-    crate::brownian::experiment::run_ensemble(n, None, |r| exp.run(seed, r, &|_| {}))
+    run_ensemble(n, None, |r| exp.run(seed, r, &mut NoHooks))
 }
 
 register!("415" => case_415);
@@ -266,7 +269,7 @@ register!("419" => case_419);
 ///   (optimal: binomial variances, the particles being independent; random: per-run variances,
 ///   Welch's t, the variance of 1 - (1 - p)^k by the delta method, k (1 - p)^(k-1)).
 pub fn case_419(ctx: &CaseContext) -> Result<Vec<Row>> {
-    use crate::brownian::experiment::{run_cascade, run_ensemble, CascadeMode};
+    use crate::brownian::experiment::{run_cascade, CascadeMode};
     use statrs::distribution::{ContinuousCDF, StudentsT};
     let seed = required_seed(ctx, "case 419 needs a seed")?;
     let (n, stage_s, cascade_runs, single_runs, k) = (100usize, 0.5, 20u64, 20u64, 5usize);
@@ -285,7 +288,7 @@ pub fn case_419(ctx: &CaseContext) -> Result<Vec<Row>> {
     let stages = (t_star / stage_s).round() as usize;
     let cascade = |mode, seed, runs, stages| -> Result<Vec<Vec<(f64, f64)>>> {
         run_ensemble(runs, None, |r| {
-            run_cascade(&exp, mode, stages, stage_s, seed, r, &|_| {})
+            run_cascade(&exp, mode, stages, stage_s, seed, r, &mut NoHooks)
         })
     };
     let at = |curves: &[Vec<(f64, f64)>], t: f64| -> Vec<f64> {

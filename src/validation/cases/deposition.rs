@@ -4,10 +4,13 @@
 use super::common::required_seed;
 use crate::analysis::height_map::height_map;
 use crate::analysis::slab::{solid_fraction_between, PosedEllipsoid};
-use crate::deposition::engine::{deposit, DepositionParams};
+use crate::deposition::driver::run_layer;
 use crate::deposition::grain::{Grain, GrainPose};
+use crate::deposition::measure::measure;
 use crate::deposition::moves;
 use crate::deposition::Layer;
+use crate::deposition::{Moves, StopRule};
+use crate::driver::NoHooks;
 use crate::validation::{CaseContext, Row};
 use crate::{Error, Result};
 use nalgebra::{UnitQuaternion, Vector3};
@@ -82,12 +85,18 @@ fn layer_of(grains: Vec<Grain>, poses: Vec<GrainPose>, l: f64) -> Layer {
     }
 }
 
-fn params(k: f64, max_sweeps: u64, stop_fraction: f64) -> DepositionParams {
-    DepositionParams {
-        k_max_m2: k,
-        stop_fraction,
-        ..DepositionParams::table_b1(max_sweeps)
-    }
+/// Table B1's moves and stop rule with K_max `k`, `max_sweeps` and `stop_fraction`.
+fn params(k: f64, max_sweeps: u64, stop_fraction: f64) -> (Moves, StopRule) {
+    (
+        Moves {
+            k_max_m2: k,
+            ..Moves::table_b1()
+        },
+        StopRule {
+            fraction: stop_fraction,
+            ..StopRule::table_b1(max_sweeps)
+        },
+    )
 }
 
 register!("602" => case_602);
@@ -108,12 +117,12 @@ pub fn case_602(ctx: &CaseContext) -> Result<Vec<Row>> {
             position: Vector3::new(5.0 * r, 5.0 * r, z0),
             orientation: UnitQuaternion::identity(),
         };
-        let mut layer = layer_of(vec![g], vec![pose], 10.0 * r);
-        let mut rng = ChaCha8Rng::seed_from_u64(seed + i as u64);
+        let layer = layer_of(vec![g], vec![pose], 10.0 * r);
+        let rng = ChaCha8Rng::seed_from_u64(seed + i as u64);
         // A window as long as the run: the stop rule cannot end it early.
-        let mut p = params(k, n, 1e-300);
-        p.stop_window = n;
-        let out = deposit(&mut layer, &p, &mut rng, |_, _, _| {})?;
+        let (moves, mut stop) = params(k, n, 1e-300);
+        stop.window = n;
+        let (layer, out) = run_layer(layer, moves, stop, rng, &mut NoHooks)?;
         if out.moves != n {
             return Err(Error::Validation(format!(
                 "case 602: the run stopped after {} of {n} trials",
@@ -413,11 +422,11 @@ pub fn case_606(ctx: &CaseContext) -> Result<Vec<Row>> {
                 orientation: UnitQuaternion::identity(),
             })
             .collect();
-        let mut layer = layer_of(vec![g; n], poses, l);
+        let layer = layer_of(vec![g; n], poses, l);
         // A few spheres on saddles find the rare downhill move slowly: the stop window is long.
-        let mut p = params(k, 2_000_000, t.f64(i, "stop_fraction")?);
-        p.stop_window = t.f64(i, "stop_window")? as u64;
-        let out = deposit(&mut layer, &p, &mut rng, |_, _, _| {})?;
+        let (moves, mut stop) = params(k, 2_000_000, t.f64(i, "stop_fraction")?);
+        stop.window = t.f64(i, "stop_window")? as u64;
+        let (layer, out) = run_layer(layer, moves, stop, rng, &mut NoHooks)?;
         if !out.converged {
             return Err(Error::Validation(format!(
                 "case 606: no convergence in {} sweeps",
@@ -464,11 +473,10 @@ pub fn case_607(ctx: &CaseContext) -> Result<Vec<Row>> {
             max_growth_rounds: 20_000,
             k_max_m2: 1e-14 * scale * scale,
         };
-        let mut layer =
-            crate::deposition::film::build(grains, 4e-6 * scale, 0.35, &opts, &mut rng)?;
-        let mut p = params(1e-14 * scale * scale, 100_000, 1e-3);
-        p.energy.viscosity_pa_s = viscosity;
-        deposit(&mut layer, &p, &mut rng, |_, _, _| {})?;
+        let layer = crate::deposition::film::build(grains, 4e-6 * scale, 0.35, &opts, &mut rng)?;
+        let (mut moves, stop) = params(1e-14 * scale * scale, 100_000, 1e-3);
+        moves.energy.viscosity_pa_s = viscosity;
+        let (layer, _) = run_layer(layer, moves, stop, rng, &mut NoHooks)?;
         Ok(layer.poses.iter().map(|p| p.position).collect())
     };
     let base = run(1.0, 0.01, 9.8, 2500.0)?;
@@ -513,7 +521,10 @@ fn sphere_deposit_runs(
     use rayon::prelude::*;
     (0..scene.runs)
         .into_par_iter()
-        .map(|k| scene.run_one(k, |_, _, _| {}).map(|r| r.measures))
+        .map(|k| {
+            let d = crate::deposition::driver::run_one(&scene.setup, k, &mut NoHooks)?;
+            measure(&d.layer, scene.setup.species.len(), &scene.measure)
+        })
         .collect()
 }
 

@@ -6,6 +6,7 @@
 
 use super::common::required_seed;
 use crate::deposition::measure::DepositMeasures;
+use crate::driver::NoHooks;
 use crate::validation::Table;
 use crate::validation::{CaseContext, Row};
 use crate::{Error, Result};
@@ -41,7 +42,15 @@ fn ensemble_point(
     }
     let values: Vec<f64> = (0..scene.runs)
         .into_par_iter()
-        .map(|k| scene.run_one(k, |_, _, _| {}).map(|r| measure(&r.measures)))
+        .map(|k| {
+            let d = crate::deposition::driver::run_one(&scene.setup, k, &mut NoHooks)?;
+            let m = crate::deposition::measure::measure(
+                &d.layer,
+                scene.setup.species.len(),
+                &scene.measure,
+            )?;
+            Ok(measure(&m))
+        })
         .collect::<Result<_>>()?;
     let n = values.len() as f64;
     let mean = values.iter().sum::<f64>() / n;

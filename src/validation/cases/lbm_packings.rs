@@ -9,12 +9,13 @@
 //!   long rods 10-20): C_KC with the exact nu = V/S and with the long-rod nu = D/4 (thesis
 //!   sec. 7.2.2), against L/D.
 
+use crate::driver::Hooks;
 use crate::lbm::choice::{CollisionKind, LatticeKind};
 use crate::lbm::pore::{
     kozeny_constant, packing_particles, pore_permeability, voxelise, PoreOptions,
 };
 use crate::lbm::steady::SteadyControl;
-use crate::packing::{self, McmParams, McmState, Packing, StepOutcome};
+use crate::packing::{self, Mcm, Packing, Setup};
 use crate::validation::{CaseContext, Row};
 use crate::{Error, Result};
 
@@ -41,20 +42,30 @@ const PORE: PoreOptions = PoreOptions {
 
 /// Configurations of one MCM run: the first accepted state at or past each of `targets`
 /// (ascending packing fractions), then the final (jammed) state.
-fn packings_along(prm: &McmParams, targets: &[f64]) -> Result<Vec<Packing>> {
-    let start = packing::random_start_of(prm.container, prm.particles(), prm.phi0, prm.seed)?;
-    let mut state = McmState::new(start, prm)?;
-    let mut out = Vec::new();
-    let mut next = targets.iter().peekable();
-    while state.step(prm)? != StepOutcome::Finished {
-        let phi = state.packing.packing_fraction();
-        while next.peek().is_some_and(|&&t| phi >= t) {
-            next.next();
-            out.push(state.packing.clone());
+fn packings_along(prm: &Setup, targets: &[f64]) -> Result<Vec<Packing>> {
+    /// Keeps the configuration after the step that first reaches each target.
+    struct Along<'a> {
+        next: std::iter::Peekable<std::slice::Iter<'a, f64>>,
+        out: Vec<Packing>,
+    }
+    impl Hooks<Mcm> for Along<'_> {
+        fn progress(&mut self, mcm: &Mcm, _: Option<f64>, _: &str) {
+            let p = &mcm.state().packing;
+            let phi = p.packing_fraction();
+            while self.next.peek().is_some_and(|&&t| phi >= t) {
+                self.next.next();
+                self.out.push(p.clone());
+            }
         }
     }
-    out.push(state.packing.clone());
-    Ok(out)
+    let mut mcm = Mcm::new(prm.clone())?;
+    let mut along = Along {
+        next: targets.iter().peekable(),
+        out: Vec::new(),
+    };
+    packing::driver::run(&mut mcm, &mut along)?;
+    along.out.push(mcm.state().packing.clone());
+    Ok(along.out)
 }
 
 /// One packing's permeability at two resolutions (cells per diameter).
@@ -144,7 +155,7 @@ pub fn case_920(ctx: &CaseContext) -> Result<Vec<Row>> {
     let t = ctx.expected_table()?;
     let targets: Vec<f64> = t.f64_col("target_phi")?;
     let n = t.f64(0, "particles")? as usize;
-    let prm = McmParams::jammed_spheres(n, seed(ctx)?);
+    let prm = Setup::jammed_spheres(n, seed(ctx)?);
     let below_one: Vec<f64> = targets.iter().cloned().filter(|&x| x < 1.0).collect();
     let packs = packings_along(&prm, &below_one)?;
     let mut rows = Vec::new();
@@ -180,9 +191,9 @@ pub fn case_921_922(ctx: &CaseContext) -> Result<Vec<Row>> {
     for i in 0..t.len() {
         let aspect = t.f64(i, "length_over_diameter")?;
         let n = t.f64(i, "particles")? as usize;
-        let mut prm = McmParams::jammed_spheres(n, s);
+        let mut prm = Setup::jammed_spheres(n, s);
         prm.length = aspect;
-        let r = packing::run(&prm)?;
+        let r = packing::run_to_end(prm)?;
         let cells = [t.f64(i, "cells_coarse")?, t.f64(i, "cells_fine")?];
         let opts = PoreOptions {
             tau: t.f64(i, "tau")?,

@@ -16,18 +16,18 @@
 //! * 504 (slow): 300 spherocylinders L/D = 5: nematic order below 0.1, overlap-free.
 //! * 505 (slow): 500 spheres in hard cylinders D_cyl = 4..10: phi extrapolated linearly to
 //!   1/D_cyl -> 0 within 2% of the bulk value (thesis Fig. 2.10d), overlap-free and inside.
-//! * 506 (slow): 1000 spheres, two-stage schedule ([`McmParams::two_stage_spheres`]): phi in 0.64 +- 0.01.
+//! * 506 (slow): 1000 spheres, two-stage schedule ([`Setup::two_stage_spheres`]): phi in 0.64 +- 0.01.
 //! * 507 (slow): 300 particles at L/D = 0, 0.4, 1, same schedule: phi rises from the sphere
 //!   value to a maximum of 0.69-0.72 at L/D 0.3-0.6, then falls (thesis Fig. 2.8, 3.3).
 //! * 508 (slow): rods L/D = 2 in cylinders D_cyl = 2 and 6: S >= 0.8 and <= 0.2 (Fig. 2.10c).
 //! * 514 (slow): 500 particles at 11 L/D from 0 to 2, three seeds each, jamming schedule
-//!   ([`McmParams::jammed_spheres`]): the mean curve rises from the sphere value to a maximum of
+//!   ([`Setup::jammed_spheres`]): the mean curve rises from the sphere value to a maximum of
 //!   0.69-0.72 at L/D 0.3-0.6 and falls beyond it (thesis Fig. 2.8, 3.3).
 //! * 520 (fast): 40 spheres in the minimal wedge (eq. 2.12) at 9-45 degrees reach the one-row
 //!   packing fraction of eq. 2.13, inside the walls (checked here, not by the engine).
 //! * 521 (slow): spheres in wedges of 2, 4, 8 l_w,min at 30 degrees: phi* rises towards the
 //!   periodic value (Fig. 2.12).
-//! * 512 (fast): 1000 spheres, jamming schedule ([`McmParams::jammed_spheres`]: compacting stage,
+//! * 512 (fast): 1000 spheres, jamming schedule ([`Setup::jammed_spheres`]: compacting stage,
 //!   then collective relaxation), two seeds: phi in 0.64 +- 0.01 and extrapolated contacts
 //!   (rattlers removed) in 6 +- 0.3, overlap-free.
 //! * 513 (slow): 2000 rods of aspect ratio Lambda = 25 (compacting stage, then collective
@@ -47,7 +47,7 @@
 
 use super::common::band_rows;
 use crate::analysis;
-use crate::packing::{self, McmParams, McmResult, Scheme};
+use crate::packing::{self, McmResult, Scheme, Setup};
 use crate::validation::{CaseContext, Row};
 use crate::{Error, Result};
 use std::collections::BTreeMap;
@@ -62,11 +62,11 @@ fn seed(ctx: &CaseContext) -> Result<u64> {
 }
 
 /// Runs the parameters of seeds `s` and `s + 1`, in parallel, each with its own fixed seed.
-fn two_seeds(s: u64, params: impl Fn(u64) -> McmParams + Sync) -> Vec<Result<McmResult>> {
+fn two_seeds(s: u64, params: impl Fn(u64) -> Setup + Sync) -> Vec<Result<McmResult>> {
     use rayon::prelude::*;
     [s, s + 1]
         .par_iter()
-        .map(|&k| packing::run(&params(k)))
+        .map(|&k| packing::run_to_end(params(k)))
         .collect()
 }
 
@@ -77,8 +77,8 @@ fn deepest_overlap(r: &McmResult) -> Result<f64> {
         .unwrap_or(0.0))
 }
 
-fn params(n: usize, length: f64, seed: u64) -> McmParams {
-    let mut p = McmParams::new(n, length, seed);
+fn params(n: usize, length: f64, seed: u64) -> Setup {
+    let mut p = Setup::new(n, length, seed);
     p.scheme = Scheme::Original;
     p.delta_v_per_particle = 0.01;
     p.halvings = 6;
@@ -90,8 +90,8 @@ fn params(n: usize, length: f64, seed: u64) -> McmParams {
 register!("501" => case_501);
 pub fn case_501(ctx: &CaseContext) -> Result<Vec<Row>> {
     let prm = params(100, 0.0, seed(ctx)?);
-    let a = packing::run(&prm)?;
-    let b = packing::run(&prm)?;
+    let a = packing::run_to_end(prm.clone())?;
+    let b = packing::run_to_end(prm)?;
     let rerun = a
         .packing
         .positions
@@ -110,7 +110,7 @@ pub fn case_501(ctx: &CaseContext) -> Result<Vec<Row>> {
 register!("502" => case_502);
 pub fn case_502(ctx: &CaseContext) -> Result<Vec<Row>> {
     let prm = params(1000, 0.0, seed(ctx)?);
-    let a = packing::run(&prm)?;
+    let a = packing::run_to_end(prm)?;
     let mut got = BTreeMap::new();
     got.insert("packing_fraction", a.packing.packing_fraction());
     got.insert("deepest_overlap", deepest_overlap(&a)?);
@@ -121,8 +121,8 @@ pub fn case_502(ctx: &CaseContext) -> Result<Vec<Row>> {
 register!("503" => case_503);
 pub fn case_503(ctx: &CaseContext) -> Result<Vec<Row>> {
     let s = seed(ctx)?;
-    let sph = packing::run(&params(500, 0.0, s))?;
-    let rod = packing::run(&params(500, 0.4, s))?;
+    let sph = packing::run_to_end(params(500, 0.0, s))?;
+    let rod = packing::run_to_end(params(500, 0.4, s))?;
     let mut got = BTreeMap::new();
     got.insert(
         "phi_rods_minus_phi_spheres",
@@ -146,7 +146,7 @@ pub fn case_504(ctx: &CaseContext) -> Result<Vec<Row>> {
     prm.delta_v_per_particle = 0.05;
     prm.halvings = 3;
     prm.tries_per_particle = 50.0;
-    let rod = packing::run(&prm)?;
+    let rod = packing::run_to_end(prm)?;
     let mut got = BTreeMap::new();
     got.insert(
         "nematic_order",
@@ -174,14 +174,14 @@ register!("505" => case_505);
 pub fn case_505(ctx: &CaseContext) -> Result<Vec<Row>> {
     let s = seed(ctx)?;
     let n = 500;
-    let bulk = packing::run(&params(n, 0.0, s))?;
+    let bulk = packing::run_to_end(params(n, 0.0, s))?;
     let mut deepest = deepest_overlap(&bulk)?;
     let mut inv = Vec::new();
     let mut phis = Vec::new();
     for (k, &d) in CYLINDERS_505.iter().enumerate() {
         let mut prm = params(n, 0.0, s + 1 + k as u64);
         prm.container = packing::Container::Cylinder { diameter: d };
-        let r = packing::run(&prm)?;
+        let r = packing::run_to_end(prm)?;
         let wall = analysis::wall_penetration(&r.packing.view())?.map_or(0.0, |w| w.1);
         deepest = deepest.max(deepest_overlap(&r)?).max(wall);
         inv.push(1.0 / d);
@@ -198,7 +198,7 @@ pub fn case_505(ctx: &CaseContext) -> Result<Vec<Row>> {
 
 register!("506" => case_506);
 pub fn case_506(ctx: &CaseContext) -> Result<Vec<Row>> {
-    let r = packing::run(&McmParams::two_stage_spheres(1000, seed(ctx)?))?;
+    let r = packing::run_to_end(Setup::two_stage_spheres(1000, seed(ctx)?))?;
     let mut got = BTreeMap::new();
     got.insert("packing_fraction", r.packing.packing_fraction());
     got.insert("deepest_overlap", deepest_overlap(&r)?);
@@ -247,7 +247,7 @@ register!("512" => case_512);
 pub fn case_512(ctx: &CaseContext) -> Result<Vec<Row>> {
     let s = seed(ctx)?;
     // Independent runs in parallel, each with its own fixed seed.
-    let runs = two_seeds(s, |k| McmParams::jammed_spheres(1000, k));
+    let runs = two_seeds(s, |k| Setup::jammed_spheres(1000, k));
     let JammedSpheres {
         phis,
         contacts,
@@ -274,7 +274,7 @@ pub fn case_522(ctx: &CaseContext) -> Result<Vec<Row>> {
     let seeds: Vec<u64> = (s..s + 20).collect();
     let runs: Vec<Result<McmResult>> = seeds
         .par_iter()
-        .map(|&k| packing::run(&McmParams::jammed_spheres(1000, k)))
+        .map(|&k| packing::run_to_end(Setup::jammed_spheres(1000, k)))
         .collect();
     let JammedSpheres {
         mut phis,
@@ -297,8 +297,8 @@ pub fn case_522(ctx: &CaseContext) -> Result<Vec<Row>> {
 }
 
 /// Thin rods for case 513: cylinder length 24 D (aspect ratio Lambda = 25, eq. 2.1).
-fn rods_513(seed: u64) -> McmParams {
-    let mut p = McmParams::new(2000, 24.0, seed);
+fn rods_513(seed: u64) -> Setup {
+    let mut p = Setup::new(2000, 24.0, seed);
     p.scheme = Scheme::Original;
     p.beta = 0.5;
     p.delta_v_per_particle = 1.0;
@@ -363,9 +363,9 @@ pub fn case_507(ctx: &CaseContext) -> Result<Vec<Row>> {
         .par_iter()
         .enumerate()
         .map(|(k, &l)| {
-            let mut p = McmParams::two_stage_spheres(300, s + k as u64);
+            let mut p = Setup::two_stage_spheres(300, s + k as u64);
             p.length = l;
-            packing::run(&p)
+            packing::run_to_end(p)
         })
         .collect();
     let mut phis = Vec::new();
@@ -396,11 +396,11 @@ const ASPECTS_514: [f64; 11] = [0.0, 0.1, 0.2, 0.3, 0.4, 0.5, 0.6, 0.8, 1.0, 1.5
 const N_514: usize = 500;
 const REPLICAS_514: u64 = 3;
 
-/// The schedule case 514 was measured with: `McmParams::jammed_spheres` as it was before the
+/// The schedule case 514 was measured with: `Setup::jammed_spheres` as it was before the
 /// stage budget and the two stage-1 halvings (stage 1 without halving, stage 2 unbounded),
 /// with the rod length set.
-fn params_514(length: f64, seed: u64) -> McmParams {
-    let mut p = McmParams::jammed_spheres(N_514, seed);
+fn params_514(length: f64, seed: u64) -> Setup {
+    let mut p = Setup::jammed_spheres(N_514, seed);
     p.length = length;
     p.halvings = 0;
     if let Some(st) = p.final_stage.as_mut() {
@@ -421,7 +421,7 @@ pub fn case_514(ctx: &CaseContext) -> Result<Vec<Row>> {
     let runs: Vec<Result<McmResult>> = jobs
         .par_iter()
         .with_max_len(1)
-        .map(|&(i, k)| packing::run(&params_514(ASPECTS_514[i], s + k)))
+        .map(|&(i, k)| packing::run_to_end(params_514(ASPECTS_514[i], s + k)))
         .collect();
     let mut phi = vec![Vec::new(); ASPECTS_514.len()];
     let mut nematic = vec![Vec::new(); ASPECTS_514.len()];
@@ -493,7 +493,7 @@ pub fn case_508(ctx: &CaseContext) -> Result<Vec<Row>> {
         .map(|(k, &(d, n))| {
             let mut p = params(n, 2.0, s + k as u64);
             p.container = packing::Container::Cylinder { diameter: d };
-            packing::run(&p)
+            packing::run_to_end(p)
         })
         .collect();
     let mut got = BTreeMap::new();
@@ -541,7 +541,7 @@ fn wedge_run(n: usize, l_w: f64, alpha: f64, seed: u64) -> Result<(f64, f64, f64
         length: l_w,
         angle_rad: alpha,
     };
-    let res = packing::run(&prm)?;
+    let res = packing::run_to_end(prm)?;
     let wall = res
         .packing
         .positions
@@ -583,7 +583,7 @@ pub fn case_521(ctx: &CaseContext) -> Result<Vec<Row>> {
     let s = seed(ctx)?;
     let alpha = 30f64.to_radians();
     let (l_min, phi_row) = wedge_row_spheres(alpha);
-    let bulk = packing::run(&params(500, 0.0, s))?;
+    let bulk = packing::run_to_end(params(500, 0.0, s))?;
     let phi_periodic = bulk.packing.packing_fraction();
     let (mut deepest, mut wall) = (deepest_overlap(&bulk)?, 0.0f64);
     let mut star = Vec::new();
@@ -611,8 +611,8 @@ const GAMMAS_509: [f64; 2] = [2.0, 3.0];
 
 /// Makes the `p.n` particles superballs of half-width 1/2 and exponent `gamma` (thesis eq. 4.3
 /// with a_i = 1/2, gamma_i = gamma).
-fn with_superballs(p: &mut McmParams, gamma: f64) {
-    p.particles = Some(packing::Particles::mixture(&[(
+fn with_superballs(p: &mut Setup, gamma: f64) {
+    p.particles = Some(packing::ParticleShapes::mixture(&[(
         crate::contact::ContactShape::Superquadric {
             semi_axes: [0.5; 3],
             exponents: [gamma; 3],
@@ -628,7 +628,7 @@ fn with_superballs(p: &mut McmParams, gamma: f64) {
 fn superball_pairs(
     gammas: &[f64],
     s: u64,
-    params: impl Fn(f64, u64) -> McmParams + Sync,
+    params: impl Fn(f64, u64) -> Setup + Sync,
 ) -> Result<(Vec<f64>, f64, f64)> {
     use rayon::prelude::*;
     let seeds = [s, s + 1];
@@ -637,7 +637,7 @@ fn superball_pairs(
         .collect();
     let runs: Vec<Result<McmResult>> = jobs
         .par_iter()
-        .map(|&(k, seed)| packing::run(&params(gammas[k], seed)))
+        .map(|&(k, seed)| packing::run_to_end(params(gammas[k], seed)))
         .collect();
     let mut mean = vec![0.0; gammas.len()];
     let (mut solver, mut sampled) = (0.0f64, 0.0f64);
@@ -664,7 +664,7 @@ fn superball_rise(
     key: &str,
 ) -> Result<Vec<Row>> {
     let (mean, solver, sampled) = superball_pairs(&gammas, seed(ctx)?, |g, k| {
-        let mut p = McmParams::new(n, 0.0, k);
+        let mut p = Setup::new(n, 0.0, k);
         with_superballs(&mut p, g);
         p.scheme = Scheme::Revised;
         p.dt = 0.5;
@@ -720,7 +720,7 @@ const SEEDS_510: u64 = 2;
 /// (200 N), denser with more tries (lines 384-386). The budget stays at 200 N because no
 /// converged budget exists for either scheme up to 3200 N (at N = 100, doubling moves the
 /// six-seed mean by more than 0.2%, the rule fixed before measuring; table in README.md at commit 2c48ccd, case 510).
-fn params_510(scheme: Scheme, seed: u64) -> McmParams {
+fn params_510(scheme: Scheme, seed: u64) -> Setup {
     thesis_schedule(N_510, LENGTH_510, scheme, seed, 200.0)
 }
 
@@ -731,8 +731,8 @@ fn thesis_schedule(
     scheme: Scheme,
     seed: u64,
     tries_per_particle: f64,
-) -> McmParams {
-    let mut p = McmParams::new(n, length, seed);
+) -> Setup {
+    let mut p = Setup::new(n, length, seed);
     p.scheme = scheme;
     p.delta_v_per_particle = 0.1 / n as f64;
     p.halvings = 4;
@@ -750,7 +750,7 @@ const N_516: usize = 100;
 /// Case 516's run: the thesis' schedule with its absolute 1e5 tries per compression step (sec.
 /// 2.2.6, "typically 10^5"; 1000 N at N = 100), revised scheme (sec. 4.5: "other simulation
 /// parameters similar to chapter 3").
-fn params_516(seed: u64) -> McmParams {
+fn params_516(seed: u64) -> Setup {
     let mut p = thesis_schedule(N_516, 0.0, Scheme::Revised, seed, 1e5 / N_516 as f64);
     with_superballs(&mut p, 2.0);
     p
@@ -778,7 +778,7 @@ pub fn case_510(ctx: &CaseContext) -> Result<Vec<Row>> {
         .collect();
     let runs: Vec<Result<McmResult>> = jobs
         .par_iter()
-        .map(|&(sc, k)| packing::run(&params_510(sc, k)))
+        .map(|&(sc, k)| packing::run_to_end(params_510(sc, k)))
         .collect();
     let (mut orig, mut rev) = (0.0, 0.0);
     let mut deepest = 0.0f64;

@@ -12,7 +12,7 @@
 use super::common::{band_rows, required_seed};
 use crate::analysis;
 use crate::brownian::experiment::mean_and_stderr;
-use crate::packing::{self, Container, McmParams, Scheme};
+use crate::packing::{self, Container, Scheme, Setup};
 use crate::validation::{CaseContext, Row};
 use crate::Result;
 use std::collections::BTreeMap;
@@ -40,15 +40,15 @@ const S_HALF: f64 = 0.5;
 
 /// (nematic S, deepest pair overlap, deepest wall penetration) of one MCM run of the case-501
 /// schedule (original scheme, beta 0.5, Delta V = 0.01 N halved 6 times, 200 N tries,
-/// tolerance 1e-4: the defaults of [`McmParams::new`] but the scheme) in a cylinder of
+/// tolerance 1e-4: the defaults of [`Setup::new`] but the scheme) in a cylinder of
 /// diameter `d`.
 fn cylinder_run(d: f64, seed: u64) -> Result<(f64, f64, f64)> {
-    let prm = McmParams {
+    let prm = Setup {
         scheme: Scheme::Original,
         container: Container::Cylinder { diameter: d },
-        ..McmParams::new(RODS_515, ROD_LENGTH_515, seed)
+        ..Setup::new(RODS_515, ROD_LENGTH_515, seed)
     };
-    let r = packing::run(&prm)?;
+    let r = packing::run_to_end(prm)?;
     let view = r.packing.view();
     let overlap = analysis::worst_gap(&view)?.map_or(0.0, |g| (-g.gap).max(0.0));
     let wall = analysis::wall_penetration(&view)?.map_or(0.0, |w| w.1);

@@ -1,0 +1,111 @@
+//! Running a deposit to its end: sweeps until the stop rule is met or `max_sweeps` sweeps are
+//! done, with the caller's progress and stop hooks ([`Hooks`]) after every sweep; and run k of
+//! an ensemble, from its start to its end.
+
+use super::engine::{Deposition, DepositionOutcome};
+use super::setup::{Moves, Setup, StopRule};
+use super::Layer;
+use crate::driver::Hooks;
+use crate::Result;
+use rand_chacha::ChaCha8Rng;
+use std::time::Instant;
+
+/// Sweeps `d` until it is done (or the hooks ask to stop). After each sweep the progress hook
+/// hears the sweep, the mean displacement over the stop rule's window and the stop value.
+pub fn run(d: &mut Deposition, hooks: &mut impl Hooks<Deposition>) -> Result<()> {
+    while !d.is_done() {
+        let r = d.step()?;
+        hooks.progress(
+            d,
+            None,
+            &format!(
+                "sweep {}, mean displacement {:.3e} m, stop below {:.3e} m",
+                r.sweep,
+                d.recent_displacement_m(),
+                d.stop_displacement_m()
+            ),
+        );
+        if hooks.stop_requested(d) {
+            break;
+        }
+    }
+    Ok(())
+}
+
+/// One finished run of an ensemble.
+pub struct Deposited {
+    pub run: usize,
+    pub layer: Layer,
+    pub outcome: DepositionOutcome,
+    /// Wall time of building the start, s.
+    pub start_seconds: f64,
+}
+
+/// Run `k` of `setup`: its start ([`Deposition::new`]) and its deposit to the end.
+pub fn run_one(setup: &Setup, k: usize, hooks: &mut impl Hooks<Deposition>) -> Result<Deposited> {
+    let t0 = Instant::now();
+    let mut d = Deposition::new(setup, k)?;
+    let start_seconds = t0.elapsed().as_secs_f64();
+    run(&mut d, hooks)?;
+    let (layer, outcome) = d.into_parts();
+    Ok(Deposited {
+        run: k,
+        layer,
+        outcome,
+        start_seconds,
+    })
+}
+
+/// Deposits a given `layer` with `moves` until `stop`, drawing from `rng` (continued as it
+/// is): the final layer and the record of the run.
+pub fn run_layer(
+    layer: Layer,
+    moves: Moves,
+    stop: StopRule,
+    rng: ChaCha8Rng,
+    hooks: &mut impl Hooks<Deposition>,
+) -> Result<(Layer, DepositionOutcome)> {
+    let mut d = Deposition::from_layer(layer, moves, stop, rng)?;
+    run(&mut d, hooks)?;
+    Ok(d.into_parts())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::deposition::grain::{Grain, GrainPose};
+    use crate::driver::NoHooks;
+    use nalgebra::{UnitQuaternion, Vector3};
+    use rand::SeedableRng;
+
+    /// One sphere high above the substrate: the run ends at `max_sweeps` without converging
+    /// (a window as long as the run), after exactly that many sweeps, and a further sweep is
+    /// refused.
+    #[test]
+    fn a_run_ends_at_max_sweeps_and_refuses_more() {
+        let r = 0.5e-6;
+        let g = Grain::new([r; 3], 0, 2500.0, 1000.0, 9.8).unwrap();
+        let pose = GrainPose {
+            position: Vector3::new(5.0 * r, 5.0 * r, 100.0 * r),
+            orientation: UnitQuaternion::identity(),
+        };
+        let layer = Layer {
+            grains: vec![g],
+            poses: vec![pose],
+            box_side_m: 10.0 * r,
+            film_height_m: 100.0 * r,
+        };
+        let stop = StopRule {
+            fraction: 1e-300,
+            window: 50,
+            max_sweeps: 50,
+        };
+        let rng = ChaCha8Rng::seed_from_u64(1);
+        let mut d = Deposition::from_layer(layer, Moves::table_b1(), stop, rng).unwrap();
+        run(&mut d, &mut NoHooks).unwrap();
+        assert_eq!(d.outcome().sweeps, 50);
+        assert!(!d.outcome().converged && d.is_done());
+        assert!(d.layer().poses[0].position.z < 100.0 * r);
+        assert!(d.step().is_err());
+    }
+}
