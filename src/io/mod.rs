@@ -10,7 +10,16 @@ pub use csv_table::CsvTable;
 
 use crate::error::{invalid, Error};
 use crate::Result;
-use std::path::Path;
+use std::path::{Path, PathBuf};
+
+/// The repository root, where `validation/` and `reference/` live: `$PORELAB_ROOT` if set,
+/// else the crate's manifest folder.
+pub fn repo_root() -> PathBuf {
+    match std::env::var_os("PORELAB_ROOT") {
+        Some(p) if !p.is_empty() => PathBuf::from(p),
+        _ => PathBuf::from(env!("CARGO_MANIFEST_DIR")),
+    }
+}
 
 /// FNV-1a 64 (Fowler, Noll & Vo; the offset basis and prime of the IETF draft
 /// draft-eastlake-fnv): a stable hash of a scene's text, the same on every machine and build.

@@ -64,13 +64,13 @@ pub fn find(name: &str) -> Result<&'static Generator> {
 
 /// `<root>/reference`, with the root from `$PORELAB_ROOT` or the crate folder.
 pub fn reference_dir() -> PathBuf {
-    crate::validation::repo_root().join("reference")
+    crate::io::repo_root().join("reference")
 }
 
 /// Writes `reference/<file_name>` atomically (temp file + rename); returns its path.
 pub fn write_file(dir: &Path, file_name: &str, contents: impl AsRef<[u8]>) -> Result<PathBuf> {
     let path = dir.join(file_name);
-    crate::validation::write_atomic(&path, contents.as_ref())?;
+    crate::io::write_atomic(&path, contents.as_ref())?;
     Ok(path)
 }
 
@@ -140,7 +140,7 @@ pub fn cli_regen(name: Option<&str>) -> Result<()> {
         println!("no generated reference tables are registered (src/reference/mod.rs)");
         return Ok(());
     }
-    let root = crate::validation::repo_root();
+    let root = crate::io::repo_root();
     let dir = root.join("reference");
     let written = regen_into(&dir, &gens)?;
     for (p, status) in &written {

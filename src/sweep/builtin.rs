@@ -107,7 +107,7 @@ pub fn cli_figure(a: &FigureArgs) -> Result<ExitCode> {
     let plan = plan_text(&text, Path::new("."), &format!("builtin sweep {name}"))?;
     write_plan(&text, &plan, dir)?;
     let code = super::run::cli_run(dir, a.jobs, a.threads, false)?;
-    super::collect::cli_collect(dir)?;
+    super::cli_collect(dir)?;
     Ok(code)
 }
 

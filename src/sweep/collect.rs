@@ -10,7 +10,6 @@
 
 use super::{job_dir, job_state, JobState, Plan};
 use crate::error::Result;
-use crate::io::write_atomic;
 use std::collections::{BTreeMap, BTreeSet};
 use std::path::Path;
 
@@ -206,35 +205,4 @@ impl Collected {
         }
         String::from_utf8(w.into_inner().expect("in-memory CSV")).expect("UTF-8 fields")
     }
-}
-
-/// `porelab sweep collect DIR`: writes `collected.csv`, `collect-missing.txt` and the plots.
-pub fn cli_collect(dir: &Path) -> Result<()> {
-    let c = collect(dir)?;
-    write_atomic(&dir.join("collected.csv"), c.csv().as_bytes())?;
-    let mut missing = String::new();
-    for m in &c.missing {
-        missing += m;
-        missing.push('\n');
-    }
-    write_atomic(&dir.join("collect-missing.txt"), missing.as_bytes())?;
-    let plots = super::plots::write_plots(dir, &c)?;
-    eprintln!(
-        "porelab sweep collect: {} points, {} quantities -> {}; {plots} plots in {}",
-        c.rows.len(),
-        c.quantities.len(),
-        dir.join("collected.csv").display(),
-        dir.join("plots").display()
-    );
-    if !c.missing.is_empty() {
-        eprintln!(
-            "  {} job(s) not in the table (also in {}):",
-            c.missing.len(),
-            dir.join("collect-missing.txt").display()
-        );
-        for m in &c.missing {
-            eprintln!("  {m}");
-        }
-    }
-    Ok(())
 }

@@ -44,6 +44,7 @@ pub mod slurm;
 pub mod status;
 
 use crate::error::{invalid, Error, Result};
+use crate::io::write_atomic;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
@@ -289,7 +290,7 @@ pub fn cli(args: &SweepArgs) -> Result<ExitCode> {
         } => run::cli_job(dir, *index, *threads),
         SweepAction::Slurm(a) => slurm::cli_slurm(a).map(|_| ExitCode::SUCCESS),
         SweepAction::Status { dir } => status::cli_status(dir).map(|_| ExitCode::SUCCESS),
-        SweepAction::Collect { dir } => collect::cli_collect(dir).map(|_| ExitCode::SUCCESS),
+        SweepAction::Collect { dir } => cli_collect(dir).map(|_| ExitCode::SUCCESS),
         SweepAction::Figure(a) => builtin::cli_figure(a),
     }
 }
@@ -298,6 +299,37 @@ pub fn cli(args: &SweepArgs) -> Result<ExitCode> {
 fn at_least_one(value: usize, option: &str) -> Result<()> {
     if value == 0 {
         return invalid(format!("--{option} 0: must be at least 1"));
+    }
+    Ok(())
+}
+
+/// `porelab sweep collect DIR`: writes `collected.csv`, `collect-missing.txt` and the plots.
+pub fn cli_collect(dir: &Path) -> Result<()> {
+    let c = collect::collect(dir)?;
+    write_atomic(&dir.join("collected.csv"), c.csv().as_bytes())?;
+    let mut missing = String::new();
+    for m in &c.missing {
+        missing += m;
+        missing.push('\n');
+    }
+    write_atomic(&dir.join("collect-missing.txt"), missing.as_bytes())?;
+    let plots = plots::write_plots(dir, &c)?;
+    eprintln!(
+        "porelab sweep collect: {} points, {} quantities -> {}; {plots} plots in {}",
+        c.rows.len(),
+        c.quantities.len(),
+        dir.join("collected.csv").display(),
+        dir.join("plots").display()
+    );
+    if !c.missing.is_empty() {
+        eprintln!(
+            "  {} job(s) not in the table (also in {}):",
+            c.missing.len(),
+            dir.join("collect-missing.txt").display()
+        );
+        for m in &c.missing {
+            eprintln!("  {m}");
+        }
     }
     Ok(())
 }

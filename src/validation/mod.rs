@@ -13,6 +13,7 @@ pub mod report;
 pub mod spec;
 pub mod table;
 
+pub use crate::io::repo_root;
 pub use case::{CaseContext, Row, Runner};
 pub use harness::{
     decade, discover, evaluate, run_case, run_case_with, Case, Outcome, Stats, Verdict,
@@ -23,16 +24,7 @@ pub use table::Table;
 
 use crate::Result;
 use rayon::prelude::*;
-use std::path::PathBuf;
 use std::process::ExitCode;
-
-/// The repository root: `$PORELAB_ROOT` if set, else the crate's manifest folder.
-pub fn repo_root() -> PathBuf {
-    match std::env::var_os("PORELAB_ROOT") {
-        Some(p) if !p.is_empty() => PathBuf::from(p),
-        _ => PathBuf::from(env!("CARGO_MANIFEST_DIR")),
-    }
-}
 
 /// Which of `cases` a `validate` run selects: with no prefixes, every case of the fast tier
 /// (all tiers with `all`); with prefixes, the cases whose folder name starts with one of
