@@ -134,6 +134,7 @@ pub fn cli_validate(ids: &[String], all: bool) -> Result<ExitCode> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use std::path::PathBuf;
 
     fn case(folder: &str, tier: Tier) -> Case {
         let text = format!(
