@@ -66,7 +66,7 @@ enum Command {
         checkpoint_every: f64,
     },
     /// Permeability of a periodic particle configuration (extended XYZ) by lattice Boltzmann.
-    Permeability(porelab::lbm::pore::PermeabilityArgs),
+    Permeability(porelab::cli::permeability::PermeabilityArgs),
     /// Parameter sweeps and ensembles: plan, run locally or as a Slurm job array, collect.
     Sweep(porelab::sweep::SweepArgs),
     /// Work-precision benchmarks.
@@ -125,7 +125,7 @@ fn main() -> ExitCode {
         Command::Shape(args) => porelab::cli::shape::run_shape(&args),
         Command::Drag(args) => porelab::cli::drag::run_drag(&args),
         Command::Permeability(args) => {
-            porelab::lbm::pore::cli_permeability(&args).map(|_| ExitCode::SUCCESS)
+            porelab::cli::permeability::run_permeability(&args).map(|_| ExitCode::SUCCESS)
         }
         Command::Run {
             show: Some(name), ..

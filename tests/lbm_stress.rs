@@ -1,12 +1,21 @@
 //! Bad and extreme input for the lattice-Boltzmann engine: a clear message, never NaN fields.
 
+use porelab::driver::NoHooks;
 use porelab::lbm::flows::{brinkman_poiseuille, channel_coordinate};
-use porelab::lbm::geometry::{Dims, Geometry};
-use porelab::lbm::problems::Channel;
-use porelab::lbm::solver::check_memory;
-use porelab::lbm::steady::SteadyControl;
+use porelab::lbm::memory::check_memory;
+use porelab::lbm::problems::{Channel, ChannelFlow};
 use porelab::lbm::units::{check_mach, Units};
-use porelab::lbm::{Porous, Trt, D3Q19};
+use porelab::lbm::{
+    CollisionKind, CollisionModel, Dims, Domain, LatticeKind, Lbm, Porous, Setup, SteadyControl,
+    Tau,
+};
+
+const D3Q19: LatticeKind = LatticeKind::D3Q19;
+
+/// TRT at tau = 1.
+fn trt() -> CollisionModel {
+    CollisionModel::new(CollisionKind::Trt, Tau::new(1.0).unwrap())
+}
 
 const CTL: SteadyControl = SteadyControl {
     check_every: 500,
@@ -35,7 +44,7 @@ fn high_mach_is_refused_before_and_during_a_run() {
         porous: None,
     };
     let e = ch
-        .steady::<D3Q19, _>(Trt::magic(1.0), CTL, |_, _| {})
+        .steady(D3Q19, trt(), CTL, &mut NoHooks)
         .unwrap_err()
         .to_string();
     assert!(e.contains("Mach") || e.contains("non-finite"), "{e}");
@@ -66,9 +75,7 @@ fn extreme_porous_media_stay_finite() {
                 wall_u: 0.0,
                 porous: Some((eps, k, forch)),
             };
-            let (prof, st) = ch
-                .steady::<D3Q19, _>(Trt::magic(1.0), CTL, |_, _| {})
-                .unwrap();
+            let (prof, st) = ch.steady(D3Q19, trt(), CTL, &mut NoHooks).unwrap();
             assert!(st.fields.u.iter().flatten().all(|v| v.is_finite()));
             assert!(st.fields.rho.iter().all(|v| v.is_finite()));
             if !forch {
@@ -100,76 +107,67 @@ fn lattice_too_large_is_refused_naming_the_size() {
 #[test]
 fn all_solid_mask_has_no_flow_path() {
     let d = Dims::new(4, 4, 4).unwrap();
-    let g = Geometry::new::<D3Q19>(d, vec![true; 64], |_| [0.0; 3]).unwrap();
-    let e =
-        porelab::lbm::problems::permeability::<D3Q19, _>(g, Trt::magic(1.0), 1e-6, CTL, |_, _| {})
-            .unwrap_err()
-            .to_string();
+    let solid = Domain::with_solid(d, vec![true; 64]).unwrap();
+    let e = porelab::lbm::problems::permeability(D3Q19, trt(), solid, 1e-6, CTL, &mut NoHooks)
+        .unwrap_err()
+        .to_string();
     assert!(e.contains("permeability is 0"), "{e}");
 }
 
 /// Boundary planes (non-equilibrium extrapolation): a plane in the solid, a plane too thin for
-/// the extrapolation, a mask with no path from inlet to outlet (flow rate 0, said plainly) and
-/// a pressure drop too large for the lattice (stopped with the Mach number, never NaN).
+/// the extrapolation, a density that is not a number, a velocity field of the wrong size, a
+/// mask with no path from inlet to outlet (flow rate 0, said plainly) and a pressure drop too
+/// large for the lattice (stopped with the Mach number, never NaN).
 #[test]
 fn boundary_planes_refuse_what_they_cannot_do() {
-    use porelab::lbm::boundary::{connected, Face, Plane};
+    use porelab::lbm::boundary::Face;
     use porelab::lbm::flows::channel_mask;
     use porelab::lbm::problems::{DrivenChannel, Inlet};
+    use porelab::lbm::{PlaneCondition, PlaneSpec, PlaneVelocity};
+    let plane = |axis: usize, high: bool, condition: PlaneCondition| PlaneSpec {
+        face: Face { axis, high },
+        condition,
+    };
+    // the flow of `mask` on `d` between the planes `planes`, or why it cannot be built
+    let flow = |d: Dims, mask: Vec<bool>, planes: Vec<PlaneSpec>| {
+        let domain = Domain::with_solid(d, mask).unwrap();
+        Lbm::new(Setup::new(D3Q19, trt(), domain).with_boundaries(planes))
+    };
+    let refused = |d: Dims, planes: Vec<PlaneSpec>| match flow(d, channel_mask(d), planes) {
+        Ok(_) => panic!("built"),
+        Err(e) => e.to_string(),
+    };
     let d = Dims::new(8, 6, 1).unwrap();
-    let geom = Geometry::new::<D3Q19>(d, channel_mask(d), |_| [0.0; 3]).unwrap();
-    let e = Plane::density(
-        &geom,
-        Face {
-            axis: 1,
-            high: false,
-        },
-        1.0,
-    )
-    .unwrap_err()
-    .to_string();
+    let e = refused(d, vec![plane(1, false, PlaneCondition::Density(1.0))]);
     assert!(e.contains("y-") && e.contains("no fluid node"), "{e}");
-    let e = Plane::density(
-        &geom,
-        Face {
-            axis: 0,
-            high: true,
-        },
-        f64::NAN,
-    )
-    .unwrap_err()
-    .to_string();
+    let e = refused(d, vec![plane(0, true, PlaneCondition::Density(f64::NAN))]);
     assert!(e.contains("density NaN"), "{e}");
     let thin = Dims::new(2, 6, 1).unwrap();
-    let g2 = Geometry::new::<D3Q19>(thin, channel_mask(thin), |_| [0.0; 3]).unwrap();
-    let e = Plane::density(
-        &g2,
-        Face {
-            axis: 0,
-            high: false,
-        },
-        1.0,
-    )
-    .unwrap_err()
-    .to_string();
+    let e = refused(thin, vec![plane(0, false, PlaneCondition::Density(1.0))]);
     assert!(e.contains("at least 3"), "{e}");
+    let short = PlaneVelocity::Field(vec![[0.0; 3]; 5]);
+    let e = refused(d, vec![plane(0, false, PlaneCondition::Velocity(short))]);
+    assert!(e.contains("5 velocities for a face of 6 cells"), "{e}");
     assert!(Face::parse("w+", "inlet")
         .unwrap_err()
         .to_string()
         .contains("inlet = \"w+\""));
-    // a solid wall across the channel at x = 4: no path between the end planes
+    // the inlet (x-) and outlet (x+) planes, joined or not: a solid wall across the channel
+    // at x = 4 leaves no path between them
+    let ends = || {
+        vec![
+            plane(0, false, PlaneCondition::Density(1.001)),
+            plane(0, true, PlaneCondition::Density(0.999)),
+        ]
+    };
     let mut mask = channel_mask(d);
     for y in 0..6 {
         mask[d.cell(4, y, 0)] = true;
     }
-    let blocked = Geometry::new::<D3Q19>(d, mask, |_| [0.0; 3]).unwrap();
-    // the inlet (x-) and outlet (x+) planes of a geometry, joined or not
-    let joined = |g: &Geometry| {
-        let end = |high: bool, rho: f64| Plane::density(g, Face { axis: 0, high }, rho).unwrap();
-        connected::<D3Q19>(g, &end(false, 1.001), &end(true, 0.999))
-    };
-    assert!(!joined(&blocked));
-    assert!(joined(&geom));
+    assert!(!flow(d, mask, ends()).unwrap().planes_connected(0, 1));
+    assert!(flow(d, channel_mask(d), ends())
+        .unwrap()
+        .planes_connected(0, 1));
     // a pressure drop far beyond the lattice's range: stopped, with the reason
     let ch = DrivenChannel {
         h: 16,
@@ -178,7 +176,7 @@ fn boundary_planes_refuse_what_they_cannot_do() {
         rho_out: 0.6,
     };
     let e = ch
-        .steady::<D3Q19, _>(Trt::magic(1.0), CTL, |_, _| {})
+        .steady(D3Q19, trt(), CTL, &mut NoHooks)
         .unwrap_err()
         .to_string();
     assert!(e.contains("Mach") || e.contains("non-finite"), "{e}");

@@ -3,7 +3,9 @@
 
 use porelab::io::vtk::{write_image_data, CellField};
 use porelab::lbm::flows::sphere_array_mask;
-use porelab::lbm::{BodyForce, Dims, Geometry, Solver, Trt, D3Q19};
+use porelab::lbm::{
+    Accel, CollisionKind, CollisionModel, Dims, Domain, ForcingModel, LatticeKind, Lbm, Setup, Tau,
+};
 use std::process::Command;
 
 #[test]
@@ -33,16 +35,12 @@ fn vtk_fields_read_by_meshio() {
     let d = Dims::new(nx, ny, nz).unwrap();
     let mut mask = sphere_array_mask(6, 1.6);
     mask.truncate(d.cells());
-    let geom = Geometry::new::<D3Q19>(d, mask.clone(), |_| [0.0; 3]).unwrap();
-    let mut s = Solver::<D3Q19, _, _>::new(
-        geom,
-        Trt::magic(0.9),
-        BodyForce {
-            g: [1e-4, 3e-5, -2e-5],
-        },
-    )
-    .unwrap();
-    s.run(20);
+    let domain = Domain::with_solid(d, mask.clone()).unwrap();
+    let trt = CollisionModel::new(CollisionKind::Trt, Tau::new(0.9).unwrap());
+    let body = ForcingModel::Body(Accel::new([1e-4, 3e-5, -2e-5]).unwrap());
+    let setup = Setup::new(LatticeKind::D3Q19, trt, domain).with_forcing(body);
+    let mut s = Lbm::new(setup).unwrap();
+    s.run(20).unwrap();
     let f = s.fields();
     let solid: Vec<f64> = mask.iter().map(|&b| if b { 1.0 } else { 0.0 }).collect();
     // a porosity field that differs from cell to cell, as the Guo-Zhao scenes write

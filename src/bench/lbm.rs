@@ -10,9 +10,11 @@
 //! that higher limit.
 
 use crate::error::{invalid, Result};
-use crate::lbm::choice::{dispatch, CollisionKind, Job, LatticeKind};
-use crate::lbm::geometry::{Dims, Geometry};
-use crate::lbm::{BodyForce, Collision, Lattice, Porous, Solver};
+use crate::io::CsvTable;
+use crate::lbm::{
+    Accel, CollisionKind, CollisionModel, Dims, Domain, ForcingModel, LatticeKind, Lbm, Medium,
+    Setup, Tau,
+};
 use std::time::Instant;
 
 #[derive(Debug, Clone, clap::Args)]
@@ -101,6 +103,15 @@ pub enum Mode {
 }
 
 impl Mode {
+    /// The forcing column of the CSV.
+    fn forcing(self) -> String {
+        match self {
+            Mode::Plain => "guo".into(),
+            Mode::Porous => "guo-zhao".into(),
+            Mode::Pores { solid_fraction } => format!("guo-solid-{solid_fraction}"),
+        }
+    }
+
     fn name(self) -> String {
         match self {
             Mode::Plain => "plain".into(),
@@ -129,71 +140,50 @@ fn random_mask(cells: usize, fraction: f64) -> Vec<bool> {
         .collect()
 }
 
-struct Measure {
-    n: usize,
-    mode: Mode,
-    seconds: f64,
-    stores: Option<bool>,
-}
-
 /// MLUPS and whether the kernel stored non-temporally.
 type Timing = (f64, bool);
 
-impl Job for Measure {
-    type Out = Result<Timing>;
-    fn run<L: Lattice, C: Collision>(self, coll: C) -> Result<Timing> {
-        let stores = self.stores;
-        let d = Dims::new(self.n, self.n, self.n)?;
-        let g = [1e-6, 0.0, 0.0];
-        if let Mode::Pores { solid_fraction } = self.mode {
+/// The flow a measurement times: on an n^3 lattice at tau = 1 under a body force of 1e-6
+/// along x, the open box (plain), a Guo-Zhao medium whose porosity varies from cell to cell
+/// (porous), or the random solid mask (pores).
+fn flow(lat: LatticeKind, coll: CollisionKind, mode: Mode, n: usize) -> Result<Lbm> {
+    let d = Dims::new(n, n, n)?;
+    let g = Accel::new([1e-6, 0.0, 0.0])?;
+    let collision = CollisionModel::new(coll, Tau::new(1.0)?);
+    let setup = match mode {
+        Mode::Pores { solid_fraction } => {
             let mask = random_mask(d.cells(), solid_fraction);
-            let geom = Geometry::new::<L>(d, mask, |_| [0.0; 3])?;
-            return time_steps(
-                Solver::<L, C, BodyForce>::new(geom, coll, BodyForce { g })?,
-                self.seconds,
-                stores,
-            );
+            Setup::new(lat, collision, Domain::with_solid(d, mask)?)
         }
-        let geom = Geometry::open::<L>(d);
-        if self.mode == Mode::Porous {
-            let nu = (1.0 / coll.omega_plus() - 0.5) / 3.0;
-            let mut p = Porous::clear(d.cells(), nu, g, true);
-            for c in 0..d.cells() {
-                p.set(c, 0.4 + 0.5 * ((c % 13) as f64 / 13.0), 1e-2)
-                    .map_err(crate::Error::InvalidInput)?;
-            }
-            time_steps(
-                Solver::<L, C, Porous>::new(geom, coll, p)?,
-                self.seconds,
-                stores,
-            )
-        } else {
-            time_steps(
-                Solver::<L, C, BodyForce>::new(geom, coll, BodyForce { g })?,
-                self.seconds,
-                stores,
-            )
+        _ => Setup::new(lat, collision, Domain::open(d)),
+    };
+    let forcing = match mode {
+        Mode::Porous => ForcingModel::Porous(Medium::clear(g, true)),
+        _ => ForcingModel::Body(g),
+    };
+    let mut lbm = Lbm::new(setup.with_forcing(forcing))?;
+    if let Some(p) = lbm.porous_mut() {
+        for c in 0..d.cells() {
+            p.set(c, 0.4 + 0.5 * ((c % 13) as f64 / 13.0), 1e-2)
+                .map_err(crate::Error::InvalidInput)?;
         }
     }
+    Ok(lbm)
 }
 
-fn time_steps<L: Lattice, C: Collision, F: crate::lbm::Forcing>(
-    mut s: Solver<L, C, F>,
-    seconds: f64,
-    stores: Option<bool>,
-) -> Result<Timing> {
+fn time_steps(mut s: Lbm, seconds: f64, stores: Option<bool>) -> Result<Timing> {
     s.set_streaming_stores(stores);
     let streaming = s.streaming_stores() && crate::lbm::simd::has_avx512();
-    s.step(); // warm-up
+    s.step()?; // warm-up
     let t = Instant::now();
     let mut steps = 0u64;
     while steps < 3 || t.elapsed().as_secs_f64() < seconds {
-        s.step();
+        s.step()?;
         steps += 1;
     }
     let dt = t.elapsed().as_secs_f64();
     Ok((
-        s.geometry.fluid_cells() as f64 * steps as f64 / dt / 1e6,
+        s.geometry().fluid_cells() as f64 * steps as f64 / dt / 1e6,
         streaming,
     ))
 }
@@ -212,19 +202,7 @@ pub fn mlups(
         .num_threads(threads)
         .build()
         .map_err(|e| crate::Error::InvalidInput(format!("thread pool: {e}")))?;
-    pool.install(|| {
-        dispatch(
-            lat,
-            coll,
-            1.0,
-            Measure {
-                n,
-                mode,
-                seconds,
-                stores,
-            },
-        )
-    })
+    pool.install(|| time_steps(flow(lat, coll, mode, n)?, seconds, stores))
 }
 
 /// lbmpy's MLUPS for (lattice, collision, n, threads), run by benches/peer_lbmpy.py; None with
@@ -265,7 +243,16 @@ pub fn peer_mlups(
         .ok_or_else(|| format!("peer printed no MLUPS line: {text}"))
 }
 
-pub fn run(args: &BenchArgs) -> Result<()> {
+/// What `bench lbm` measures: the lattices, collisions and kernels of its arguments, and the
+/// kernel's stores (None: the default rule).
+type Choices = (
+    Vec<LatticeKind>,
+    Vec<CollisionKind>,
+    Vec<Mode>,
+    Option<bool>,
+);
+
+fn choices(args: &BenchArgs) -> Result<Choices> {
     if args.sizes.is_empty() || args.threads.is_empty() || args.threads.contains(&0) {
         return invalid("bench lbm: --sizes and --threads need at least one value, threads >= 1");
     }
@@ -303,9 +290,28 @@ pub fn run(args: &BenchArgs) -> Result<()> {
     if lattices.is_empty() || collisions.is_empty() || modes.is_empty() {
         return invalid("bench lbm: --lattices, --collisions and --modes need at least one value");
     }
-    let mut csv = String::from(
-        "lattice,collision,forcing,n,threads,mlups,bandwidth_limit_mlups,fraction_of_limit,nontemporal_stores,fraction_of_nontemporal_limit,peer_lbmpy_mlups,ratio_to_peer\n",
-    );
+    Ok((lattices, collisions, modes, stores))
+}
+
+/// The columns of the benchmark's CSV.
+const COLUMNS: [&str; 12] = [
+    "lattice",
+    "collision",
+    "forcing",
+    "n",
+    "threads",
+    "mlups",
+    "bandwidth_limit_mlups",
+    "fraction_of_limit",
+    "nontemporal_stores",
+    "fraction_of_nontemporal_limit",
+    "peer_lbmpy_mlups",
+    "ratio_to_peer",
+];
+
+pub fn run(args: &BenchArgs) -> Result<()> {
+    let (lattices, collisions, modes, stores) = choices(args)?;
+    let mut csv = CsvTable::new(&COLUMNS);
     for &th in &args.threads {
         let bw = triad_gb_per_s(th)?;
         println!("triad bandwidth, {th} thread(s): {bw:.1} GB/s (4 x 8 bytes per element)");
@@ -356,19 +362,20 @@ pub fn run(args: &BenchArgs) -> Result<()> {
                                 _ => String::new(),
                             }
                         );
-                        csv += &format!(
-                            "{},{},{},{n},{th},{m:.3},{limit:.2},{:.4},{nt},{:.4},{pm},{ratio}\n",
-                            lat.name(),
-                            coll.name(),
-                            match mode {
-                                Mode::Plain => "guo".to_string(),
-                                Mode::Porous => "guo-zhao".to_string(),
-                                Mode::Pores { solid_fraction } =>
-                                    format!("guo-solid-{solid_fraction}"),
-                            },
-                            m / limit,
-                            if nt { m / nt_limit } else { m / limit }
-                        );
+                        csv.row([
+                            lat.name().to_string(),
+                            coll.name().to_string(),
+                            mode.forcing(),
+                            n.to_string(),
+                            th.to_string(),
+                            format!("{m:.3}"),
+                            format!("{limit:.2}"),
+                            format!("{:.4}", m / limit),
+                            nt.to_string(),
+                            format!("{:.4}", if nt { m / nt_limit } else { m / limit }),
+                            pm,
+                            ratio,
+                        ]);
                     }
                 }
             }
@@ -381,7 +388,7 @@ pub fn run(args: &BenchArgs) -> Result<()> {
     if let Some(dir) = out.parent() {
         std::fs::create_dir_all(dir)?;
     }
-    crate::io::write_atomic(&out, csv.as_bytes())?;
+    csv.write(&out)?;
     println!("wrote {}", out.display());
     Ok(())
 }

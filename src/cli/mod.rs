@@ -1,7 +1,9 @@
-//! The one-shot commands of `porelab` that evaluate a kernel on user input: `field`, `contact`,
-//! `shape`, `drag`. They sit beside the kernels, which never import them.
+//! The one-shot commands of `porelab` that evaluate a kernel or an engine on user input:
+//! `field`, `contact`, `shape`, `drag`, `permeability`. They sit beside the kernels and
+//! engines, which never import them.
 
 pub mod contact;
 pub mod drag;
 pub mod field;
+pub mod permeability;
 pub mod shape;

@@ -480,7 +480,7 @@ impl Coupled {
         let (eps_min, switch) = (self.setup.eps_min, self.setup.switch);
         let g = -self.grad_p() / self.setup.fluid_density_kg_m3;
         let gl = self.units.accel_to_lattice(1.0);
-        let porous = &mut self.lbm.forcing;
+        let porous = self.lbm.forcing_mut();
         porous.g = [g.x * gl, g.y * gl, g.z * gl];
         for c in 0..self.dims.cells() {
             let vs = self.solid_volume_m3[c];
@@ -525,7 +525,7 @@ impl Coupled {
         self.timing.lbm_s += t.elapsed().as_secs_f64();
         let t = Instant::now();
         let cells = self.dims.cells();
-        let porous = &self.lbm.forcing;
+        let porous = self.lbm.forcing();
         let g = porous.g;
         // per cell: lost force F_c and D_c (lattice)
         let mut fc = vec![[0.0; 3]; cells];
@@ -642,10 +642,10 @@ impl Coupled {
             j_ext += (fp + self.dem.setup.gravity_m_s2 * (m * b)) * dt;
         }
         // the fluid's driving impulse: sum rho_c eps_c G over the cells (lattice -> SI)
-        let g = self.lbm.forcing.g;
+        let g = self.lbm.forcing().g;
         let mut drive = [0.0; 3];
         for c in 0..self.dims.cells() {
-            let re = self.record.rho[c] * self.lbm.forcing.eps(c);
+            let re = self.record.rho[c] * self.lbm.forcing().eps(c);
             for k in 0..3 {
                 drive[k] += re * g[k];
             }

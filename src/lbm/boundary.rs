@@ -20,8 +20,8 @@
 use super::collision::{equilibrium, relax_cell, Collision};
 use super::forcing::Forcing;
 use super::geometry::{Dims, Geometry};
-use super::lattice::{opposite, Lattice};
-use super::solver::{density_momentum, Layout};
+use super::lattice::{density_momentum, opposite, Lattice};
+use super::memory::Layout;
 use crate::error::{invalid, Result};
 
 /// A face of the box: the plane `axis` = 0 (`high = false`) or `axis` = n - 1 (`high = true`).
@@ -70,7 +70,25 @@ impl Face {
         q
     }
 
-    fn name(&self) -> String {
+    /// Cells of the face (solid ones included).
+    pub fn cells_in(&self, d: &Dims) -> usize {
+        d.cells() / self.extent(d)
+    }
+
+    /// The index of cell `p` of the face among the face's cells in the order of the cell
+    /// index: the two other coordinates, the slower one (larger axis) first.
+    pub fn index_of(&self, d: &Dims, p: [usize; 3]) -> usize {
+        let n = [d.nx, d.ny, d.nz];
+        let (lo, hi) = match self.axis {
+            0 => (1, 2),
+            1 => (0, 2),
+            _ => (0, 1),
+        };
+        p[hi] * n[lo] + p[lo]
+    }
+
+    /// "x-", "x+", "y-", ...
+    pub fn name(&self) -> String {
         format!(
             "{}{}",
             ["x", "y", "z"][self.axis],

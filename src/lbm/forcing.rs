@@ -138,6 +138,22 @@ pub fn guo_zhao_coefficients(eps: f64, k: f64, nu: f64, forchheimer: bool) -> (f
     (lin, quad)
 }
 
+/// Refuses a porosity outside (0, 1], with the rule.
+pub fn check_porosity(eps: f64) -> Result<(), String> {
+    if eps.is_nan() || eps <= 0.0 || eps > 1.0 {
+        return Err(format!("porosity eps = {eps}: must be in (0, 1]"));
+    }
+    Ok(())
+}
+
+/// Refuses a permeability that is not positive (infinity: no drag), with the rule.
+pub fn check_permeability(k: f64) -> Result<(), String> {
+    if k.is_nan() || k <= 0.0 {
+        return Err(format!("permeability K = {k} (lattice units): must be > 0"));
+    }
+    Ok(())
+}
+
 impl Porous {
     /// A medium of `cells` cells, all clear fluid (eps = 1, K = infinity).
     pub fn clear(cells: usize, nu: f64, g: [f64; 3], forchheimer: bool) -> Porous {
@@ -176,9 +192,7 @@ impl Porous {
         lin: f64,
         quad: f64,
     ) -> Result<(), String> {
-        if eps.is_nan() || eps <= 0.0 || eps > 1.0 {
-            return Err(format!("porosity eps = {eps}: must be in (0, 1]"));
-        }
+        check_porosity(eps)?;
         if !(lin.is_finite() && lin >= 0.0 && quad.is_finite() && quad >= 0.0) {
             return Err(format!(
                 "drag coefficients lin = {lin}, quad = {quad} (lattice units): must be finite and >= 0"
@@ -209,12 +223,8 @@ impl Porous {
     /// Sets porosity `eps` (0 < eps <= 1) and permeability `k` (lattice units, > 0; infinity
     /// for no drag) of one cell. Returns the rule broken, if any.
     pub fn set(&mut self, cell: usize, eps: f64, k: f64) -> Result<(), String> {
-        if eps.is_nan() || eps <= 0.0 || eps > 1.0 {
-            return Err(format!("porosity eps = {eps}: must be in (0, 1]"));
-        }
-        if k.is_nan() || k <= 0.0 {
-            return Err(format!("permeability K = {k} (lattice units): must be > 0"));
-        }
+        check_porosity(eps)?;
+        check_permeability(k)?;
         let (lin, quad) = guo_zhao_coefficients(eps, k, self.nu, self.forchheimer);
         self.set_fields(cell, [eps, lin, quad]);
         Ok(())

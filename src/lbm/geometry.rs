@@ -182,42 +182,9 @@ impl Geometry {
         self.links.len()
     }
     /// Whether a fluid cluster joined along the links of lattice `L` wraps round the periodic
-    /// box along `axis`: a path of fluid cells from a cell to one of its own images one period
-    /// away. Without one, a body force along `axis` drives no steady flow (permeability 0),
-    /// however much fluid the mask holds. Each cluster is searched once, its cells labelled
-    /// with their unwrapped coordinate along `axis`; reaching a labelled cell with another
-    /// coordinate closes a wrapping path.
+    /// box along `axis` ([`percolates`]).
     pub fn percolates<L: Lattice>(&self, axis: usize) -> bool {
-        let d = self.dims;
-        const UNSEEN: i32 = i32::MIN;
-        let mut unwrapped = vec![UNSEEN; d.cells()];
-        let mut stack = Vec::new();
-        for start in 0..d.cells() {
-            if self.solid[start] || unwrapped[start] != UNSEEN {
-                continue;
-            }
-            unwrapped[start] = d.coords(start)[axis] as i32;
-            stack.push(start);
-            while let Some(c) = stack.pop() {
-                let p = d.coords(c);
-                let here = unwrapped[c];
-                for cq in L::C.iter().skip(1) {
-                    let n = d.shifted(p, *cq);
-                    let nc = d.cell(n[0], n[1], n[2]);
-                    if self.solid[nc] {
-                        continue;
-                    }
-                    let there = here + cq[axis];
-                    if unwrapped[nc] == UNSEEN {
-                        unwrapped[nc] = there;
-                        stack.push(nc);
-                    } else if unwrapped[nc] != there {
-                        return true;
-                    }
-                }
-            }
-        }
-        false
+        percolates(self.dims, &self.solid, L::C, axis)
     }
 
     /// The opposite of link direction q (re-exported for the kernel).
@@ -225,6 +192,44 @@ impl Geometry {
     pub fn opp(q: usize) -> usize {
         opposite(q)
     }
+}
+
+/// Whether a fluid cluster of the mask `solid` on `d`, joined along the lattice velocities
+/// `c`, wraps round the periodic box along `axis`: a path of fluid cells from a cell to one
+/// of its own images one period away. Without one, a body force along `axis` drives no steady
+/// flow (permeability 0), however much fluid the mask holds. Each cluster is searched once,
+/// its cells labelled with their unwrapped coordinate along `axis`; reaching a labelled cell
+/// with another coordinate closes a wrapping path.
+pub fn percolates(d: Dims, solid: &[bool], c: &[[i32; 3]], axis: usize) -> bool {
+    const UNSEEN: i32 = i32::MIN;
+    let mut unwrapped = vec![UNSEEN; d.cells()];
+    let mut stack = Vec::new();
+    for start in 0..d.cells() {
+        if solid[start] || unwrapped[start] != UNSEEN {
+            continue;
+        }
+        unwrapped[start] = d.coords(start)[axis] as i32;
+        stack.push(start);
+        while let Some(cell) = stack.pop() {
+            let p = d.coords(cell);
+            let here = unwrapped[cell];
+            for cq in c.iter().skip(1) {
+                let n = d.shifted(p, *cq);
+                let nc = d.cell(n[0], n[1], n[2]);
+                if solid[nc] {
+                    continue;
+                }
+                let there = here + cq[axis];
+                if unwrapped[nc] == UNSEEN {
+                    unwrapped[nc] = there;
+                    stack.push(nc);
+                } else if unwrapped[nc] != there {
+                    return true;
+                }
+            }
+        }
+    }
+    false
 }
 
 #[cfg(test)]

@@ -56,6 +56,21 @@ pub(crate) use {each_pair, each_q};
 /// D3Q15's w_0 = 2/9; the same 1/3 holds for D3Q19).
 pub const CS2: f64 = 1.0 / 3.0;
 
+/// rho = sum f, j = sum f c (seed 002 eq. 6-7).
+#[inline(always)]
+pub fn density_momentum<L: Lattice>(p: &L::Pop) -> (f64, [f64; 3]) {
+    let p = p.as_ref();
+    let mut rho = 0.0;
+    let mut j = [0.0; 3];
+    for (c, &f) in L::C.iter().zip(p) {
+        rho += f;
+        j[0] += c[0] as f64 * f;
+        j[1] += c[1] as f64 * f;
+        j[2] += c[2] as f64 * f;
+    }
+    (rho, j)
+}
+
 /// D3Q15: the seed's lattice (seed 002 Fig. 5, eq. 5: w_0 = 2/9, w_1..6 = 1/9, w_7..14 = 1/72).
 #[derive(Debug, Clone, Copy, Default)]
 pub struct D3Q15;

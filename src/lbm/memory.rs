@@ -1,7 +1,11 @@
 //! Where the kernel's arrays sit in the memory system: the size of the last-level cache (which
 //! decides the non-temporal stores and the prefetch) and huge-page backing for the population
-//! arrays and the per-cell fields, and the strides that keep arrays read side by side out of
-//! each other's cache sets.
+//! arrays and the per-cell fields, the strides that keep arrays read side by side out of
+//! each other's cache sets, the layout of the population arrays ([`Layout`]) and the check
+//! that a lattice fits into the memory available before anything is allocated.
+
+use super::geometry::Dims;
+use crate::error::{invalid, Result};
 
 /// The stride (values of 8 bytes) at which to lay out arrays of `values` values one after
 /// another that a block reads at the same index: one cache line more where `values` is a
@@ -62,4 +66,71 @@ pub fn vec_on_huge_pages<T: Clone>(n: usize, value: T) -> Vec<T> {
     let _ = bytes;
     v.resize(n, value);
     v
+}
+
+/// Where population q of cell (x, y, z) lives in the population arrays:
+/// `z z_stride + q q_stride + y nx + x` with q_stride = ny nx (plus one cache line at
+/// power-of-two sizes, see [`stride_off_sets`]) and z_stride = Q q_stride, the one place the
+/// kernel, the boundaries and the sums take the index from.
+#[derive(Debug, Clone, Copy)]
+pub struct Layout {
+    pub nx: usize,
+    pub nz: usize,
+    pub q_stride: usize,
+    pub z_stride: usize,
+}
+
+impl Layout {
+    pub fn new(d: &Dims, q: usize) -> Layout {
+        let q_stride = stride_off_sets(d.ny * d.nx);
+        Layout {
+            nx: d.nx,
+            nz: d.nz,
+            q_stride,
+            z_stride: q * q_stride,
+        }
+    }
+
+    /// Values in one population array.
+    pub fn values(&self) -> usize {
+        self.nz * self.z_stride
+    }
+
+    #[inline(always)]
+    pub fn index(&self, z: usize, q: usize, y: usize, x: usize) -> usize {
+        z * self.z_stride + q * self.q_stride + y * self.nx + x
+    }
+}
+
+/// Bytes a solver of `cells` cells with `q` populations allocates (two population arrays,
+/// mask, and `extra_per_cell` bytes of forcing fields).
+pub fn bytes_needed(cells: usize, q: usize, extra_per_cell: usize) -> u128 {
+    cells as u128 * (2 * 8 * q as u128 + 1 + extra_per_cell as u128)
+}
+
+/// Memory this process may take: MemAvailable of /proc/meminfo, or None where unknown.
+pub fn memory_available() -> Option<u128> {
+    let text = std::fs::read_to_string("/proc/meminfo").ok()?;
+    let line = text.lines().find(|l| l.starts_with("MemAvailable:"))?;
+    let kib: u128 = line.split_whitespace().nth(1)?.parse().ok()?;
+    Some(kib * 1024)
+}
+
+/// Refuses a lattice whose arrays need more than the available memory, before allocating.
+pub fn check_memory(dims: Dims, q: usize, extra_per_cell: usize) -> Result<()> {
+    let need = bytes_needed(dims.cells(), q, extra_per_cell);
+    if let Some(avail) = memory_available() {
+        if need > avail {
+            return invalid(format!(
+                "lattice {} x {} x {} with Q = {q} needs {:.2} GiB, more than the {:.2} GiB of \
+                 memory available: use a coarser resolution",
+                dims.nx,
+                dims.ny,
+                dims.nz,
+                need as f64 / 1073741824.0,
+                avail as f64 / 1073741824.0
+            ));
+        }
+    }
+    Ok(())
 }

@@ -1,13 +1,44 @@
-//! The standard problems, written once generically in the lattice and collision: steady
-//! channel flows (plain, porous, with a moving wall), the permeability of a periodic solid
-//! mask under a small body force, and the Taylor-Green vortex decay.
+//! The standard problems, each a small description that builds its [`Setup`] and runs the
+//! driver, for any lattice and collision: steady channel flows (plain, porous, with a moving
+//! wall; driven through inlet and outlet planes; between velocity planes on the nodes), the
+//! square duct, the permeability of a periodic solid mask under a small body force, and the
+//! Taylor-Green vortex decay.
 
-use super::boundary::{connected, Boundaries, Face, Plane};
-use super::flows::{channel_mask, duct_mask};
-use super::geometry::{Dims, Geometry};
-use super::steady::{run_steady, Steady, SteadyControl};
-use super::{BodyForce, Collision, Lattice, Porous, Solver, Unforced};
+use super::boundary::Face;
+use super::driver::{run_steady, Steady, SteadyControl};
+use super::engine::Lbm;
+use super::flows::{channel_coordinate, channel_mask, duct_mask};
+use super::geometry::Dims;
+use super::setup::{
+    Accel, CollisionModel, Domain, ForcingModel, Initial, LatticeKind, Medium, PlaneCondition,
+    PlaneSpec, PlaneVelocity, Setup,
+};
+use crate::driver::{Hooks, NoHooks};
 use crate::error::{invalid, Result};
+use std::ops::RangeInclusive;
+
+/// A flow uniform along x and z between two walls normal to y, whose answer is its steady x
+/// velocity across the channel.
+pub trait ChannelFlow {
+    fn setup(&self, lattice: LatticeKind, collision: CollisionModel) -> Result<Setup>;
+
+    /// The rows y of the profile.
+    fn rows(&self) -> RangeInclusive<usize>;
+
+    /// Runs to the steady state; the x velocity of the cells (0, y, 0), y in [`Self::rows`]
+    /// (index y - first row), and the run.
+    fn steady(
+        &self,
+        lattice: LatticeKind,
+        collision: CollisionModel,
+        ctl: SteadyControl,
+        hooks: &mut dyn Hooks<Lbm>,
+    ) -> Result<(Vec<f64>, Steady)> {
+        let st = run_steady(&mut Lbm::new(self.setup(lattice, collision)?)?, ctl, hooks)?;
+        let prof = self.rows().map(|y| st.fields.u[y][0]).collect();
+        Ok((prof, st))
+    }
+}
 
 /// A plane channel of width h cells (walls: rows 0 and h + 1), uniform along x and z.
 #[derive(Debug, Clone, Copy)]
@@ -22,53 +53,35 @@ pub struct Channel {
 }
 
 impl Channel {
-    fn geometry<L: Lattice>(&self) -> Result<Geometry> {
-        let d = Dims::new(1, self.h + 2, 1)?;
+    /// The lattice: 1 x (h + 2) x 1.
+    pub fn dims(&self) -> Result<Dims> {
+        Dims::new(1, self.h + 2, 1)
+    }
+}
+
+impl ChannelFlow for Channel {
+    fn setup(&self, lattice: LatticeKind, collision: CollisionModel) -> Result<Setup> {
+        let d = self.dims()?;
         let top = self.h + 1;
         let u = self.wall_u;
-        Geometry::new::<L>(d, channel_mask(d), move |c| {
+        let domain = Domain::with_solid(d, channel_mask(d))?.with_wall_velocity(|c| {
             if d.coords(c)[1] == top {
                 [u, 0.0, 0.0]
             } else {
                 [0.0; 3]
             }
-        })
+        })?;
+        let g = Accel::along_x(self.g)?;
+        let forcing = match self.porous {
+            None => ForcingModel::Body(g),
+            Some((eps, k, forch)) => ForcingModel::Porous(Medium::uniform(g, eps, k, forch)?),
+        };
+        Ok(Setup::new(lattice, collision, domain).with_forcing(forcing))
     }
 
-    /// The steady x velocity of fluid rows y = 1..=h (index y - 1), and the run's report;
-    /// `progress(steps, residual)` is called after each check.
-    pub fn steady<L: Lattice, C: Collision>(
-        &self,
-        coll: C,
-        ctl: SteadyControl,
-        progress: impl FnMut(u64, f64),
-    ) -> Result<(Vec<f64>, Steady)> {
-        let geom = self.geometry::<L>()?;
-        let st = match self.porous {
-            None => {
-                let mut s = Solver::<L, C, BodyForce>::new(
-                    geom,
-                    coll,
-                    BodyForce {
-                        g: [self.g, 0.0, 0.0],
-                    },
-                )?;
-                run_steady(&mut s, ctl, progress)?
-            }
-            Some((eps, k, forch)) => {
-                let cells = geom.dims.cells();
-                let nu = (1.0 / coll.omega_plus() - 0.5) / 3.0;
-                let mut p = Porous::clear(cells, nu, [self.g, 0.0, 0.0], forch);
-                for c in 0..cells {
-                    p.set(c, eps, k).map_err(crate::Error::InvalidInput)?;
-                }
-                let mut s = Solver::<L, C, Porous>::new(geom, coll, p)?;
-                s.init(|_| (1.0, [0.0; 3]));
-                run_steady(&mut s, ctl, progress)?
-            }
-        };
-        let prof = (1..=self.h).map(|y| st.fields.u[y][0]).collect();
-        Ok((prof, st))
+    /// The fluid rows y = 1..=h.
+    fn rows(&self) -> RangeInclusive<usize> {
+        1..=self.h
     }
 }
 
@@ -77,6 +90,8 @@ impl Channel {
 pub struct Permeability {
     /// k = nu <u> / g (lattice units, cells^2), <u> the superficial mean velocity.
     pub k: f64,
+    /// The kinematic viscosity nu of the collision (lattice units).
+    pub nu: f64,
     /// Fluid cells / all cells.
     pub porosity: f64,
     pub mean_u: f64,
@@ -87,29 +102,35 @@ pub struct Permeability {
     pub steady: Steady,
 }
 
-/// Runs `geom` under body force `g` (lattice units) along x to steady state.
-pub fn permeability<L: Lattice, C: Collision>(
-    geom: Geometry,
-    coll: C,
+/// Runs `domain` under body force `g` (lattice units) along x to steady state. Refuses a
+/// domain without fluid, or whose fluid does not wrap round the box along x, as permeability
+/// 0, before the lattice is built.
+pub fn permeability(
+    lattice: LatticeKind,
+    collision: CollisionModel,
+    domain: Domain,
     g: f64,
     ctl: SteadyControl,
-    progress: impl FnMut(u64, f64),
+    hooks: &mut dyn Hooks<Lbm>,
 ) -> Result<Permeability> {
-    if geom.fluid_cells() == 0 {
+    let fluid = domain.fluid_cells();
+    if fluid == 0 {
         return invalid("the solid mask has no fluid cell: permeability is 0 (no flow path)");
     }
-    if !geom.percolates::<L>(0) {
+    if !domain.percolates(lattice, 0) {
         return invalid(
             "no fluid path wraps round the periodic box along x (the pores are isolated \
              pockets): permeability is 0 (no flow path)",
         );
     }
-    let porosity = geom.fluid_cells() as f64 / geom.dims.cells() as f64;
-    let nu = (1.0 / coll.omega_plus() - 0.5) / 3.0;
-    let mut s = Solver::<L, C, BodyForce>::new(geom, coll, BodyForce { g: [g, 0.0, 0.0] })?;
-    let st = run_steady(&mut s, ctl, progress)?;
+    let porosity = fluid as f64 / domain.dims().cells() as f64;
+    let body = ForcingModel::Body(Accel::along_x(g)?);
+    let mut lbm = Lbm::new(Setup::new(lattice, collision, domain).with_forcing(body))?;
+    let nu = lbm.nu();
+    let st = run_steady(&mut lbm, ctl, hooks)?;
     Ok(Permeability {
         k: nu * st.mean_u[0] / g,
+        nu,
         porosity,
         mean_u: st.mean_u[0],
         u_max: st.u_max,
@@ -123,34 +144,38 @@ pub fn permeability<L: Lattice, C: Collision>(
 /// Viscosity recovered from the decay of a Taylor-Green vortex in the periodic n x n x 1 box:
 /// u = U0 (-cos kx sin ky, sin kx cos ky), k = 2 pi / n, whose kinetic energy decays as
 /// exp(-4 nu k^2 t); nu = ln(E(t1)/E(t2)) / (4 k^2 (t2 - t1)).
-pub fn taylor_green_viscosity<L: Lattice, C: Collision>(
-    coll: C,
+pub fn taylor_green_viscosity(
+    lattice: LatticeKind,
+    collision: CollisionModel,
     n: usize,
     u0: f64,
-    t1: u64,
-    t2: u64,
+    (t1, t2): (u64, u64),
 ) -> Result<f64> {
     let d = Dims::new(n, n, 1)?;
     let k = 2.0 * std::f64::consts::PI / n as f64;
-    let mut s = Solver::<L, C, Unforced>::new(Geometry::open::<L>(d), coll, Unforced)?;
-    s.init(|c| {
-        let p = d.coords(c);
-        let (x, y) = (k * p[0] as f64, k * p[1] as f64);
-        // pressure -U0^2/4 (cos 2kx + cos 2ky), rho = 1 + 3 p
-        let rho = 1.0 - 0.75 * u0 * u0 * ((2.0 * x).cos() + (2.0 * y).cos());
-        (rho, [-u0 * x.cos() * y.sin(), u0 * x.sin() * y.cos(), 0.0])
-    });
-    let energy = |s: &Solver<L, C, Unforced>| -> f64 {
+    let (rho, u) = (0..d.cells())
+        .map(|c| {
+            let p = d.coords(c);
+            let (x, y) = (k * p[0] as f64, k * p[1] as f64);
+            // pressure -U0^2/4 (cos 2kx + cos 2ky), rho = 1 + 3 p
+            let rho = 1.0 - 0.75 * u0 * u0 * ((2.0 * x).cos() + (2.0 * y).cos());
+            (rho, [-u0 * x.cos() * y.sin(), u0 * x.sin() * y.cos(), 0.0])
+        })
+        .unzip();
+    let vortex =
+        Setup::new(lattice, collision, Domain::open(d)).with_initial(Initial::State { rho, u });
+    let mut lbm = Lbm::new(vortex)?;
+    let energy = |s: &Lbm| -> f64 {
         s.fields()
             .u
             .iter()
             .map(|u| u[0] * u[0] + u[1] * u[1] + u[2] * u[2])
             .sum()
     };
-    s.run(t1);
-    let e1 = energy(&s);
-    s.run(t2 - t1);
-    let e2 = energy(&s);
+    lbm.run(t1)?;
+    let e1 = energy(&lbm);
+    lbm.run(t2 - t1)?;
+    let e2 = energy(&lbm);
     Ok((e1 / e2).ln() / (4.0 * k * k * (t2 - t1) as f64))
 }
 
@@ -181,14 +206,7 @@ impl DrivenChannel {
         Dims::new(self.length + 1, self.h + 2, 1)
     }
 
-    /// Runs to steady state; returns the run (fields over the whole lattice);
-    /// `progress(steps, residual)` is called after each check.
-    pub fn steady<L: Lattice, C: Collision>(
-        &self,
-        coll: C,
-        ctl: SteadyControl,
-        progress: impl FnMut(u64, f64),
-    ) -> Result<Steady> {
+    pub fn setup(&self, lattice: LatticeKind, collision: CollisionModel) -> Result<Setup> {
         if self.length < 2 {
             return invalid(format!(
                 "channel length {} cells: must be at least 2 (inlet, outlet and one node between)",
@@ -196,62 +214,66 @@ impl DrivenChannel {
             ));
         }
         let d = self.dims()?;
-        let geom = Geometry::new::<L>(d, channel_mask(d), |_| [0.0; 3])?;
         let h = self.h as f64;
         let inlet = match self.inlet {
-            Inlet::Density(rho) => Plane::density(
-                &geom,
-                Face {
-                    axis: 0,
-                    high: false,
-                },
-                rho,
-            )?,
-            Inlet::Parabola(u_max) => Plane::velocity(
-                &geom,
-                Face {
-                    axis: 0,
-                    high: false,
-                },
-                |p| {
-                    let y = super::flows::channel_coordinate(p[1]);
-                    [4.0 * u_max * y * (h - y) / (h * h), 0.0, 0.0]
-                },
-            )?,
+            Inlet::Density(rho) => PlaneCondition::Density(rho),
+            Inlet::Parabola(u_max) => {
+                // one value per cell of the face x = 0, z-major
+                let profile = (0..d.nz)
+                    .flat_map(|_| 0..d.ny)
+                    .map(|y| {
+                        let y = channel_coordinate(y);
+                        [4.0 * u_max * y * (h - y) / (h * h), 0.0, 0.0]
+                    })
+                    .collect();
+                PlaneCondition::Velocity(PlaneVelocity::Field(profile))
+            }
         };
-        let outlet = Plane::density(
-            &geom,
-            Face {
-                axis: 0,
-                high: true,
-            },
-            self.rho_out,
-        )?;
-        if !connected::<L>(&geom, &inlet, &outlet) {
+        let end = |high: bool, condition: PlaneCondition| PlaneSpec {
+            face: Face { axis: 0, high },
+            condition,
+        };
+        let planes = vec![
+            end(false, inlet),
+            end(true, PlaneCondition::Density(self.rho_out)),
+        ];
+        let domain = Domain::with_solid(d, channel_mask(d))?;
+        Ok(Setup::new(lattice, collision, domain).with_boundaries(planes))
+    }
+
+    /// Runs to steady state; returns the run (fields over the whole lattice). Refuses a
+    /// channel with no fluid path from the inlet to the outlet.
+    pub fn steady(
+        &self,
+        lattice: LatticeKind,
+        collision: CollisionModel,
+        ctl: SteadyControl,
+        hooks: &mut dyn Hooks<Lbm>,
+    ) -> Result<Steady> {
+        let mut lbm = Lbm::new(self.setup(lattice, collision)?)?;
+        if !lbm.planes_connected(0, 1) {
             return invalid(
                 "no fluid path joins the inlet plane to the outlet plane: the flow rate is 0 \
                  (permeability 0)",
             );
         }
-        let b = Boundaries::new(vec![inlet, outlet])?;
-        let mut s = Solver::<L, C, Unforced>::new(geom, coll, Unforced)?.with_boundaries(b)?;
-        run_steady(&mut s, ctl, progress)
+        run_steady(&mut lbm, ctl, hooks)
     }
 }
 
 /// Fully developed flow in a square duct of h x h fluid cells (walls: rows y, z = 0 and h + 1,
 /// halfway bounce-back) under body force g along x, one cell along x. Returns the steady x
 /// velocity of fluid cell (y, z), y, z = 1..=h, at index (z - 1) h + (y - 1), and the run.
-pub fn square_duct<L: Lattice, C: Collision>(
-    h: usize,
-    g: f64,
-    coll: C,
+pub fn square_duct(
+    lattice: LatticeKind,
+    collision: CollisionModel,
+    (h, g): (usize, f64),
     ctl: SteadyControl,
 ) -> Result<(Vec<f64>, Steady)> {
     let d = Dims::new(1, h + 2, h + 2)?;
-    let geom = Geometry::new::<L>(d, duct_mask(d), |_| [0.0; 3])?;
-    let mut s = Solver::<L, C, BodyForce>::new(geom, coll, BodyForce { g: [g, 0.0, 0.0] })?;
-    let st = run_steady(&mut s, ctl, |_, _| {})?;
+    let duct = Setup::new(lattice, collision, Domain::with_solid(d, duct_mask(d))?)
+        .with_forcing(ForcingModel::Body(Accel::along_x(g)?));
+    let st = run_steady(&mut Lbm::new(duct)?, ctl, &mut NoHooks)?;
     let mut u = Vec::with_capacity(h * h);
     for z in 1..=h {
         for y in 1..=h {
@@ -264,43 +286,37 @@ pub fn square_duct<L: Lattice, C: Collision>(
 /// Plane Couette flow with its walls on the lattice nodes y = 0 (at rest) and y = h (sliding
 /// at `u_wall` along x, lattice units), both velocity planes (non-equilibrium extrapolation),
 /// filled with a uniform medium `porous` = (eps, K in lattice units, Forchheimer on); one cell
-/// along x and z. Returns the steady x velocity at the nodes y = 0..=h and the run;
-/// `progress(steps, residual)` is called after each check.
-pub fn node_couette<L: Lattice, C: Collision>(
-    h: usize,
-    u_wall: f64,
-    porous: (f64, f64, bool),
-    coll: C,
-    ctl: SteadyControl,
-    progress: impl FnMut(u64, f64),
-) -> Result<(Vec<f64>, Steady)> {
-    let d = Dims::new(1, h + 1, 1)?;
-    let geom = Geometry::open::<L>(d);
-    let nu = (1.0 / coll.omega_plus() - 0.5) / 3.0;
-    let (eps, k, forch) = porous;
-    let mut p = Porous::clear(d.cells(), nu, [0.0; 3], forch);
-    for c in 0..d.cells() {
-        p.set(c, eps, k).map_err(crate::Error::InvalidInput)?;
+/// along x and z.
+#[derive(Debug, Clone, Copy)]
+pub struct NodeCouette {
+    pub h: usize,
+    pub u_wall: f64,
+    pub porous: (f64, f64, bool),
+}
+
+impl NodeCouette {
+    /// The lattice: 1 x (h + 1) x 1.
+    pub fn dims(&self) -> Result<Dims> {
+        Dims::new(1, self.h + 1, 1)
     }
-    let lower = Plane::velocity(
-        &geom,
-        Face {
-            axis: 1,
-            high: false,
-        },
-        |_| [0.0; 3],
-    )?;
-    let upper = Plane::velocity(
-        &geom,
-        Face {
-            axis: 1,
-            high: true,
-        },
-        |_| [u_wall, 0.0, 0.0],
-    )?;
-    let b = Boundaries::new(vec![lower, upper])?;
-    let mut s = Solver::<L, C, Porous>::new(geom, coll, p)?.with_boundaries(b)?;
-    let st = run_steady(&mut s, ctl, progress)?;
-    let prof = (0..=h).map(|y| st.fields.u[y][0]).collect();
-    Ok((prof, st))
+}
+
+impl ChannelFlow for NodeCouette {
+    fn setup(&self, lattice: LatticeKind, collision: CollisionModel) -> Result<Setup> {
+        let (eps, k, forch) = self.porous;
+        let medium = Medium::uniform(Accel::new([0.0; 3])?, eps, k, forch)?;
+        let wall = |high: bool, u: [f64; 3]| PlaneSpec {
+            face: Face { axis: 1, high },
+            condition: PlaneCondition::Velocity(PlaneVelocity::Uniform(u)),
+        };
+        let planes = vec![wall(false, [0.0; 3]), wall(true, [self.u_wall, 0.0, 0.0])];
+        Ok(Setup::new(lattice, collision, Domain::open(self.dims()?))
+            .with_forcing(ForcingModel::Porous(medium))
+            .with_boundaries(planes))
+    }
+
+    /// The nodes y = 0..=h.
+    fn rows(&self) -> RangeInclusive<usize> {
+        0..=self.h
+    }
 }

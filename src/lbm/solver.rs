@@ -18,8 +18,8 @@ use super::boundary::Boundaries;
 use super::collision::{equilibrium, relax, Block, Collision, Pairs};
 use super::forcing::Forcing;
 use super::geometry::{Dims, Geometry, Link};
-use super::lattice::{each_q, opposite, Lattice, QMAX};
-use super::memory::{last_level_cache_bytes, stride_off_sets, vec_on_huge_pages};
+use super::lattice::{density_momentum, each_q, opposite, Lattice, QMAX};
+use super::memory::{check_memory, last_level_cache_bytes, vec_on_huge_pages, Layout};
 use super::simd::{Cells, Real, VArr, LANES};
 #[cfg(target_arch = "x86_64")]
 use super::simd::{V256x2, V512};
@@ -111,78 +111,11 @@ impl std::ops::DerefMut for Populations {
     }
 }
 
-/// Where population q of cell (x, y, z) lives in the population arrays:
-/// `z z_stride + q q_stride + y nx + x` with q_stride = ny nx (plus one cache line at
-/// power-of-two sizes, see [`stride_off_sets`]) and z_stride = Q q_stride, the one place the
-/// kernel, the boundaries and the sums take the index from.
-#[derive(Debug, Clone, Copy)]
-pub struct Layout {
-    pub nx: usize,
-    pub nz: usize,
-    pub q_stride: usize,
-    pub z_stride: usize,
-}
-
-impl Layout {
-    pub fn new(d: &Dims, q: usize) -> Layout {
-        let q_stride = stride_off_sets(d.ny * d.nx);
-        Layout {
-            nx: d.nx,
-            nz: d.nz,
-            q_stride,
-            z_stride: q * q_stride,
-        }
-    }
-
-    /// Values in one population array.
-    pub fn values(&self) -> usize {
-        self.nz * self.z_stride
-    }
-
-    #[inline(always)]
-    pub fn index(&self, z: usize, q: usize, y: usize, x: usize) -> usize {
-        z * self.z_stride + q * self.q_stride + y * self.nx + x
-    }
-}
-
-/// Bytes a solver of `cells` cells with `q` populations allocates (two population arrays,
-/// mask, and `extra_per_cell` bytes of forcing fields).
-pub fn bytes_needed(cells: usize, q: usize, extra_per_cell: usize) -> u128 {
-    cells as u128 * (2 * 8 * q as u128 + 1 + extra_per_cell as u128)
-}
-
-/// Memory this process may take: MemAvailable of /proc/meminfo, or None where unknown.
-pub fn memory_available() -> Option<u128> {
-    let text = std::fs::read_to_string("/proc/meminfo").ok()?;
-    let line = text.lines().find(|l| l.starts_with("MemAvailable:"))?;
-    let kib: u128 = line.split_whitespace().nth(1)?.parse().ok()?;
-    Some(kib * 1024)
-}
-
-/// Refuses a lattice whose arrays need more than the available memory, before allocating.
-pub fn check_memory(dims: Dims, q: usize, extra_per_cell: usize) -> Result<()> {
-    let need = bytes_needed(dims.cells(), q, extra_per_cell);
-    if let Some(avail) = memory_available() {
-        if need > avail {
-            return invalid(format!(
-                "lattice {} x {} x {} with Q = {q} needs {:.2} GiB, more than the {:.2} GiB of \
-                 memory available: use a coarser resolution",
-                dims.nx,
-                dims.ny,
-                dims.nz,
-                need as f64 / 1073741824.0,
-                avail as f64 / 1073741824.0
-            ));
-        }
-    }
-    Ok(())
-}
-
 /// Lattice-Boltzmann solver for lattice `L`, collision `C`, forcing `F` (lattice units).
 pub struct Solver<L: Lattice, C: Collision, F: Forcing> {
-    pub geometry: Geometry,
-    pub collision: C,
-    pub forcing: F,
+    geometry: Geometry,
+    collision: C,
+    forcing: F,
     /// Post-collision populations of the current step.
     f: Populations,
     /// Scratch for the next step.
@@ -200,7 +133,8 @@ pub struct Solver<L: Lattice, C: Collision, F: Forcing> {
 
 impl<L: Lattice, C: Collision, F: Forcing> Solver<L, C, F> {
     /// A solver at rest with density 1 (populations at their equilibrium). The memory check
-    /// runs before anything is allocated.
+    /// runs before anything is allocated. The kernel's own constructor: a run is set up as an
+    /// [`super::Setup`] and built by [`super::Lbm::new`], which chooses the kernel.
     pub fn new(geometry: Geometry, collision: C, forcing: F) -> Result<Self> {
         let dims = geometry.dims;
         check_memory(dims, L::Q, 0)?;
@@ -238,6 +172,20 @@ impl<L: Lattice, C: Collision, F: Forcing> Solver<L, C, F> {
 
     pub fn boundaries(&self) -> &Boundaries {
         &self.boundaries
+    }
+
+    pub fn geometry(&self) -> &Geometry {
+        &self.geometry
+    }
+
+    pub fn forcing(&self) -> &F {
+        &self.forcing
+    }
+
+    /// The forcing, to change its fields between steps (a porous medium's cells validate what
+    /// they are given).
+    pub fn forcing_mut(&mut self) -> &mut F {
+        &mut self.forcing
     }
 
     /// Whether the kernel writes whole cache lines of its output non-temporally (past the
@@ -908,21 +856,6 @@ fn upstream(v: usize, c: i32, n: usize) -> usize {
         _ if v + 1 == n => 0,
         _ => v + 1,
     }
-}
-
-/// rho = sum f, j = sum f c (seed 002 eq. 6-7).
-#[inline(always)]
-pub fn density_momentum<L: Lattice>(p: &L::Pop) -> (f64, [f64; 3]) {
-    let p = p.as_ref();
-    let mut rho = 0.0;
-    let mut j = [0.0; 3];
-    for (c, &f) in L::C.iter().zip(p) {
-        rho += f;
-        j[0] += c[0] as f64 * f;
-        j[1] += c[1] as f64 * f;
-        j[2] += c[2] as f64 * f;
-    }
-    (rho, j)
 }
 
 /// Superficial mean velocity: the sum of fluid velocities over all cells (solid ones count as

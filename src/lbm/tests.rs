@@ -1,11 +1,16 @@
 use super::flows::*;
-use super::steady::{run_steady, SteadyControl};
 use super::*;
+use crate::driver::NoHooks;
 
-fn channel<L: Lattice, C: Collision>(h: usize, coll: C, g: f64) -> Solver<L, C, BodyForce> {
+fn model(kind: CollisionKind, tau: f64) -> CollisionModel {
+    CollisionModel::new(kind, Tau::new(tau).unwrap())
+}
+
+fn channel(lattice: LatticeKind, h: usize, coll: CollisionModel, g: f64) -> Lbm {
     let d = Dims::new(1, h + 2, 1).unwrap();
-    let geom = Geometry::new::<L>(d, channel_mask(d), |_| [0.0; 3]).unwrap();
-    Solver::new(geom, coll, BodyForce { g: [g, 0.0, 0.0] }).unwrap()
+    let domain = Domain::with_solid(d, channel_mask(d)).unwrap();
+    let body = ForcingModel::Body(Accel::along_x(g).unwrap());
+    Lbm::new(Setup::new(lattice, coll, domain).with_forcing(body)).unwrap()
 }
 
 fn ctl() -> SteadyControl {
@@ -17,11 +22,11 @@ fn ctl() -> SteadyControl {
 }
 
 /// Relative L2 error of the x velocity against the Poiseuille parabola.
-fn poiseuille_error<L: Lattice, C: Collision>(h: usize, coll: C, tau: f64) -> f64 {
+fn poiseuille_error(lattice: LatticeKind, h: usize, coll: CollisionModel) -> f64 {
     let g = 1e-6;
-    let nu = (tau - 0.5) / 3.0;
-    let mut s = channel::<L, C>(h, coll, g);
-    let st = run_steady(&mut s, ctl(), |_, _| {}).unwrap();
+    let nu = coll.tau.nu();
+    let mut s = channel(lattice, h, coll, g);
+    let st = run_steady(&mut s, ctl(), &mut NoHooks).unwrap();
     assert!(st.converged, "residual {}", st.residual);
     let (mut e2, mut n2) = (0.0, 0.0);
     for y in 1..=h {
@@ -36,18 +41,18 @@ fn poiseuille_error<L: Lattice, C: Collision>(h: usize, coll: C, tau: f64) -> f6
 #[test]
 fn trt_magic_poiseuille_is_exact() {
     for tau in [0.6, 1.0, 2.0] {
-        let e = poiseuille_error::<D3Q19, _>(8, Trt::magic(tau), tau);
-        assert!(e < 1e-9, "tau {tau}: {e}");
-        let e = poiseuille_error::<D3Q15, _>(8, Trt::magic(tau), tau);
-        assert!(e < 1e-9, "tau {tau}: {e}");
+        for lattice in [LatticeKind::D3Q19, LatticeKind::D3Q15] {
+            let e = poiseuille_error(lattice, 8, model(CollisionKind::Trt, tau));
+            assert!(e < 1e-9, "{lattice:?} tau {tau}: {e}");
+        }
     }
 }
 
 #[test]
 fn bgk_poiseuille_second_order() {
-    let tau = 1.5;
-    let e1 = poiseuille_error::<D3Q19, _>(8, Bgk::from_tau(tau), tau);
-    let e2 = poiseuille_error::<D3Q19, _>(16, Bgk::from_tau(tau), tau);
+    let bgk = model(CollisionKind::Bgk, 1.5);
+    let e1 = poiseuille_error(LatticeKind::D3Q19, 8, bgk);
+    let e2 = poiseuille_error(LatticeKind::D3Q19, 16, bgk);
     let order = (e1 / e2).log2();
     assert!((order - 2.0).abs() < 0.1, "{e1} {e2} {order}");
 }
@@ -56,22 +61,24 @@ fn bgk_poiseuille_second_order() {
 fn mass_conserved_and_thread_independent() {
     let n = 12;
     let d = Dims::new(n, n, n).unwrap();
-    let geom = Geometry::new::<D3Q15>(d, sphere_array_mask(n, 3.3), |_| [0.0; 3]).unwrap();
     let mk = || {
-        let mut s = Solver::<D3Q15, _, _>::new(
-            geom.clone(),
-            Trt::magic(0.8),
-            BodyForce {
-                g: [1e-4, 2e-5, 0.0],
-            },
-        )
-        .unwrap();
-        s.init(|c| (1.0 + 0.01 * ((c % 7) as f64), [0.01, 0.0, 0.0]));
-        s
+        let domain = Domain::with_solid(d, sphere_array_mask(n, 3.3)).unwrap();
+        let body = ForcingModel::Body(Accel::new([1e-4, 2e-5, 0.0]).unwrap());
+        let start = Initial::State {
+            rho: (0..d.cells())
+                .map(|c| 1.0 + 0.01 * ((c % 7) as f64))
+                .collect(),
+            u: vec![[0.01, 0.0, 0.0]; d.cells()],
+        };
+        let coll = model(CollisionKind::Trt, 0.8);
+        let setup = Setup::new(LatticeKind::D3Q15, coll, domain)
+            .with_forcing(body)
+            .with_initial(start);
+        Lbm::new(setup).unwrap()
     };
     let mut a = mk();
     let m0 = a.mass();
-    a.run(50);
+    a.run(50).unwrap();
     let m1 = a.mass();
     assert!((m1 - m0).abs() < 1e-12 * m0, "{m0} {m1}");
     let one = rayon::ThreadPoolBuilder::new()
@@ -79,7 +86,7 @@ fn mass_conserved_and_thread_independent() {
         .build()
         .unwrap();
     let mut b = mk();
-    one.install(|| b.run(50));
+    one.install(|| b.run(50)).unwrap();
     assert_eq!(a.populations(), b.populations());
 }
 
@@ -131,9 +138,16 @@ fn porous_layers_in_series_follow_grad_eps_p() {
         for sub in [1usize, 4] {
             let nz = eps.len() * sub;
             let d = Dims::new(1, 1, nz).unwrap();
-            let nu = (tau - 0.5) / 3.0;
             let g = 1e-6 * lin_scale;
-            let mut p = Porous::clear(d.cells(), nu, [0.0, 0.0, g], false);
+            let medium = Medium::clear(Accel::new([0.0, 0.0, g]).unwrap(), false);
+            let setup = Setup::new(
+                LatticeKind::D3Q15,
+                model(CollisionKind::Bgk, tau),
+                Domain::open(d),
+            )
+            .with_forcing(ForcingModel::Porous(medium));
+            let mut s = Lbm::new(setup).unwrap();
+            let p = s.porous_mut().unwrap();
             let (mut sum_eps, mut sum_lin, mut sum_lin_eps) = (0.0, 0.0, 0.0);
             for z in 0..nz {
                 let e: f64 = eps[z / sub];
@@ -143,14 +157,12 @@ fn porous_layers_in_series_follow_grad_eps_p() {
                 sum_lin += lin;
                 sum_lin_eps += lin / e;
             }
-            let geom = Geometry::open::<D3Q15>(d);
-            let mut s = Solver::<D3Q15, _, _>::new(geom, Bgk::from_tau(tau), p).unwrap();
             let ctl = SteadyControl {
                 check_every: 200,
                 tol: 1e-13,
                 max_steps: 400_000,
             };
-            let st = run_steady(&mut s, ctl, |_, _| {}).unwrap();
+            let st = run_steady(&mut s, ctl, &mut NoHooks).unwrap();
             assert!(st.converged, "residual {}", st.residual);
             let u = super::solver::superficial_mean(&st.fields)[2];
             let grad_eps_p = sum_eps * g / sum_lin;
@@ -170,18 +182,24 @@ fn porous_layers_in_series_follow_grad_eps_p() {
 fn unresolved_velocity_is_refused() {
     let run = |g: f64| {
         let d = Dims::new(1, 1, 4).unwrap();
-        let mut p = Porous::clear(d.cells(), 0.1, [0.0, 0.0, g], false);
+        let medium = Medium::clear(Accel::new([0.0, 0.0, g]).unwrap(), false);
+        let setup = Setup::new(
+            LatticeKind::D3Q15,
+            model(CollisionKind::Bgk, 0.8),
+            Domain::open(d),
+        )
+        .with_forcing(ForcingModel::Porous(medium));
+        let mut s = Lbm::new(setup).unwrap();
+        let p = s.porous_mut().unwrap();
         for c in 0..d.cells() {
             p.set_coefficients(c, 0.5, 1.0, 0.0).unwrap();
         }
-        let mut s =
-            Solver::<D3Q15, _, _>::new(Geometry::open::<D3Q15>(d), Bgk::from_tau(0.8), p).unwrap();
         let ctl = SteadyControl {
             check_every: 100,
             tol: 1e-12,
             max_steps: 100_000,
         };
-        run_steady(&mut s, ctl, |_, _| {}).map(|st| st.mean_u[2])
+        run_steady(&mut s, ctl, &mut NoHooks).map(|st| st.mean_u[2])
     };
     // steady u = eps G / lin = G / 2
     let e = run(1e-14).unwrap_err().to_string();

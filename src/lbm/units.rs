@@ -1,6 +1,8 @@
 //! SI at the boundary, lattice units inside. A flow is given by the lattice spacing dx (m),
 //! the kinematic viscosity nu (m^2/s) and either the time step dt (s) or the relaxation time
-//! tau; then nu_lattice = nu dt / dx^2 and tau = 3 nu_lattice + 1/2 (seed 002 eq. 8-9).
+//! tau; then nu_lattice = nu dt / dx^2 and tau = 3 nu_lattice + 1/2 (seed 002 eq. 8-9). The
+//! conversions between tau and the lattice viscosity are written here and nowhere else
+//! ([`nu_from_tau`], [`tau_from_nu`]).
 
 use crate::error::{invalid, Result};
 
@@ -8,6 +10,17 @@ use crate::error::{invalid, Result};
 pub const TAU_MIN: f64 = 0.505;
 /// Largest Mach number u / c_s accepted (compressibility error ~ Ma^2).
 pub const MACH_MAX: f64 = 0.3;
+
+/// The kinematic viscosity (lattice units) of relaxation time `tau`: nu = (tau - 1/2)/3
+/// (seed 002 eq. 8).
+pub fn nu_from_tau(tau: f64) -> f64 {
+    (tau - 0.5) / 3.0
+}
+
+/// The relaxation time of the kinematic viscosity `nu` (lattice units): tau = 3 nu + 1/2.
+pub fn tau_from_nu(nu: f64) -> f64 {
+    3.0 * nu + 0.5
+}
 
 /// The SI <-> lattice conversion of one run.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -31,7 +44,7 @@ impl Units {
                 return invalid(format!("{name} = {v} {unit}: must be positive and finite"));
             }
         }
-        let nu_l = (tau - 0.5) / 3.0;
+        let nu_l = nu_from_tau(tau);
         Ok(Units {
             dx,
             dt: nu_l * dx * dx / nu,
@@ -43,7 +56,7 @@ impl Units {
         self.nu * self.dt / (self.dx * self.dx)
     }
     pub fn tau(&self) -> f64 {
-        3.0 * self.nu_lattice() + 0.5
+        tau_from_nu(self.nu_lattice())
     }
     /// Acceleration (m/s^2) -> lattice units.
     pub fn accel_to_lattice(&self, g: f64) -> f64 {
@@ -69,7 +82,7 @@ pub fn check_tau(tau: f64) -> Result<()> {
         return invalid(format!(
             "relaxation time tau = {tau}: must be >= {TAU_MIN} (nu_lattice = (tau - 1/2)/3 \
              = {:.3e}); tau this close to 1/2 is unstable: raise the viscosity or dt, or refine dx",
-            (tau - 0.5) / 3.0
+            nu_from_tau(tau)
         ));
     }
     Ok(())
@@ -89,7 +102,7 @@ pub fn check_mach(u_lattice: f64, what: &str) -> Result<f64> {
 
 /// One line for the run log: tau, Mach, Re.
 pub fn describe(tau: f64, u_lattice: f64, length_cells: f64) -> String {
-    let nu = (tau - 0.5) / 3.0;
+    let nu = nu_from_tau(tau);
     format!(
         "tau = {tau:.4}, nu = {nu:.4e} (lattice), Mach = {:.3e}, Re = {:.3e} (u {u_lattice:.3e}, L = {length_cells} cells)",
         u_lattice.abs() * 3f64.sqrt(),

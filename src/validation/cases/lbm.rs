@@ -2,23 +2,28 @@
 //! Guo & Zhao's Brinkman channel, Taylor-Green decay, nu(tau) of seed 002 eq. 8) and the
 //! literature table of Zick & Homsy (1982) for simple cubic sphere arrays.
 
-use crate::lbm::choice::{dispatch, CollisionKind, Job, LatticeKind};
+use crate::driver::NoHooks;
 use crate::lbm::flows::{
     brinkman_poiseuille, channel_coordinate, cylinder_array_mask, drag_coefficient,
     drummond_tahir_square_drag, poiseuille, sangani_acrivos_sc, sphere_array_mask,
 };
-use crate::lbm::geometry::{Dims, Geometry};
-use crate::lbm::problems::{permeability, taylor_green_viscosity, Channel};
-use crate::lbm::steady::SteadyControl;
-use crate::lbm::{Collision, Lattice};
+use crate::lbm::problems::{permeability, taylor_green_viscosity, Channel, ChannelFlow};
+use crate::lbm::{CollisionKind, CollisionModel, Dims, Domain, LatticeKind, SteadyControl, Tau};
 use crate::validation::{CaseContext, Row, Table};
 use crate::{Error, Result};
 
-fn kinds(t: &Table, i: usize) -> Result<(LatticeKind, CollisionKind)> {
+/// The lattice and the collision of row `i` (columns `lattice`, `collision`).
+pub(super) fn kinds(t: &Table, i: usize) -> Result<(LatticeKind, CollisionKind)> {
     Ok((
         LatticeKind::parse(t.str(i, "lattice")?, "lattice")?,
         CollisionKind::parse(t.str(i, "collision")?, "collision")?,
     ))
+}
+
+/// The lattice and the collision at the relaxation time of column `tau` of row `i`.
+pub(super) fn scheme(t: &Table, i: usize) -> Result<(LatticeKind, CollisionModel)> {
+    let (lat, kind) = kinds(t, i)?;
+    Ok((lat, CollisionModel::new(kind, Tau::new(t.f64(i, "tau")?)?)))
 }
 
 /// Steady to a relative change of the mean velocity below 1e-13 per 500 steps (exactness
@@ -37,82 +42,50 @@ const STEADY: SteadyControl = SteadyControl {
     max_steps: 2_000_000,
 };
 
-/// Relative L2 error of a steady channel profile against `exact(y)` (y from the lower wall).
-struct ChannelError {
-    channel: Channel,
-    ctl: SteadyControl,
-    exact: Box<dyn Fn(f64) -> f64>,
-}
-
-impl Job for ChannelError {
-    type Out = Result<f64>;
-    fn run<L: Lattice, C: Collision>(self, coll: C) -> Result<f64> {
-        let (prof, st) = self.channel.steady::<L, C>(coll, self.ctl, |_, _| {})?;
-        if !st.converged {
-            return Err(Error::Validation(format!(
-                "channel h = {} not steady after {} steps (residual {:e})",
-                self.channel.h, st.steps, st.residual
-            )));
-        }
-        let (mut e2, mut n2) = (0.0, 0.0);
-        for (i, got) in prof.iter().enumerate() {
-            let want = (self.exact)(channel_coordinate(i + 1));
-            e2 += (got - want).powi(2);
-            n2 += want * want;
-        }
-        Ok((e2 / n2).sqrt())
-    }
-}
-
-/// Runs `f(table, row, lattice, collision, tau)` for every row of the case's expected.csv and
+/// Runs `f(table, row, lattice, collision)` for every row of the case's expected.csv and
 /// collects the rows it returns.
 fn per_row(
     ctx: &CaseContext,
-    mut f: impl FnMut(&Table, usize, LatticeKind, CollisionKind, f64) -> Result<Option<Row>>,
+    mut f: impl FnMut(&Table, usize, LatticeKind, CollisionModel) -> Result<Option<Row>>,
 ) -> Result<Vec<Row>> {
     let t = ctx.expected_table()?;
     let mut rows = Vec::new();
     for i in 0..t.len() {
-        let (lat, coll) = kinds(&t, i)?;
-        if let Some(r) = f(&t, i, lat, coll, t.f64(i, "tau")?)? {
+        let (lat, coll) = scheme(&t, i)?;
+        if let Some(r) = f(&t, i, lat, coll)? {
             rows.push(r);
         }
     }
     Ok(rows)
 }
 
-fn nu_of(tau: f64) -> f64 {
-    (tau - 0.5) / 3.0
+/// "D3Q19 TRT tau=1": the lattice, the collision and tau of a row's label.
+fn label(lat: LatticeKind, coll: CollisionModel) -> String {
+    format!("{} {} tau={}", lat.name(), coll.name(), coll.tau.get())
 }
 
 fn plain_channel_error(
     lat: LatticeKind,
-    coll: CollisionKind,
-    tau: f64,
+    coll: CollisionModel,
     h: usize,
     g: f64,
     ctl: SteadyControl,
 ) -> Result<f64> {
-    let nu = nu_of(tau);
+    let nu = coll.tau.nu();
     let hf = h as f64;
-    channel_error(
-        lat,
-        coll,
-        tau,
-        (h, g, None),
-        ctl,
-        Box::new(move |y| poiseuille(y, hf, g, nu)),
-    )
+    channel_error(lat, coll, (h, g, None), ctl, move |y| {
+        poiseuille(y, hf, g, nu)
+    })
 }
 
-/// The relative L2 error of the steady channel (h, g, porous medium) against `exact`.
+/// The relative L2 error of the steady channel (h, g, porous medium) against `exact(y)` (y
+/// from the lower wall); refuses a run that did not reach the steady state.
 fn channel_error(
     lat: LatticeKind,
-    coll: CollisionKind,
-    tau: f64,
+    coll: CollisionModel,
     (h, g, porous): (usize, f64, Option<(f64, f64, bool)>),
     ctl: SteadyControl,
-    exact: Box<dyn Fn(f64) -> f64>,
+    exact: impl Fn(f64) -> f64,
 ) -> Result<f64> {
     let channel = Channel {
         h,
@@ -120,34 +93,35 @@ fn channel_error(
         wall_u: 0.0,
         porous,
     };
-    dispatch(
-        lat,
-        coll,
-        tau,
-        ChannelError {
-            channel,
-            ctl,
-            exact,
-        },
-    )
+    let (prof, st) = channel.steady(lat, coll, ctl, &mut NoHooks)?;
+    if !st.converged {
+        return Err(Error::Validation(format!(
+            "channel h = {h} not steady after {} steps (residual {:e})",
+            st.steps, st.residual
+        )));
+    }
+    let (mut e2, mut n2) = (0.0, 0.0);
+    for (i, got) in prof.iter().enumerate() {
+        let want = exact(channel_coordinate(i + 1));
+        e2 += (got - want).powi(2);
+        n2 += want * want;
+    }
+    Ok((e2 / n2).sqrt())
 }
 
 register!("801" => case_801);
 /// Case 801: BGK plane Poiseuille, order of the L2 error between H and 2H (expected 2).
 pub fn case_801(ctx: &CaseContext) -> Result<Vec<Row>> {
-    per_row(ctx, |t, i, lat, coll, tau| {
+    per_row(ctx, |t, i, lat, coll| {
         let h = t.f64(i, "h_coarse")? as usize;
         let g = t.f64(i, "g_lattice")?;
-        let e1 = plain_channel_error(lat, coll, tau, h, g, STEADY)?;
-        let e2 = plain_channel_error(lat, coll, tau, 2 * h, g, STEADY)?;
+        let e1 = plain_channel_error(lat, coll, h, g, STEADY)?;
+        let e2 = plain_channel_error(lat, coll, 2 * h, g, STEADY)?;
         let order = (e1 / e2).log2();
-        eprintln!(
-            "801 {} {} tau={tau} H={h}: L2 {e1:.3e} -> {e2:.3e}, order {order:.4}",
-            lat.name(),
-            coll.name()
-        );
+        let name = label(lat, coll);
+        eprintln!("801 {name} H={h}: L2 {e1:.3e} -> {e2:.3e}, order {order:.4}");
         Ok(Some(Row::new(
-            format!("{} {} tau={tau} H={h}->{}", lat.name(), coll.name(), 2 * h),
+            format!("{name} H={h}->{}", 2 * h),
             order,
             t.f64(i, "expected_order")?,
             1.0,
@@ -158,16 +132,13 @@ pub fn case_801(ctx: &CaseContext) -> Result<Vec<Row>> {
 register!("802" => case_802);
 /// Case 802: TRT (Lambda = 3/16) plane Poiseuille is exact: relative L2 error 0.
 pub fn case_802(ctx: &CaseContext) -> Result<Vec<Row>> {
-    per_row(ctx, |t, i, lat, coll, tau| {
+    per_row(ctx, |t, i, lat, coll| {
         let h = t.f64(i, "h")? as usize;
-        let e = plain_channel_error(lat, coll, tau, h, t.f64(i, "g_lattice")?, TIGHT)?;
-        eprintln!(
-            "802 {} {} tau={tau} H={h}: L2 {e:.3e}",
-            lat.name(),
-            coll.name()
-        );
+        let e = plain_channel_error(lat, coll, h, t.f64(i, "g_lattice")?, TIGHT)?;
+        let name = label(lat, coll);
+        eprintln!("802 {name} H={h}: L2 {e:.3e}");
         Ok(Some(Row::new(
-            format!("{} {} tau={tau} H={h}", lat.name(), coll.name()),
+            format!("{name} H={h}"),
             e,
             t.f64(i, "expected_rel_l2")?,
             1.0,
@@ -181,7 +152,7 @@ const MIN_LAYER_CELLS: f64 = 4.0;
 register!("803" => case_803);
 /// Case 803: Guo-Zhao porous Poiseuille against the Brinkman solution; order between H, 2H.
 pub fn case_803(ctx: &CaseContext) -> Result<Vec<Row>> {
-    per_row(ctx, |t, i, lat, coll, tau| {
+    per_row(ctx, |t, i, lat, coll| {
         let eps = t.f64(i, "eps")?;
         let da = t.f64(i, "darcy")?;
         let h = t.f64(i, "h_coarse")? as usize;
@@ -199,11 +170,11 @@ pub fn case_803(ctx: &CaseContext) -> Result<Vec<Row>> {
         let err = |h: usize| -> Result<f64> {
             let hf = h as f64;
             let k = da * hf * hf;
-            let nu = nu_of(tau);
+            let nu = coll.tau.nu();
             // same peak velocity (~ g K / nu) at every resolution
             let g = g_scale * nu / k;
-            let exact = Box::new(move |y| brinkman_poiseuille(y, hf, g, nu, eps, k));
-            channel_error(lat, coll, tau, (h, g, Some((eps, k, false))), STEADY, exact)
+            let exact = move |y| brinkman_poiseuille(y, hf, g, nu, eps, k);
+            channel_error(lat, coll, (h, g, Some((eps, k, false))), STEADY, exact)
         };
         let (e1, e2) = (err(h)?, err(2 * h)?);
         let order = (e1 / e2).log2();
@@ -226,82 +197,46 @@ pub fn case_803(ctx: &CaseContext) -> Result<Vec<Row>> {
     })
 }
 
-struct TaylorGreen {
-    n: usize,
-    u0: f64,
-    t1: u64,
-    t2: u64,
-}
-
-impl Job for TaylorGreen {
-    type Out = Result<f64>;
-    fn run<L: Lattice, C: Collision>(self, coll: C) -> Result<f64> {
-        taylor_green_viscosity::<L, C>(coll, self.n, self.u0, self.t1, self.t2)
-    }
-}
-
 register!("804" => case_804);
 /// Case 804: Taylor-Green decay; the recovered viscosity against nu = (tau - 1/2)/3.
 pub fn case_804(ctx: &CaseContext) -> Result<Vec<Row>> {
-    per_row(ctx, |t, i, lat, coll, tau| {
+    per_row(ctx, |t, i, lat, coll| {
         let n = t.f64(i, "n")? as usize;
-        let nu = nu_of(tau);
+        let nu = coll.tau.nu();
         // t1 = one tenth, t2 = one e-fold of the energy decay time 1/(4 nu k^2)
         let k = 2.0 * std::f64::consts::PI / n as f64;
         let td = 1.0 / (4.0 * nu * k * k);
         let (t1, t2) = ((0.1 * td).ceil() as u64, (1.1 * td).ceil() as u64);
-        let got = dispatch(
-            lat,
-            coll,
-            tau,
-            TaylorGreen {
-                n,
-                u0: t.f64(i, "u0")?,
-                t1,
-                t2,
-            },
-        )?;
+        let got = taylor_green_viscosity(lat, coll, n, t.f64(i, "u0")?, (t1, t2))?;
         let want = t.f64(i, "expected_nu")?;
+        let name = label(lat, coll);
         eprintln!(
-            "804 {} {} tau={tau} n={n}: nu {got:.6e} vs {want:.6e} ({:.2e})",
-            lat.name(),
-            coll.name(),
+            "804 {name} n={n}: nu {got:.6e} vs {want:.6e} ({:.2e})",
             got / want - 1.0
         );
-        Ok(Some(Row::new(
-            format!("{} {} tau={tau} n={n}", lat.name(), coll.name()),
-            got,
-            want,
-            want,
-        )))
+        Ok(Some(Row::new(format!("{name} n={n}"), got, want, want)))
     })
 }
 
-/// One periodic array cell: its solid mask on `dims` under body force g along x.
-struct ArrayCell {
+/// (k in cells^2, solid fraction of the voxels, Re = <u> diameter / nu) of one periodic
+/// array cell, the solid `mask` on `dims`, under body force g along x; `diameter` (cells) is
+/// the Reynolds number's length. Refuses a run that did not reach the steady state.
+fn array_cell(
+    (lat, coll): (LatticeKind, CollisionModel),
     dims: Dims,
     mask: Vec<bool>,
-    /// Length for the Reynolds number (cells): the particle diameter.
     diameter: f64,
     g: f64,
-    ctl: SteadyControl,
-}
-
-impl Job for ArrayCell {
-    type Out = Result<(f64, f64, f64)>;
-    /// (k in cells^2, solid fraction of the voxels, Re = <u> diameter / nu)
-    fn run<L: Lattice, C: Collision>(self, coll: C) -> Self::Out {
-        let geom = Geometry::new::<L>(self.dims, self.mask, |_| [0.0; 3])?;
-        let p = permeability::<L, C>(geom, coll, self.g, self.ctl, |_, _| {})?;
-        if !p.converged {
-            return Err(Error::Validation(format!(
-                "array cell {} x {} x {} not steady after {} steps (residual {:e})",
-                self.dims.nx, self.dims.ny, self.dims.nz, p.steps, p.residual
-            )));
-        }
-        let nu = (1.0 / coll.omega_plus() - 0.5) / 3.0;
-        Ok((p.k, 1.0 - p.porosity, p.mean_u * self.diameter / nu))
+) -> Result<(f64, f64, f64)> {
+    let domain = Domain::with_solid(dims, mask)?;
+    let p = permeability(lat, coll, domain, g, ARRAY_CTL, &mut NoHooks)?;
+    if !p.converged {
+        return Err(Error::Validation(format!(
+            "array cell {} x {} x {} not steady after {} steps (residual {:e})",
+            dims.nx, dims.ny, dims.nz, p.steps, p.residual
+        )));
     }
+    Ok((p.k, 1.0 - p.porosity, p.mean_u * diameter / p.nu))
 }
 
 /// Sphere arrays: steady to 1e-7 per 100 steps (the slowest mode decays over ~L^2/(4 pi^2 nu)
@@ -315,27 +250,15 @@ const ARRAY_CTL: SteadyControl = SteadyControl {
 /// k of the simple cubic array of solid fraction phi on an n^3 lattice; `g16` is the force at
 /// n = 16, scaled as (16/n)^3 so that Re (~ g n^3 / nu^2) is the same at every resolution.
 fn sphere_array_k(
-    lat: LatticeKind,
-    coll: CollisionKind,
-    tau: f64,
+    scheme: (LatticeKind, CollisionModel),
     n: usize,
     phi: f64,
     g16: f64,
 ) -> Result<(f64, f64, f64)> {
     let radius = n as f64 * (3.0 * phi / (4.0 * std::f64::consts::PI)).cbrt();
     let g = g16 * (16.0 / n as f64).powi(3);
-    dispatch(
-        lat,
-        coll,
-        tau,
-        ArrayCell {
-            dims: Dims::new(n, n, n)?,
-            mask: sphere_array_mask(n, radius),
-            diameter: 2.0 * radius,
-            g,
-            ctl: ARRAY_CTL,
-        },
-    )
+    let mask = sphere_array_mask(n, radius);
+    array_cell(scheme, Dims::new(n, n, n)?, mask, 2.0 * radius, g)
 }
 
 register!("808" => case_808);
@@ -350,8 +273,9 @@ pub fn case_808(ctx: &CaseContext) -> Result<Vec<Row>> {
         let n = t.f64(i, "n")? as usize;
         let (tau_ref, tau) = (t.f64(i, "tau_ref")?, t.f64(i, "tau")?);
         let (g_ref, g) = (t.f64(i, "g_ref")?, t.f64(i, "g")?);
-        let (k_ref, _, re_ref) = sphere_array_k(lat, coll, tau_ref, n, phi, g_ref)?;
-        let (k, _, re) = sphere_array_k(lat, coll, tau, n, phi, g)?;
+        let at = |tau: f64| -> Result<_> { Ok((lat, CollisionModel::new(coll, Tau::new(tau)?))) };
+        let (k_ref, _, re_ref) = sphere_array_k(at(tau_ref)?, n, phi, g_ref)?;
+        let (k, _, re) = sphere_array_k(at(tau)?, n, phi, g)?;
         let label = format!(
             "{} {} {} phi={phi} n={n} tau {tau_ref}->{tau} g {g_ref:e}->{g:e}",
             t.str(i, "kind")?,
@@ -373,8 +297,7 @@ pub fn case_808(ctx: &CaseContext) -> Result<Vec<Row>> {
 /// One row's inputs in a resolution study.
 struct StudyRow {
     lat: LatticeKind,
-    coll: CollisionKind,
-    tau: f64,
+    coll: CollisionModel,
     phi: f64,
     /// The literature value.
     want: f64,
@@ -397,11 +320,10 @@ fn resolution_study(
     let mut problems = Vec::new();
     let mut sq = [0.0; 2];
     for i in 0..t.len() {
-        let (lat, coll) = kinds(&t, i)?;
+        let (lat, coll) = scheme(&t, i)?;
         let r = StudyRow {
             lat,
             coll,
-            tau: t.f64(i, "tau")?,
             phi: t.f64(i, "phi")?,
             want: t.f64(i, want_col)?,
         };
@@ -451,7 +373,7 @@ pub fn case_806_807(ctx: &CaseContext) -> Result<Vec<Row>> {
         |r, n, t, i| {
             let radius = n as f64 * (3.0 * r.phi / (4.0 * std::f64::consts::PI)).cbrt();
             let g16 = t.f64(i, "g16_lattice")?;
-            let (k, _, re) = sphere_array_k(r.lat, r.coll, r.tau, n, r.phi, g16)?;
+            let (k, _, re) = sphere_array_k((r.lat, r.coll), n, r.phi, g16)?;
             // K from the nominal radius and solid fraction (the staircase is the error measured)
             let kd = drag_coefficient(k, radius, r.phi);
             eprintln!(
@@ -473,27 +395,16 @@ pub fn case_806_807(ctx: &CaseContext) -> Result<Vec<Row>> {
 /// n = 32, scaled as (32/n)^3 so that Re is the same at every resolution. Returns (F/(mu U),
 /// solid fraction of the voxels, Re on the diameter).
 fn cylinder_array_drag(
-    lat: LatticeKind,
-    coll: CollisionKind,
-    tau: f64,
+    scheme: (LatticeKind, CollisionModel),
     n: usize,
     phi: f64,
     g32: f64,
 ) -> Result<(f64, f64, f64)> {
     // phi = pi a^2 / L^2
     let radius = n as f64 * (phi / std::f64::consts::PI).sqrt();
-    let (k, phi_voxels, re) = dispatch(
-        lat,
-        coll,
-        tau,
-        ArrayCell {
-            dims: Dims::new(n, n, 1)?,
-            mask: cylinder_array_mask(n, 1, radius),
-            diameter: 2.0 * radius,
-            g: g32 * (32.0 / n as f64).powi(3),
-            ctl: ARRAY_CTL,
-        },
-    )?;
+    let mask = cylinder_array_mask(n, 1, radius);
+    let g = g32 * (32.0 / n as f64).powi(3);
+    let (k, phi_voxels, re) = array_cell(scheme, Dims::new(n, n, 1)?, mask, 2.0 * radius, g)?;
     // a force g per unit mass on the fluid is the mean pressure gradient of Darcy's law, so
     // F = g L^2 per unit length and F/(mu U) = L^2 / k with k = nu <u> / g
     Ok(((n * n) as f64 / k, phi_voxels, re))
@@ -523,7 +434,7 @@ pub fn case_818_819(ctx: &CaseContext) -> Result<Vec<Row>> {
         },
         |r, n, t, i| {
             let g32 = t.f64(i, "g32_lattice")?;
-            let (f, phi_vox, re) = cylinder_array_drag(r.lat, r.coll, r.tau, n, r.phi, g32)?;
+            let (f, phi_vox, re) = cylinder_array_drag((r.lat, r.coll), n, r.phi, g32)?;
             let dt = drummond_tahir_square_drag(r.phi);
             eprintln!(
                 "{} {} {} phi={} n={n}: F/(mu U) {f:.4} vs {} ({:+.2}%), Drummond-Tahir \

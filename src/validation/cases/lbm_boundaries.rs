@@ -3,11 +3,11 @@
 //! convergence orders.
 
 use super::common::non_empty;
-use crate::lbm::choice::{dispatch, CollisionKind, Job, LatticeKind};
+use super::lbm::scheme;
+use crate::driver::NoHooks;
 use crate::lbm::flows::{channel_coordinate, duct_series, poiseuille};
-use crate::lbm::problems::{node_couette, square_duct, DrivenChannel, Inlet};
-use crate::lbm::steady::{Steady, SteadyControl};
-use crate::lbm::{Collision, Lattice};
+use crate::lbm::problems::{square_duct, ChannelFlow, DrivenChannel, Inlet, NodeCouette};
+use crate::lbm::{CollisionModel, LatticeKind, Steady, SteadyControl};
 use crate::validation::{CaseContext, Row, Table};
 use crate::{Error, Result};
 
@@ -17,13 +17,6 @@ const STEADY: SteadyControl = SteadyControl {
     tol: 1e-11,
     max_steps: 2_000_000,
 };
-
-fn kinds(t: &Table, i: usize) -> Result<(LatticeKind, CollisionKind)> {
-    Ok((
-        LatticeKind::parse(t.str(i, "lattice")?, "lattice")?,
-        CollisionKind::parse(t.str(i, "collision")?, "collision")?,
-    ))
-}
 
 /// Relative L2 norm of got - want over paired samples.
 pub(super) fn rel_l2(pairs: impl Iterator<Item = (f64, f64)>) -> f64 {
@@ -53,29 +46,25 @@ fn order_row(id: &str, label: String, (e1, e2): (f64, f64), expected: f64) -> Ro
     Row::new(label, order, expected, 1.0)
 }
 
-/// The x-velocity profile across the mid-length section of a driven channel against the
-/// parabola of peak `u_max`.
-struct DrivenError {
+/// The relative L2 error of the x-velocity profile across the mid-length section of a driven
+/// channel against the parabola of peak `u_max`.
+fn driven_error(
+    (lat, coll): (LatticeKind, CollisionModel),
     ch: DrivenChannel,
     u_max: f64,
-}
-
-impl Job for DrivenError {
-    type Out = Result<f64>;
-    fn run<L: Lattice, C: Collision>(self, coll: C) -> Result<f64> {
-        let st = self.ch.steady::<L, C>(coll, STEADY, |_, _| {})?;
-        require_steady("driven channel", &st)?;
-        let d = self.ch.dims()?;
-        let (h, x) = (self.ch.h, self.ch.length / 2);
-        let hf = h as f64;
-        Ok(rel_l2((1..=h).map(|y| {
-            let yc = channel_coordinate(y);
-            (
-                st.fields.u[d.cell(x, y, 0)][0],
-                4.0 * self.u_max * yc * (hf - yc) / (hf * hf),
-            )
-        })))
-    }
+) -> Result<f64> {
+    let st = ch.steady(lat, coll, STEADY, &mut NoHooks)?;
+    require_steady("driven channel", &st)?;
+    let d = ch.dims()?;
+    let (h, x) = (ch.h, ch.length / 2);
+    let hf = h as f64;
+    Ok(rel_l2((1..=h).map(|y| {
+        let yc = channel_coordinate(y);
+        (
+            st.fields.u[d.cell(x, y, 0)][0],
+            4.0 * u_max * yc * (hf - yc) / (hf * hf),
+        )
+    })))
 }
 
 register!("805" => case_805);
@@ -86,9 +75,9 @@ pub fn case_805(ctx: &CaseContext) -> Result<Vec<Row>> {
     let t = ctx.expected_table()?;
     let mut rows = Vec::new();
     for i in 0..t.len() {
-        let (lat, coll) = kinds(&t, i)?;
-        let tau = t.f64(i, "tau")?;
-        let nu = (tau - 0.5) / 3.0;
+        let (lat, coll) = scheme(&t, i)?;
+        let tau = coll.tau.get();
+        let nu = coll.tau.nu();
         let inlet = t.str(i, "inlet")?.to_string();
         let h0 = t.f64(i, "h_coarse")? as usize;
         let err = |h: usize| -> Result<f64> {
@@ -115,7 +104,7 @@ pub fn case_805(ctx: &CaseContext) -> Result<Vec<Row>> {
                 inlet: inlet.0,
                 rho_out: inlet.1,
             };
-            dispatch(lat, coll, tau, DrivenError { ch, u_max })
+            driven_error((lat, coll), ch, u_max)
         };
         let errs = (err(h0)?, err(2 * h0)?);
         let label = format!(
@@ -129,32 +118,25 @@ pub fn case_805(ctx: &CaseContext) -> Result<Vec<Row>> {
     Ok(rows)
 }
 
-struct DuctError {
-    h: usize,
-    g: f64,
-}
-
-impl Job for DuctError {
-    type Out = Result<f64>;
-    fn run<L: Lattice, C: Collision>(self, coll: C) -> Result<f64> {
-        let nu = (1.0 / coll.omega_plus() - 0.5) / 3.0;
-        let (u, st) = square_duct::<L, C>(self.h, self.g, coll, STEADY)?;
-        require_steady("square duct", &st)?;
-        let h = self.h;
-        let a = 0.5 * h as f64;
-        Ok(rel_l2(u.iter().enumerate().map(|(k, &got)| {
-            let (y, z) = (k % h + 1, k / h + 1);
-            let want = duct_series(
-                channel_coordinate(y) - a,
-                channel_coordinate(z) - a,
-                a,
-                a,
-                self.g,
-                nu,
-            );
-            (got, want)
-        })))
-    }
+/// The relative L2 error of the square duct of h x h cells under body force g against the
+/// series solution.
+fn duct_error((lat, coll): (LatticeKind, CollisionModel), h: usize, g: f64) -> Result<f64> {
+    let nu = coll.kernel_nu();
+    let (u, st) = square_duct(lat, coll, (h, g), STEADY)?;
+    require_steady("square duct", &st)?;
+    let a = 0.5 * h as f64;
+    Ok(rel_l2(u.iter().enumerate().map(|(k, &got)| {
+        let (y, z) = (k % h + 1, k / h + 1);
+        let want = duct_series(
+            channel_coordinate(y) - a,
+            channel_coordinate(z) - a,
+            a,
+            a,
+            g,
+            nu,
+        );
+        (got, want)
+    })))
 }
 
 register!("810" => case_810);
@@ -164,13 +146,13 @@ pub fn case_810(ctx: &CaseContext) -> Result<Vec<Row>> {
     let t = ctx.expected_table()?;
     let mut rows = Vec::new();
     for i in 0..t.len() {
-        let (lat, coll) = kinds(&t, i)?;
-        let tau = t.f64(i, "tau")?;
+        let (lat, coll) = scheme(&t, i)?;
+        let tau = coll.tau.get();
         let h0 = t.f64(i, "h_coarse")? as usize;
         let g = t.f64(i, "g_lattice")?;
         let errs = (
-            dispatch(lat, coll, tau, DuctError { h: h0, g })?,
-            dispatch(lat, coll, tau, DuctError { h: 2 * h0, g })?,
+            duct_error((lat, coll), h0, g)?,
+            duct_error((lat, coll), 2 * h0, g)?,
         );
         let label = format!(
             "{} {} tau={tau} H={h0}->{}",
@@ -183,26 +165,24 @@ pub fn case_810(ctx: &CaseContext) -> Result<Vec<Row>> {
     Ok(rows)
 }
 
-struct CouetteProfile {
+/// u / U0 at the nodes y = 0..=h of the porous Couette flow (eps, Re, Da) on h cells.
+fn couette_profile(
+    (lat, coll): (LatticeKind, CollisionModel),
     h: usize,
-    re: f64,
-    eps: f64,
-    da: f64,
-}
-
-impl Job for CouetteProfile {
-    /// u / U0 at the nodes y = 0..=h.
-    type Out = Result<Vec<f64>>;
-    fn run<L: Lattice, C: Collision>(self, coll: C) -> Self::Out {
-        let nu = (1.0 / coll.omega_plus() - 0.5) / 3.0;
-        let hf = self.h as f64;
-        let u_wall = self.re * nu / hf;
-        let k = self.da * hf * hf;
-        let (u, st) =
-            node_couette::<L, C>(self.h, u_wall, (self.eps, k, true), coll, STEADY, |_, _| {})?;
-        require_steady("porous Couette", &st)?;
-        Ok(u.iter().map(|v| v / u_wall).collect())
-    }
+    (eps, re, da): (f64, f64, f64),
+) -> Result<Vec<f64>> {
+    let nu = coll.kernel_nu();
+    let hf = h as f64;
+    let u_wall = re * nu / hf;
+    let k = da * hf * hf;
+    let couette = NodeCouette {
+        h,
+        u_wall,
+        porous: (eps, k, true),
+    };
+    let (u, st) = couette.steady(lat, coll, STEADY, &mut NoHooks)?;
+    require_steady("porous Couette", &st)?;
+    Ok(u.iter().map(|v| v / u_wall).collect())
 }
 
 /// The finite-difference profile (eps, Re, Da) of reference/porous_couette.csv: u/U0 at
@@ -241,12 +221,12 @@ register!("809" => case_809);
 /// oracle; relative L2 error of the interior nodes, expected 0.
 pub fn case_809(ctx: &CaseContext) -> Result<Vec<Row>> {
     let t = ctx.expected_table()?;
-    let oracle = Table::read(&ctx.repo_root.join("reference/porous_couette.csv"))?;
+    let oracle = Table::read(ctx.repo_root.join("reference/porous_couette.csv"))?;
     non_empty(&oracle)?;
     let mut rows = Vec::new();
     for i in 0..t.len() {
-        let (lat, coll) = kinds(&t, i)?;
-        let tau = t.f64(i, "tau")?;
+        let (lat, coll) = scheme(&t, i)?;
+        let tau = coll.tau.get();
         let (eps, re, da) = (t.f64(i, "eps")?, t.f64(i, "Re")?, t.f64(i, "Da")?);
         let h = t.f64(i, "h")? as usize;
         if h == 0 || 128 % h != 0 {
@@ -257,7 +237,7 @@ pub fn case_809(ctx: &CaseContext) -> Result<Vec<Row>> {
             )));
         }
         let want = couette_reference(&oracle, eps, re, da)?;
-        let got = dispatch(lat, coll, tau, CouetteProfile { h, re, eps, da })?;
+        let got = couette_profile((lat, coll), h, (eps, re, da))?;
         let e = rel_l2((1..h).map(|y| (got[y], want[y * 128 / h])));
         let label = format!(
             "{} {} tau={tau} eps={eps} Re={re} Da={da:e} H={h}",

@@ -9,12 +9,12 @@
 //!   long rods 10-20): C_KC with the exact nu = V/S and with the long-rod nu = D/4 (thesis
 //!   sec. 7.2.2), against L/D.
 
-use crate::driver::Hooks;
-use crate::lbm::choice::{CollisionKind, LatticeKind};
-use crate::lbm::pore::{
-    kozeny_constant, packing_particles, pore_permeability, voxelise, PoreOptions,
-};
-use crate::lbm::steady::SteadyControl;
+use crate::driver::{Hooks, NoHooks};
+use crate::error::invalid;
+use crate::io::xyz::{Cell, XyzParticle};
+use crate::lbm::pore::{kozeny_constant, pore_permeability, PoreOptions};
+use crate::lbm::voxels::voxelise;
+use crate::lbm::{CollisionKind, CollisionModel, LatticeKind, SteadyControl, Tau};
 use crate::packing::{self, Mcm, Packing, Setup};
 use crate::validation::{CaseContext, Row};
 use crate::{Error, Result};
@@ -24,21 +24,48 @@ fn seed(ctx: &CaseContext) -> Result<u64> {
         .ok_or_else(|| Error::Validation(format!("case {}: needs `seed` in case.toml", ctx.id)))
 }
 
-/// The pore-resolving run of these cases: D3Q19 TRT (Lambda = 3/16: k independent of the
-/// viscosity, case 808), tau = 1 unless a row sets it, body force 1e-5 (Re on V/S below 1e-3
-/// at these k), steady to 1e-7 per 100 steps.
-const PORE: PoreOptions = PoreOptions {
-    lattice: LatticeKind::D3Q19,
-    collision: CollisionKind::Trt,
-    tau: 1.0,
-    g: 1e-5,
-    ctl: SteadyControl {
+/// The pore-resolving run of these cases at relaxation time `tau` (1 unless a row sets it):
+/// D3Q19 TRT (Lambda = 3/16: k independent of the viscosity, case 808), body force 1e-5 (Re on
+/// V/S below 1e-3 at these k), steady to 1e-7 per 100 steps.
+fn pore(tau: f64) -> Result<PoreOptions> {
+    let ctl = SteadyControl {
         check_every: 100,
         tol: 1e-7,
         max_steps: 200_000,
-    },
-    quiet: true,
-};
+    };
+    let trt = CollisionModel::new(CollisionKind::Trt, Tau::new(tau)?);
+    PoreOptions::new(LatticeKind::D3Q19, trt, (1e-5, "force"), ctl)
+}
+
+/// The particles of an MCM packing of equal spheres or spherocylinders (diameter 1, the
+/// packing's length unit) in its periodic box, ready for [`voxelise`].
+fn packing_particles(p: &Packing) -> Result<(Cell, Vec<XyzParticle>)> {
+    let Some(length) = p.monodisperse_length() else {
+        return invalid(
+            "packing: only equal spheres or spherocylinders of diameter 1 are voxelised here",
+        );
+    };
+    if p.container != packing::Container::Periodic {
+        return invalid("packing: permeability needs the periodic box container");
+    }
+    let (species, shape) = if length > 0.0 {
+        ("spherocylinder", [0.5, 0.5, length])
+    } else {
+        ("sphere", [0.5; 3])
+    };
+    let parts = (0..p.n())
+        .map(|i| XyzParticle {
+            species: species.to_string(),
+            position: p.positions[i],
+            orientation: p.orientations[i],
+            aspherical_shape: shape,
+            radius: 0.5,
+            cylinder_length: length,
+            roundness: [1.0, 1.0],
+        })
+        .collect();
+    Ok((Cell::cubic(p.box_length), parts))
+}
 
 /// Configurations of one MCM run: the first accepted state at or past each of `targets`
 /// (ascending packing fractions), then the final (jammed) state.
@@ -86,7 +113,7 @@ fn kc_point(p: &Packing, cells_per_d: [f64; 2], opts: &PoreOptions) -> Result<Kc
     for (j, &c) in cells_per_d.iter().enumerate() {
         let n = (c * p.box_length).round() as usize;
         let v = voxelise(&cell, &parts, n)?;
-        let r = pore_permeability(&v, opts)?;
+        let r = pore_permeability(&v, opts, &mut NoHooks)?;
         if !r.run.converged {
             return Err(Error::Validation(format!(
                 "phi = {:.4}, n = {n}: not steady after {} steps (residual {:e})",
@@ -171,7 +198,7 @@ pub fn case_920(ctx: &CaseContext) -> Result<Vec<Row>> {
             packs.last().expect("the final state is always there")
         };
         let cells = [t.f64(i, "cells_coarse")?, t.f64(i, "cells_fine")?];
-        let pt = kc_point(p, cells, &PORE)?;
+        let pt = kc_point(p, cells, &pore(1.0)?)?;
         let label = format!("spheres N={n} phi={:.3} D={}", pt.phi, cells[1]);
         // nu = V/S = D/6 for spheres
         let nus = [("V/S", pt.v_over_s)];
@@ -195,11 +222,7 @@ pub fn case_921_922(ctx: &CaseContext) -> Result<Vec<Row>> {
         prm.length = aspect;
         let r = packing::run_to_end(prm)?;
         let cells = [t.f64(i, "cells_coarse")?, t.f64(i, "cells_fine")?];
-        let opts = PoreOptions {
-            tau: t.f64(i, "tau")?,
-            ..PORE
-        };
-        let pt = kc_point(&r.packing, cells, &opts)?;
+        let pt = kc_point(&r.packing, cells, &pore(t.f64(i, "tau")?)?)?;
         // thesis eq. 7.2 with <C> = 9.8: the random-contact phi of long rods, for comparison
         eprintln!(
             "{} L/D={aspect}: MCM phi {:.4}, random contact equation (eq. 7.2) 4.9 D/L = {:.3}",
