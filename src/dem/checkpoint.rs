@@ -3,8 +3,8 @@
 //! velocities (half-step and predicted full-step), spins, the last forces and torques (the
 //! next half-kick uses them), the neighbour list with its tangential springs and the positions
 //! at its last build (which decide the next rebuild), the wall springs and forces, the top
-//! wall, the clock and the step count. What the scene fixes (radii, masses, materials, the
-//! time step) is rebuilt from the scene and checked against the stored values.
+//! wall, the clock and the step count. What the setup fixes (radii, masses, materials, the
+//! time step) is rebuilt from the setup and checked against the stored values.
 
 use super::engine::Dem;
 use super::neighbour::Pair;
@@ -120,7 +120,7 @@ impl Dem {
         }
     }
 
-    /// Replaces the dynamic state by `s`, taken from a run of the same scene: the particle
+    /// Replaces the dynamic state by `s`, taken from a run of the same setup: the particle
     /// count, the radii and the time step must be bitwise those of this system.
     pub fn load_state(&mut self, s: &DemState) -> Result<()> {
         let n = self.p.len();
@@ -140,7 +140,7 @@ impl Dem {
         ];
         if let Some((name, len)) = per_particle.iter().find(|(_, len)| *len != n) {
             return invalid(format!(
-                "checkpoint: {len} entries in `{name}`, but the scene has {n} particles"
+                "checkpoint: {len} entries in `{name}`, but the setup has {n} particles"
             ));
         }
         if s.external.len() != n && !s.external.is_empty() {
@@ -151,14 +151,14 @@ impl Dem {
         }
         if let Some(i) = (0..n).find(|&i| s.radius[i] != self.p.radius[i].to_bits()) {
             return invalid(format!(
-                "checkpoint: radius of particle {i} is {} m, the scene gives {} m",
+                "checkpoint: radius of particle {i} is {} m, the setup gives {} m",
                 f64::from_bits(s.radius[i]),
                 self.p.radius[i]
             ));
         }
         if s.dt_s != self.dt_s.to_bits() {
             return invalid(format!(
-                "checkpoint: time step {} s, the scene gives {} s",
+                "checkpoint: time step {} s, the setup gives {} s",
                 f64::from_bits(s.dt_s),
                 self.dt_s
             ));
@@ -229,15 +229,12 @@ impl Dem {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::scene::dem::{build, parse_scene};
+    use crate::dem::setup::testing::small_bed;
 
     /// The built-in small bed with 120 spheres at 68 % porosity, thrown at the floor so that
     /// contacts (with tangential springs) form within a few thousand steps.
     fn bed() -> Dem {
-        let text = include_str!("../scene/builtin/dem-small.toml")
-            .replace("n = 300", "n = 120")
-            .replace("porosity = 0.75", "porosity = 0.68");
-        let mut dem = build(&parse_scene(&text, "test").unwrap()).unwrap();
+        let mut dem = Dem::new(small_bed(120, 0.68)).unwrap();
         for (k, v) in dem.p.vel.iter_mut().enumerate() {
             *v = Vector3::new(0.05 * ((k % 7) as f64 - 3.0), 0.0, -0.5);
         }

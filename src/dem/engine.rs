@@ -18,111 +18,15 @@
 //! same run at any thread count.
 
 use super::lanes::{Lane, V3};
-use super::model::{
-    hertz_contact_time, rayleigh_time, ContactLanes, ContactModel, ContactState, DampingModel,
-    Material, NormalModel, PairMaterial,
-};
+use super::model::{ContactLanes, ContactModel, ContactState, DampingModel, PairMaterial};
 use super::neighbour::{moved_beyond, wrap_delta, NeighbourList, Pair, PairForce, PAR_MIN};
+use super::particles::Particles;
+use super::setup::{Drag, Setup, TopWall, WALL_RELAXATION};
 use crate::error::{invalid, require_positive};
 use crate::Result;
 use nalgebra::Vector3;
 use rayon::prelude::*;
 use std::f64::consts::PI;
-
-/// Uniform Stokes drag F = 6 pi mu a (U_F - v) (seed 002, "Fluid-solid coupling model").
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Drag {
-    pub viscosity_pa_s: f64,
-    pub fluid_velocity_m_s: Vector3<f64>,
-}
-
-/// The top wall.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub enum TopWall {
-    /// A fixed plane at height z (m).
-    Fixed { z_m: f64 },
-    /// A plane starting at z0 and driven by pressure control: each step the wall's contact
-    /// pressure P (the particles' force on it over lx ly) is compared with the target and the
-    /// wall moves down at v_max while it touches nothing; in contact it takes a relaxed Newton
-    /// step on the elastic part F_el of its contact force each step, dz = -0.05 (F_target -
-    /// F_el) / K_top with K_top the summed contact stiffness S_n of its contacts, capped at
-    /// v_max dt (down when the pressure is too low, up when too high; the gain is bounded by
-    /// the stiffness, so it cannot bang-bang). A purely proportional rule v = -v_max (1 -
-    /// P/P_target), and the same Newton step on the total force (whose damping part follows
-    /// the wall's own velocity), alternated between +-v_max every step.
-    Pressure {
-        z0_m: f64,
-        target_pa: f64,
-        speed_max_m_s: f64,
-    },
-}
-
-/// Everything but the particles.
-#[derive(Debug, Clone, PartialEq)]
-pub struct DemSetup {
-    /// Periodic lengths in x and y (m).
-    pub lx_m: f64,
-    pub ly_m: f64,
-    pub contact: ContactModel,
-    pub particle_material: Material,
-    pub wall_material: Material,
-    pub density_kg_m3: f64,
-    pub gravity_m_s2: Vector3<f64>,
-    /// Fluid density for buoyancy, m' = m (1 - rho_f / rho_p) (0: none).
-    pub fluid_density_kg_m3: f64,
-    pub drag: Option<Drag>,
-    pub top: TopWall,
-    /// Time step; `None`: the automatic rule of [`auto_time_step`].
-    pub dt_s: Option<f64>,
-    /// Neighbour-list skin (m); `None`: 0.3 times the smallest diameter.
-    pub skin_m: Option<f64>,
-}
-
-/// Relaxation of the pressure wall's Newton step on its force.
-pub const WALL_RELAXATION: f64 = 0.05;
-
-/// Safety factor on the Rayleigh time (Hertz) and fraction of the contact time.
-pub const RAYLEIGH_SAFETY: f64 = 0.2;
-pub const CONTACT_TIME_FRACTION: f64 = 1.0 / 50.0;
-/// A user time step above this fraction of the contact time (or above the Rayleigh time) is
-/// refused.
-pub const MAX_CONTACT_TIME_FRACTION: f64 = 1.0 / 10.0;
-
-/// The shortest contact time of the scene: for the linear spring pi / omega_d of the lightest
-/// pair (m* = m_min / 2); for Hertz the Hertz time at the relative speed `v_scale` of the
-/// lightest, smallest pair, and the Rayleigh time of the smallest sphere.
-/// Returns (t_contact, t_rayleigh or +inf).
-pub fn contact_times(setup: &DemSetup, r_min: f64, v_scale: f64) -> (f64, f64) {
-    let m_min = setup.density_kg_m3 * 4.0 / 3.0 * PI * r_min.powi(3);
-    let m_eff = 0.5 * m_min;
-    match setup.contact.normal {
-        NormalModel::Linear { k_n_n_per_m } => {
-            let w0 = (k_n_n_per_m / m_eff).sqrt();
-            let zeta = match setup.contact.damping {
-                DampingModel::None => 0.0,
-                DampingModel::Restitution { neg_beta, .. } => neg_beta,
-                // the Zhou damping is built for the Hertz law only (see the scene)
-                DampingModel::Zhou { .. } => 0.0,
-            };
-            (PI / (w0 * (1.0 - zeta * zeta).sqrt()), f64::INFINITY)
-        }
-        NormalModel::Hertz => {
-            let pp = PairMaterial::new(&setup.particle_material, &setup.particle_material);
-            let pw = PairMaterial::new(&setup.particle_material, &setup.wall_material);
-            let e_star = pp.e_star_pa.max(pw.e_star_pa);
-            (
-                hertz_contact_time(m_eff, 0.5 * r_min, e_star, v_scale.max(1e-12)),
-                rayleigh_time(r_min, setup.density_kg_m3, &setup.particle_material),
-            )
-        }
-    }
-}
-
-/// Automatic time step: min(0.2 t_Rayleigh, t_contact / 50) (see [`contact_times`]).
-pub fn auto_time_step(setup: &DemSetup, r_min: f64, v_scale: f64) -> f64 {
-    let (tc, tr) = contact_times(setup, r_min, v_scale);
-    (RAYLEIGH_SAFETY * tr).min(CONTACT_TIME_FRACTION * tc)
-}
 
 /// The particles' state that the force loops read: positions, half-step and predicted
 /// full-step velocities and spins, radii, masses.
@@ -630,40 +534,6 @@ impl WallLedger {
     }
 }
 
-/// Sphere states (SI), structure of arrays.
-#[derive(Debug, Clone, Default)]
-pub struct Particles {
-    pub pos: Vec<Vector3<f64>>,
-    pub vel: Vec<Vector3<f64>>,
-    pub omega: Vec<Vector3<f64>>,
-    pub radius: Vec<f64>,
-    pub mass: Vec<f64>,
-}
-
-impl Particles {
-    /// Spheres at rest of the given centres and radii, density `rho`.
-    pub fn at_rest(pos: Vec<Vector3<f64>>, radius: Vec<f64>, rho: f64) -> Particles {
-        let n = pos.len();
-        let mass = radius
-            .iter()
-            .map(|r| rho * 4.0 / 3.0 * PI * r.powi(3))
-            .collect();
-        Particles {
-            pos,
-            vel: vec![Vector3::zeros(); n],
-            omega: vec![Vector3::zeros(); n],
-            radius,
-            mass,
-        }
-    }
-    pub fn len(&self) -> usize {
-        self.pos.len()
-    }
-    pub fn is_empty(&self) -> bool {
-        self.pos.is_empty()
-    }
-}
-
 /// Which terms the run evaluates (printed before a run).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct ActiveTerms {
@@ -698,8 +568,10 @@ impl ActiveTerms {
 /// A DEM system and its integrator state.
 pub struct Dem {
     pub p: Particles,
-    pub setup: DemSetup,
-    pub dt_s: f64,
+    /// The setup it was built from (its start: the particles at t = 0).
+    pub(super) setup: Setup,
+    /// The time step in use (s): the setup's, or one set by [`Dem::with_time_step`].
+    pub(super) dt_s: f64,
     pub time_s: f64,
     pub steps: u64,
     /// Current top-wall height and velocity.
@@ -734,7 +606,7 @@ pub struct Dem {
     pub(super) wall_f: Vec<Vector3<f64>>,
     pp: PairMaterial,
     pw: PairMaterial,
-    pub active: ActiveTerms,
+    pub(super) active: ActiveTerms,
     /// Seconds spent rebuilding the neighbour list.
     pub neighbour_seconds: f64,
     /// Per-particle external force (N), empty until set.
@@ -748,92 +620,13 @@ pub struct Dem {
 }
 
 impl Dem {
-    /// Validates the setup and particles, sets the time step and computes the initial forces.
-    /// `v_scale` is the largest relative impact speed expected (m/s), used by the Hertz
-    /// contact-time rule.
-    pub fn new(setup: DemSetup, p: Particles, v_scale: f64) -> Result<Dem> {
+    /// Checks the setup ([`Setup::check`]), makes the start's particles, checks them, takes
+    /// the time step and the skin from the setup and computes the initial forces.
+    pub fn new(setup: Setup) -> Result<Dem> {
+        setup.check()?;
+        let p = setup.start_particles()?;
         let n = p.len();
-        require_positive(setup.lx_m, || format!("box lx {} m", setup.lx_m))?;
-        require_positive(setup.ly_m, || format!("box ly {} m", setup.ly_m))?;
-        require_positive(setup.density_kg_m3, || {
-            format!("particle density {} kg/m^3", setup.density_kg_m3)
-        })?;
-        if !(setup.fluid_density_kg_m3.is_finite()
-            && setup.fluid_density_kg_m3 >= 0.0
-            && setup.fluid_density_kg_m3 < setup.density_kg_m3)
-        {
-            return invalid(format!(
-                "fluid density {} kg/m^3: must be >= 0 and below the particle density {}",
-                setup.fluid_density_kg_m3, setup.density_kg_m3
-            ));
-        }
-        if !setup.gravity_m_s2.iter().all(|g| g.is_finite()) {
-            return invalid("gravity: must be finite");
-        }
-        if let Some(d) = &setup.drag {
-            require_positive(d.viscosity_pa_s, || {
-                format!("viscosity {} Pa s", d.viscosity_pa_s)
-            })?;
-            if !d.fluid_velocity_m_s.iter().all(|u| u.is_finite()) {
-                return invalid("fluid velocity: must be finite");
-            }
-        }
-        if let NormalModel::Linear { k_n_n_per_m } = setup.contact.normal {
-            require_positive(k_n_n_per_m, || {
-                format!("normal stiffness k_n {k_n_n_per_m} N/m")
-            })?;
-        }
-        match setup.contact.tangential {
-            super::model::TangentialModel::None => {}
-            super::model::TangentialModel::Mindlin { mu, damp_ratio }
-            | super::model::TangentialModel::Linear { mu, damp_ratio, .. } => {
-                if !(mu.is_finite() && mu >= 0.0) {
-                    return invalid(format!(
-                        "friction coefficient {mu}: must be >= 0 and finite"
-                    ));
-                }
-                if !(damp_ratio.is_finite() && damp_ratio >= 0.0) {
-                    return invalid(format!(
-                        "tangential damping ratio {damp_ratio}: must be >= 0 and finite"
-                    ));
-                }
-            }
-            super::model::TangentialModel::Zhou { mu, c_t } => {
-                if !(mu.is_finite() && mu > 0.0) {
-                    return invalid(format!(
-                        "friction coefficient {mu}: must be > 0 and finite for the Zhou law"
-                    ));
-                }
-                if !(c_t.is_finite() && c_t >= 0.0) {
-                    return invalid(format!(
-                        "tangential damping c_t {c_t}: must be >= 0 and finite"
-                    ));
-                }
-            }
-        }
-        if let DampingModel::Zhou { c_n } = setup.contact.damping {
-            if !(c_n.is_finite() && c_n >= 0.0) {
-                return invalid(format!("normal damping c_n {c_n}: must be >= 0 and finite"));
-            }
-        }
-        if let super::model::TangentialModel::Linear { kt_over_kn, .. } = setup.contact.tangential {
-            require_positive(kt_over_kn, || format!("k_t / k_n {kt_over_kn}"))?;
-        }
-        let (z0, top_speed) = match setup.top {
-            TopWall::Fixed { z_m } => (z_m, 0.0),
-            TopWall::Pressure {
-                z0_m,
-                target_pa,
-                speed_max_m_s,
-            } => {
-                require_positive(target_pa, || format!("target pressure {target_pa} Pa"))?;
-                require_positive(speed_max_m_s, || {
-                    format!("top wall speed limit {speed_max_m_s} m/s")
-                })?;
-                (z0_m, speed_max_m_s)
-            }
-        };
-        require_positive(z0, || format!("top wall height {z0} m"))?;
+        let z0 = setup.top.z0_m();
         if p.vel.len() != n || p.omega.len() != n || p.radius.len() != n || p.mass.len() != n {
             return invalid(
                 "particles: position, velocity, spin, radius and mass arrays differ in length",
@@ -860,32 +653,8 @@ impl Dem {
                 ));
             }
         }
-        let r_min = p.radius.iter().cloned().fold(f64::INFINITY, f64::min);
-        let r_min = if n == 0 { 1.0 } else { r_min };
-        let dt_auto = auto_time_step(&setup, r_min, v_scale.max(top_speed));
-        let dt = match setup.dt_s {
-            None => dt_auto,
-            Some(dt) => {
-                require_positive(dt, || format!("time step dt {dt} s"))?;
-                let (tc, tr) = contact_times(&setup, r_min, v_scale.max(top_speed));
-                if dt > MAX_CONTACT_TIME_FRACTION * tc || dt > tr {
-                    return invalid(format!(
-                        "time step dt = {dt:e} s: too large for the stiffness; the contact time \
-                         of the lightest pair is {tc:e} s (limit t_c/10 = {:e} s){}; the \
-                         automatic step would be {dt_auto:e} s",
-                        MAX_CONTACT_TIME_FRACTION * tc,
-                        if tr.is_finite() {
-                            format!(" and the Rayleigh time {tr:e} s")
-                        } else {
-                            String::new()
-                        }
-                    ));
-                }
-                dt
-            }
-        };
-        let skin = setup.skin_m.unwrap_or(0.6 * r_min);
-        require_positive(skin, || format!("neighbour skin {skin} m"))?;
+        let dt = setup.time_step_s()?;
+        let skin = setup.skin_or_default_m();
         let inv_mass = p.mass.iter().map(|m| 1.0 / m).collect();
         let inv_inertia = p
             .mass
@@ -950,6 +719,43 @@ impl Dem {
             pr.xi = Vector3::zeros();
         }
         Ok(dem)
+    }
+
+    /// The same system stepping with `dt_s` (s) from now on, once the setup accepts it for
+    /// impacts up to `impact_speed_m_s` ([`Setup::check_time_step`]: at most t_c / 10 and the
+    /// Rayleigh time).
+    pub fn with_time_step(mut self, dt_s: f64, impact_speed_m_s: f64) -> Result<Dem> {
+        self.dt_s = self.setup.check_time_step(dt_s, impact_speed_m_s)?;
+        Ok(self)
+    }
+
+    /// The setup the system was built from.
+    pub fn setup(&self) -> &Setup {
+        &self.setup
+    }
+
+    /// The time step in use (s).
+    pub fn dt_s(&self) -> f64 {
+        self.dt_s
+    }
+
+    /// The terms the steps evaluate.
+    pub fn active(&self) -> &ActiveTerms {
+        &self.active
+    }
+
+    /// Sets the target pressure (Pa, positive) of the pressure-controlled top wall from the
+    /// next step on; a fixed top wall is refused.
+    pub fn set_top_pressure(&mut self, target_pa: f64) -> Result<()> {
+        match &mut self.setup.top {
+            TopWall::Pressure { target_pa: t, .. } => {
+                *t = require_positive(target_pa, || format!("target pressure {target_pa} Pa"))?;
+                Ok(())
+            }
+            TopWall::Fixed { .. } => invalid(format!(
+                "target pressure {target_pa} Pa: the top wall is fixed (no pressure control)"
+            )),
+        }
     }
 
     /// Sets a constant external force on every particle (N, one per particle, finite) that
@@ -1429,7 +1235,8 @@ impl Dem {
 
 #[cfg(test)]
 mod tests {
-    use crate::scene::dem::{build, parse_scene};
+    use super::super::setup::testing::small_bed;
+    use super::Dem;
     use nalgebra::Vector3;
 
     /// The AVX2 pair loop (four pairs per register) gives every pair's force, torque term,
@@ -1521,11 +1328,7 @@ mod tests {
         }
         let (mut touching, mut sliding) = (0, 0);
         for (normal, damping, tangential) in models {
-            let model = ContactModel {
-                normal,
-                damping,
-                tangential,
-            };
+            let model = ContactModel::new(normal, damping, tangential).unwrap();
             let ctx = PairCtx {
                 lx,
                 ly,
@@ -1589,8 +1392,7 @@ mod tests {
     /// can remove it) and keeps every translation and the spin of a sphere in contact.
     #[test]
     fn settling_energy_leaves_out_only_the_free_spin() {
-        let text = include_str!("../scene/builtin/dem-small.toml").replace("n = 300", "n = 20");
-        let mut dem = build(&parse_scene(&text, "test").unwrap()).unwrap();
+        let mut dem = Dem::new(small_bed(20, 0.75)).unwrap();
         dem.p.vel.iter_mut().for_each(|v| *v = Vector3::zeros());
         dem.p.omega.iter_mut().for_each(|w| *w = Vector3::zeros());
         let k = (0..dem.p.len())

@@ -3,14 +3,22 @@
 //! a floor and a top wall, periodic in x and y, with gravity, a uniform Stokes drag and a
 //! pressure-controlled top wall as drivers.
 //!
-//! * [`model`]: contact laws composed of normal, damping and tangential sub-models (Hertz–Mindlin
-//!   with restitution damping, linear spring–dashpot with Coulomb friction); walls use the same
-//!   model as spheres of infinite radius and mass.
+//! * [`setup`]: what a run is made of ([`Setup`]: box, contact model, materials, drivers, time
+//!   step, start), checked once, and the values that follow from it (the time step, the skin).
+//! * [`model`]: contact laws composed of normal, damping and tangential sub-models chosen
+//!   separately (Hertz or linear spring; restitution or Zhou damping; Mindlin, linear or Zhou
+//!   tangential spring with Coulomb friction), each checking its coefficients, and their
+//!   combination checked once ([`ContactModel::new`]); walls use the same model as spheres of
+//!   infinite radius and mass.
 //! * [`lanes`]: contacts side by side (one `f64`, or four in an AVX register), so that the
 //!   contact law is written once and the pair loop runs four pairs at a time, bit for bit.
 //! * [`neighbour`]: cell list + half Verlet list with skin; tangential history per pair kept
 //!   across rebuilds.
-//! * [`engine`]: the velocity-Verlet integrator, drivers and the time-step rule.
+//! * [`engine`]: the velocity-Verlet integrator ([`Dem::new`] from a setup, [`Dem::step`],
+//!   [`Dem::run`]) and the forces of gravity, drag and the walls.
+//! * [`driver`]: runs a system to rest (stop rule, overlap refusal, progress and checkpoint
+//!   hooks).
+//! * [`particles`]: the spheres' dynamic state.
 //! * [`start`]: the random overlap-free dispersion at a prescribed porosity.
 //! * [`observe`]: porosity profiles from exact sphere–slab volumes, bed height.
 //! * `team`: steps on two threads or more as one team: a leader publishes each loop, spinning
@@ -20,13 +28,19 @@
 //! Vertical axis: z (the seed's x); SI units throughout.
 
 pub mod checkpoint;
+pub mod driver;
 pub mod engine;
 pub mod lanes;
 pub mod model;
 pub mod neighbour;
 pub mod observe;
+pub mod particles;
+pub mod setup;
 pub mod start;
 mod team;
 
-pub use engine::{ActiveTerms, Dem, DemSetup, Drag, Particles, TopWall, WallLedger};
+pub use driver::{run_to_rest, settle, Check, Progress, Rest, Stop, StopRule};
+pub use engine::{ActiveTerms, Dem, WallLedger};
 pub use model::{ContactModel, DampingModel, Material, NormalModel, PairMaterial, TangentialModel};
+pub use particles::Particles;
+pub use setup::{Drag, ImpactSpeed, Setup, Start, TimeStep, TopWall};

@@ -68,6 +68,28 @@ pub enum NormalModel {
 }
 
 impl NormalModel {
+    /// The linear spring of stiffness `k_n_n_per_m` (N/m).
+    pub fn linear(k_n_n_per_m: f64) -> Result<NormalModel> {
+        let m = NormalModel::Linear { k_n_n_per_m };
+        m.check()?;
+        Ok(m)
+    }
+
+    /// The rules of its coefficients (as LAMMPS's `coeffs_to_local`): k_n positive and finite.
+    pub fn check(&self) -> Result<()> {
+        if let NormalModel::Linear { k_n_n_per_m } = *self {
+            require_positive(k_n_n_per_m, || {
+                format!("normal stiffness k_n = {k_n_n_per_m} N/m")
+            })?;
+        }
+        Ok(())
+    }
+
+    /// Whether the law reads the elastic moduli (Hertz) rather than a stiffness of its own.
+    pub fn is_hertz(&self) -> bool {
+        matches!(self, NormalModel::Hertz)
+    }
+
     /// (elastic force magnitude, contact stiffness S_n = dF/d delta) at overlap `delta` > 0.
     #[inline(always)]
     pub fn elastic(&self, delta: f64, r_eff: f64, e_star: f64) -> (f64, f64) {
@@ -142,6 +164,43 @@ impl DampingModel {
         })
     }
 
+    /// The damping of Zhou et al. (2002) with coefficient c_n >= 0 (c_n = 0: no damping).
+    pub fn zhou(c_n: f64) -> Result<DampingModel> {
+        if c_n == 0.0 {
+            return Ok(DampingModel::None);
+        }
+        let m = DampingModel::Zhou { c_n };
+        m.check()?;
+        Ok(m)
+    }
+
+    /// The rules of its coefficients: a restitution in (0, 1) with the beta it implies, c_n >= 0
+    /// and finite.
+    pub fn check(&self) -> Result<()> {
+        match *self {
+            DampingModel::None => Ok(()),
+            DampingModel::Restitution { coeff, neg_beta } => {
+                match DampingModel::restitution(coeff)? {
+                    DampingModel::Restitution { neg_beta: b, .. } if b == neg_beta => Ok(()),
+                    _ => invalid(format!(
+                        "restitution damping: beta = {} does not follow from the coefficient of \
+                     restitution {coeff} (build it with DampingModel::restitution)",
+                        -neg_beta
+                    )),
+                }
+            }
+            DampingModel::Zhou { c_n } => {
+                if c_n.is_finite() && c_n >= 0.0 {
+                    Ok(())
+                } else {
+                    invalid(format!(
+                        "normal damping coefficient c_n = {c_n}: must be >= 0 and finite"
+                    ))
+                }
+            }
+        }
+    }
+
     /// eta_n of contacts side by side.
     #[inline(always)]
     fn eta_lanes<T: Lane>(&self, normal: &NormalModel, s_n: T, m_eff: T) -> T {
@@ -177,8 +236,83 @@ pub enum TangentialModel {
 }
 
 impl TangentialModel {
+    /// Mindlin's spring with Coulomb coefficient `mu` and dashpot ratio eta_t / eta_n.
+    pub fn mindlin(mu: f64, damp_ratio: f64) -> Result<TangentialModel> {
+        let m = TangentialModel::Mindlin { mu, damp_ratio };
+        m.check()?;
+        Ok(m)
+    }
+
+    /// The linear spring k_t = `kt_over_kn` k_n with Coulomb coefficient `mu` and dashpot ratio
+    /// eta_t / eta_n.
+    pub fn linear(kt_over_kn: f64, mu: f64, damp_ratio: f64) -> Result<TangentialModel> {
+        let m = TangentialModel::Linear {
+            kt_over_kn,
+            mu,
+            damp_ratio,
+        };
+        m.check()?;
+        Ok(m)
+    }
+
+    /// The law of Zhou et al. (2002) with Coulomb coefficient `mu` > 0 and dashpot coefficient
+    /// `c_t` >= 0.
+    pub fn zhou(mu: f64, c_t: f64) -> Result<TangentialModel> {
+        let m = TangentialModel::Zhou { mu, c_t };
+        m.check()?;
+        Ok(m)
+    }
+
+    /// The rules of its coefficients: mu >= 0 (> 0 for Zhou's law, whose spring is scaled by
+    /// mu), dashpot ratios and coefficients >= 0, k_t / k_n positive; all finite.
+    pub fn check(&self) -> Result<()> {
+        let at_least_zero = |v: f64, what: &str| {
+            if v.is_finite() && v >= 0.0 {
+                Ok(())
+            } else {
+                invalid(format!("{what} = {v}: must be >= 0 and finite"))
+            }
+        };
+        match *self {
+            TangentialModel::None => Ok(()),
+            TangentialModel::Mindlin { mu, damp_ratio } => {
+                at_least_zero(mu, "friction coefficient mu")?;
+                at_least_zero(damp_ratio, "tangential damping ratio eta_t / eta_n")
+            }
+            TangentialModel::Linear {
+                kt_over_kn,
+                mu,
+                damp_ratio,
+            } => {
+                require_positive(kt_over_kn, || {
+                    format!("stiffness ratio k_t / k_n = {kt_over_kn}")
+                })?;
+                at_least_zero(mu, "friction coefficient mu")?;
+                at_least_zero(damp_ratio, "tangential damping ratio eta_t / eta_n")
+            }
+            TangentialModel::Zhou { mu, c_t } => {
+                if !(mu.is_finite() && mu > 0.0) {
+                    return invalid(format!(
+                        "friction coefficient mu = {mu}: must be > 0 and finite for the Zhou law"
+                    ));
+                }
+                at_least_zero(c_t, "tangential damping coefficient c_t")
+            }
+        }
+    }
+
     pub fn is_none(&self) -> bool {
         matches!(self, TangentialModel::None)
+    }
+
+    /// The Coulomb coefficient mu (None: frictionless).
+    pub fn friction(&self) -> Option<f64> {
+        match *self {
+            TangentialModel::None => None,
+            TangentialModel::Mindlin { mu, .. }
+            | TangentialModel::Linear { mu, .. }
+            | TangentialModel::Zhou { mu, .. } => Some(mu),
+        }
     }
 
     /// (k_t, eta_t, mu) of contacts side by side.
@@ -216,12 +350,13 @@ impl TangentialModel {
     }
 }
 
-/// A contact model: normal elasticity + normal damping + tangential law.
+/// A contact model: normal elasticity + normal damping + tangential law, chosen separately and
+/// checked together once ([`ContactModel::new`]).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct ContactModel {
-    pub normal: NormalModel,
-    pub damping: DampingModel,
-    pub tangential: TangentialModel,
+    pub(super) normal: NormalModel,
+    pub(super) damping: DampingModel,
+    pub(super) tangential: TangentialModel,
 }
 
 /// The state of one contact for [`ContactModel::force`].
@@ -254,6 +389,77 @@ pub struct ContactLanes<T> {
 }
 
 impl ContactModel {
+    /// The model of these sub-models, each checked against the rules of its coefficients, and
+    /// the rules of their combination: the damping and the tangential law of Zhou et al.
+    /// (2002) are written for a Hertz normal force (their scales are Hertz's stiffness and
+    /// Mindlin–Deresiewicz's slip displacement).
+    pub fn new(
+        normal: NormalModel,
+        damping: DampingModel,
+        tangential: TangentialModel,
+    ) -> Result<ContactModel> {
+        normal.check()?;
+        damping.check()?;
+        tangential.check()?;
+        if !normal.is_hertz() {
+            if let DampingModel::Zhou { .. } = damping {
+                return invalid("the damping of Zhou et al. (2002) needs a Hertz normal force");
+            }
+            if let TangentialModel::Zhou { .. } = tangential {
+                return invalid(
+                    "the tangential law of Zhou et al. (2002) needs a Hertz normal force",
+                );
+            }
+        }
+        Ok(ContactModel {
+            normal,
+            damping,
+            tangential,
+        })
+    }
+
+    pub fn normal(&self) -> NormalModel {
+        self.normal
+    }
+
+    pub fn damping(&self) -> DampingModel {
+        self.damping
+    }
+
+    pub fn tangential(&self) -> TangentialModel {
+        self.tangential
+    }
+
+    /// Whether the model reads the materials' elastic moduli (Hertz normal force, Mindlin's
+    /// and Zhou's tangential springs); linear springs carry their own stiffness.
+    pub fn reads_moduli(&self) -> bool {
+        self.normal.is_hertz()
+            || matches!(
+                self.tangential,
+                TangentialModel::Mindlin { .. } | TangentialModel::Zhou { .. }
+            )
+    }
+
+    /// Duration (s) of a head-on contact of a pair of effective mass `m_eff`, radius `r_eff`
+    /// and modulus `e_star` at relative speed `v`: for the linear spring pi / omega_d with
+    /// omega_d = sqrt(k_n / m*) sqrt(1 - zeta^2) (its restitution damping included, exact); for
+    /// Hertz the undamped time of [`hertz_contact_time`] (v at least 1e-12 m/s).
+    pub fn contact_time(&self, m_eff: f64, r_eff: f64, e_star: f64, v: f64) -> f64 {
+        match self.normal {
+            NormalModel::Linear { k_n_n_per_m } => {
+                let w0 = (k_n_n_per_m / m_eff).sqrt();
+                let zeta = match self.damping {
+                    DampingModel::None => 0.0,
+                    DampingModel::Restitution { neg_beta, .. } => neg_beta,
+                    // refused with a linear spring by `new`
+                    DampingModel::Zhou { .. } => 0.0,
+                };
+                PI / (w0 * (1.0 - zeta * zeta).sqrt())
+            }
+            NormalModel::Hertz => hertz_contact_time(m_eff, r_eff, e_star, v.max(1e-12)),
+        }
+    }
+
     /// Force on i, and its tangential part, for one contact; advances the tangential
     /// displacement `xi` (history) over the step (see [`ContactModel::force_lanes`]).
     #[inline(always)]

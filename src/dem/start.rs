@@ -6,10 +6,11 @@
 //! 0.38 (Torquato, Uche & Stillinger, Phys. Rev. E 74, 061308, 2006), far above the 0.25 used.
 
 use super::neighbour::wrap_delta;
+use super::particles::Particles;
 use crate::error::invalid;
 use crate::Result;
 use nalgebra::Vector3;
-use rand::Rng;
+use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
 /// Tries per sphere before the dispersion gives up.
@@ -131,6 +132,27 @@ pub fn cell_order(pos: &[Vector3<f64>], cell_m: f64) -> Vec<usize> {
     // a stable sort: equal keys keep the given order
     order.sort_by_key(|&i| key(&pos[i]));
     order
+}
+
+/// Spheres of radii `radius` (density `density_kg_m3`) at rest, dispersed by
+/// [`random_dispersion`] in [0, lx) x [0, ly) x [r, height - r] from the ChaCha8 stream of
+/// `seed`, then numbered by [`cell_order`] on cells of the largest diameter (the radii move
+/// with their spheres).
+pub fn dispersed(
+    radius: &[f64],
+    lx: f64,
+    ly: f64,
+    height: f64,
+    density_kg_m3: f64,
+    seed: u64,
+) -> Result<Particles> {
+    let mut rng = ChaCha8Rng::seed_from_u64(seed);
+    let pos = random_dispersion(radius, lx, ly, height, &mut rng)?;
+    let d_max = radius.iter().cloned().fold(0.0, f64::max) * 2.0;
+    let order = cell_order(&pos, d_max);
+    let pos = order.iter().map(|&i| pos[i]).collect();
+    let radius = order.iter().map(|&i| radius[i]).collect();
+    Ok(Particles::at_rest(pos, radius, density_kg_m3))
 }
 
 #[cfg(test)]

@@ -392,7 +392,8 @@ impl Dem {
 
 #[cfg(test)]
 mod tests {
-    use crate::scene::dem::{build, parse_scene};
+    use crate::dem::setup::testing::small_bed;
+    use crate::dem::Dem;
     use std::time::Duration;
 
     /// A panic in a chunk of the leader or of a helper reaches the caller of `run`; the team
@@ -402,10 +403,7 @@ mod tests {
         for thread in [0, 1] {
             let (tx, rx) = std::sync::mpsc::channel();
             std::thread::spawn(move || {
-                let text = include_str!("../scene/builtin/dem-small.toml")
-                    .replace("n = 300", "n = 600")
-                    .replace("porosity = 0.75", "porosity = 0.68");
-                let mut dem = build(&parse_scene(&text, "test").unwrap()).unwrap();
+                let mut dem = Dem::new(small_bed(600, 0.68)).unwrap();
                 dem.fail_team_thread = Some(thread);
                 let pool = rayon::ThreadPoolBuilder::new()
                     .num_threads(2)

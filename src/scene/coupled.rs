@@ -418,7 +418,7 @@ pub(crate) fn run_scene_limited(
         c.dt_dem_s,
         c.setup.overlap.name(),
         c.setup.switch.name(),
-        c.dem.active.names().join(", ")
+        c.dem.active().names().join(", ")
     );
     crate::io::create_dir(out)?;
     let total = total_steps(&scene, &c);

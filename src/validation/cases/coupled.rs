@@ -4,8 +4,8 @@
 
 use crate::coupled::{Basesheet, Coupled, CoupledSetup, Overlap, Switch};
 use crate::dem::{
-    ContactModel, DampingModel, Dem, DemSetup, Material, NormalModel, Particles, TangentialModel,
-    TopWall,
+    ContactModel, DampingModel, Dem, ImpactSpeed, Material, NormalModel, Particles, Setup, Start,
+    TangentialModel,
 };
 use crate::error::invalid;
 use crate::validation::{CaseContext, Row};
@@ -14,29 +14,22 @@ use nalgebra::Vector3;
 use rand::SeedableRng;
 use std::f64::consts::PI;
 
-fn dem_setup(l: [f64; 3], rho_p: f64, g: f64, rho_f: f64) -> Result<DemSetup> {
+/// The DEM of the coupled cases: Hertz–Mindlin (E = 1e7 Pa, nu = 0.3, e = 0.5, mu = 0.3) in
+/// the box `l` (fixed top wall at l_z), gravity `g` along -z, buoyancy in a fluid of density
+/// `rho_f`, the particles `p` and the impact speed `v` of the time-step rule.
+fn dem_setup(l: [f64; 3], rho_p: f64, g: f64, rho_f: f64, p: Particles, v: f64) -> Result<Setup> {
     let mat = Material::new(1e7, 0.3)?;
-    Ok(DemSetup {
-        lx_m: l[0],
-        ly_m: l[1],
-        contact: ContactModel {
-            normal: NormalModel::Hertz,
-            damping: DampingModel::restitution(0.5)?,
-            tangential: TangentialModel::Mindlin {
-                mu: 0.3,
-                damp_ratio: 1.0,
-            },
-        },
-        particle_material: mat,
-        wall_material: mat,
-        density_kg_m3: rho_p,
-        gravity_m_s2: Vector3::new(0.0, 0.0, -g),
-        fluid_density_kg_m3: rho_f,
-        drag: None,
-        top: TopWall::Fixed { z_m: l[2] },
-        dt_s: None,
-        skin_m: None,
-    })
+    let contact = hertz_mindlin(TangentialModel::mindlin(0.3, 1.0)?)?;
+    let mut s = Setup::in_box(l, contact, mat, rho_p, Start::Given(p));
+    s.gravity_m_s2 = Vector3::new(0.0, 0.0, -g);
+    s.fluid_density_kg_m3 = rho_f;
+    s.impact_speed = ImpactSpeed::Given { m_s: v };
+    Ok(s)
+}
+
+/// Hertz with restitution damping (e = 0.5) and the tangential law `t`.
+fn hertz_mindlin(t: TangentialModel) -> Result<ContactModel> {
+    ContactModel::new(NormalModel::Hertz, DampingModel::restitution(0.5)?, t)
 }
 
 #[allow(clippy::too_many_arguments)]
@@ -113,8 +106,8 @@ pub fn case_811(ctx: &CaseContext) -> Result<Vec<Row>> {
         for p in pos.iter_mut() {
             p.z += 0.25 * l[2];
         }
-        let setup = dem_setup(l, 2500.0, 9.81, 1000.0)?;
-        let dem = Dem::new(setup, Particles::at_rest(pos, radius, 2500.0), 0.1)?;
+        let p = Particles::at_rest(pos, radius, 2500.0);
+        let dem = Dem::new(dem_setup(l, 2500.0, 9.81, 1000.0, p, 0.1)?)?;
         let grad = Vector3::new(t.f64(i, "grad_p_x_pa_m")?, 0.0, 0.0);
         let cs = coupled_setup(
             dx,
@@ -193,8 +186,8 @@ pub fn case_812(ctx: &CaseContext) -> Result<Vec<Row>> {
             }
         }
         let radius = vec![0.5 * d; pos.len()];
-        let setup = dem_setup(l, 2500.0, 0.0, 1000.0)?;
-        let dem = Dem::new(setup, Particles::at_rest(pos, radius, 2500.0), 0.1)?;
+        let p = Particles::at_rest(pos, radius, 2500.0);
+        let dem = Dem::new(dem_setup(l, 2500.0, 0.0, 1000.0, p, 0.1)?)?;
         let cs = coupled_setup(
             dx,
             t.f64(i, "tau")?,
@@ -270,8 +263,8 @@ fn settle(
 ) -> Result<(f64, f64, f64)> {
     let l = [cells as f64 * dx; 3];
     let pos = vec![Vector3::new(0.37 * l[0], 0.61 * l[1], 0.8 * l[2])];
-    let setup = dem_setup(l, 2500.0, 9.81, 1000.0)?;
-    let dem = Dem::new(setup, Particles::at_rest(pos, vec![0.5 * d], 2500.0), 0.1)?;
+    let p = Particles::at_rest(pos, vec![0.5 * d], 2500.0);
+    let dem = Dem::new(dem_setup(l, 2500.0, 9.81, 1000.0, p, 0.1)?)?;
     let cs = coupled_setup(
         dx,
         tau,
@@ -538,13 +531,10 @@ pub fn case_816(ctx: &CaseContext) -> Result<Vec<Row>> {
             jittered_lattice(n_target, d, l, &mut rng)?
         };
         let n = pos.len();
-        let mut setup = dem_setup(l, rho_p, 9.81, 1000.0)?;
-        setup.contact.tangential = crate::dem::TangentialModel::None;
-        let dem = Dem::new(
-            setup,
-            Particles::at_rest(pos, vec![0.5 * d; n], rho_p),
-            0.01,
-        )?;
+        let p = Particles::at_rest(pos, vec![0.5 * d; n], rho_p);
+        let mut setup = dem_setup(l, rho_p, 9.81, 1000.0, p, 0.01)?;
+        setup.contact = hertz_mindlin(TangentialModel::None)?;
+        let dem = Dem::new(setup)?;
         let mut cs = coupled_setup(
             dx,
             t.f64(i, "tau")?,
@@ -651,10 +641,11 @@ pub fn case_817(ctx: &CaseContext) -> Result<Vec<Row>> {
         let ns = t.f64(i, "sheet_cells")? as usize;
         let nc = t.f64(i, "clear_cells")? as usize;
         let l = [2.0 * dx, 2.0 * dx, nc as f64 * dx];
-        let mut setup = dem_setup(l, 2500.0, 0.0, 1000.0)?;
+        let p = Particles::at_rest(vec![], vec![], 2500.0);
+        let mut setup = dem_setup(l, 2500.0, 0.0, 1000.0, p, 0.1)?;
         // no particles: the neighbour skin is given (its default scales with a diameter)
         setup.skin_m = Some(0.1 * dx);
-        let dem = Dem::new(setup, Particles::at_rest(vec![], vec![], 2500.0), 0.1)?;
+        let dem = Dem::new(setup)?;
         let mut cs = coupled_setup(
             dx,
             t.f64(i, "tau")?,
@@ -860,12 +851,8 @@ pub fn case_840(ctx: &CaseContext) -> Result<Vec<Row>> {
         let eps_b = 1.0 - n as f64 * PI / 6.0 * d.powi(3) / (l[0] * l[1] * l[2]);
         let u_target = re_target * mu / (rho * d);
         let gp = ergun_gradient(eps_b, d, mu, rho, u_target);
-        let setup = dem_setup(l, 2500.0, 0.0, rho)?;
-        let dem = Dem::new(
-            setup,
-            Particles::at_rest(pos.clone(), vec![r; n], 2500.0),
-            0.1,
-        )?;
+        let p = Particles::at_rest(pos.clone(), vec![r; n], 2500.0);
+        let dem = Dem::new(dem_setup(l, 2500.0, 0.0, rho, p, 0.1)?)?;
         let cs = coupled_setup(
             dx,
             tau,
@@ -1024,7 +1011,7 @@ fn seed_bed_run(overlap: &str) -> Result<std::sync::Arc<SeedBedRun>> {
         height: c.dims.nz as f64 * c.setup.dx_m,
         z: c.dem.p.pos.iter().map(|p| p.z).collect(),
         r: c.dem.p.radius.clone(),
-        area: c.dem.setup.lx_m * c.dem.setup.ly_m,
+        area: c.dem.setup().lx_m * c.dem.setup().ly_m,
     });
     cache.push((overlap.to_string(), run.clone()));
     Ok(run)
@@ -1178,16 +1165,13 @@ pub fn case_941(ctx: &CaseContext) -> Result<Vec<Row>> {
         "dem-seed-drag",
     )?;
     let mut dem = crate::scene::dem::build(&scene)?;
-    let mut progress = crate::scene::dem::RunProgress::start(&dem);
-    let stop =
-        crate::scene::dem::run_checks(&scene, &mut dem, &mut progress, None, |_, _, _| Ok(()))?;
+    let stop = crate::dem::settle(&mut dem, &scene.rule)?.reason(&scene.rule);
     let z: Vec<f64> = dem.p.pos.iter().map(|p| p.z).collect();
     let area = scene.setup.lx_m * scene.setup.ly_m;
     let drag = crate::dem::observe::slab_porosity(&z, &dem.p.radius, area, a, b);
     eprintln!(
         "941: porosity of z in [{a:.2e}, {b:.2e}] m: coupled {coupled:.4}, uniform drag {drag:.4} \
-         (DEM stop: {})",
-        stop.unwrap_or_default()
+         (DEM stop: {stop})"
     );
     Ok(vec![Row::new(
         format!(

@@ -6,8 +6,8 @@
 //! restitution, by an independent fine-step RK4 of the contact ODE), never by the engine.
 
 use crate::dem::{
-    engine::auto_time_step, ContactModel, DampingModel, Dem, DemSetup, Drag, Material, NormalModel,
-    PairMaterial, Particles, TangentialModel, TopWall,
+    setup::auto_time_step, ContactModel, DampingModel, Dem, Drag, ImpactSpeed, Material,
+    NormalModel, PairMaterial, Particles, Rest, Setup, Start, StopRule, TangentialModel, TimeStep,
 };
 use crate::validation::{CaseContext, Row};
 use crate::{Error, Result};
@@ -17,27 +17,21 @@ use std::f64::consts::PI;
 
 const RHO: f64 = 2500.0;
 
+/// A box l x l x h (fixed top wall) holding particles `p`, no drivers, the automatic time
+/// step at impact speed `v` (m/s).
 pub(super) fn setup(
     contact: ContactModel,
     mat: Material,
     wall: Material,
     l: f64,
     h: f64,
-) -> DemSetup {
-    DemSetup {
-        lx_m: l,
-        ly_m: l,
-        contact,
-        particle_material: mat,
-        wall_material: wall,
-        density_kg_m3: RHO,
-        gravity_m_s2: Vector3::zeros(),
-        fluid_density_kg_m3: 0.0,
-        drag: None,
-        top: TopWall::Fixed { z_m: h },
-        dt_s: None,
-        skin_m: None,
-    }
+    p: Particles,
+    v: f64,
+) -> Setup {
+    let mut s = Setup::in_box([l, l, h], contact, mat, RHO, Start::Given(p));
+    s.wall_material = wall;
+    s.impact_speed = ImpactSpeed::Given { m_s: v };
+    s
 }
 
 fn model_from_row(t: &crate::validation::Table, i: usize) -> Result<ContactModel> {
@@ -49,11 +43,7 @@ fn model_from_row(t: &crate::validation::Table, i: usize) -> Result<ContactModel
         },
         other => return Err(Error::Validation(format!("unknown normal model `{other}`"))),
     };
-    Ok(ContactModel {
-        normal,
-        damping: DampingModel::restitution(e)?,
-        tangential: TangentialModel::None,
-    })
+    ContactModel::new(normal, DampingModel::restitution(e)?, TangentialModel::None)
 }
 
 /// Sphere mass (kg).
@@ -84,8 +74,6 @@ pub(super) fn impact(
 ) -> Result<(f64, f64)> {
     let l = 100.0 * r;
     let gap = 0.1 * r;
-    let mut s = setup(model, mat, wall, l, l);
-    s.dt_s = Some(dt);
     let (p, t0) = if on_wall {
         let mut p = Particles::at_rest(vec![Vector3::new(0.5 * l, 0.5 * l, r + gap)], vec![r], RHO);
         p.vel[0] = Vector3::new(0.0, 0.0, -v);
@@ -103,7 +91,9 @@ pub(super) fn impact(
         p.vel[1] = Vector3::new(-0.5 * v, 0.0, 0.0);
         (p, gap / v)
     };
-    let mut dem = Dem::new(s, p, v)?;
+    let mut s = setup(model, mat, wall, l, l, p, v);
+    s.time_step = TimeStep::Given { dt_s: dt };
+    let mut dem = Dem::new(s)?;
     let overlap = |d: &Dem| {
         if on_wall {
             r - d.p.pos[0].z
@@ -146,7 +136,7 @@ pub(super) fn restitution_rk4(
     n: usize,
 ) -> f64 {
     // eta_n = 2 (-beta) sqrt(c S_n m*) (restitution form) or c_n sqrt(6 m* S_n) (Zhou 2002)
-    let (neg_beta, zhou_c_n) = match model.damping {
+    let (neg_beta, zhou_c_n) = match model.damping() {
         DampingModel::Restitution { neg_beta, .. } => (neg_beta, 0.0),
         DampingModel::None => (0.0, 0.0),
         DampingModel::Zhou { c_n } => (0.0, c_n),
@@ -155,14 +145,14 @@ pub(super) fn restitution_rk4(
         if x <= 0.0 {
             return 0.0;
         }
-        let (f, s) = match model.normal {
+        let (f, s) = match model.normal() {
             NormalModel::Hertz => {
                 let s = 2.0 * pm.e_star_pa * (r_eff * x).sqrt();
                 (s * x * 2.0 / 3.0, s)
             }
             NormalModel::Linear { k_n_n_per_m } => (k_n_n_per_m * x, k_n_n_per_m),
         };
-        let c = if matches!(model.normal, NormalModel::Hertz) {
+        let c = if model.normal().is_hertz() {
             5.0 / 6.0
         } else {
             1.0
@@ -235,7 +225,7 @@ fn collisions(ctx: &CaseContext, on_wall: bool) -> Result<Vec<Row>> {
             PairMaterial::new(&mat, &mat)
         };
         let e_req = t.f64(i, "restitution")?;
-        let (tc, e_exp) = match model.normal {
+        let (tc, e_exp) = match model.normal() {
             NormalModel::Linear { k_n_n_per_m } => {
                 let w0 = (k_n_n_per_m / m_eff).sqrt();
                 let l = e_req.ln();
@@ -325,14 +315,12 @@ pub fn case_702(ctx: &CaseContext) -> Result<Vec<Row>> {
 /// Hertz–Mindlin sphere resting on the floor at its static overlap (3 m g_n / (4 E* sqrt R))^(2/3).
 fn resting_sphere(r: f64, mu: f64, damp_ratio: f64, g: Vector3<f64>, v0: f64) -> Result<Dem> {
     let mat = Material::new(1e8, 0.3)?;
-    let model = ContactModel {
-        normal: NormalModel::Hertz,
-        damping: DampingModel::restitution(0.5)?,
-        tangential: TangentialModel::Mindlin { mu, damp_ratio },
-    };
+    let model = ContactModel::new(
+        NormalModel::Hertz,
+        DampingModel::restitution(0.5)?,
+        TangentialModel::Mindlin { mu, damp_ratio },
+    )?;
     let l = 40.0 * r;
-    let mut s = setup(model, mat, mat, l, l);
-    s.gravity_m_s2 = g;
     let pm = PairMaterial::new(&mat, &mat);
     let fz = mass(r) * (-g.z);
     let delta0 = (3.0 * fz / (4.0 * pm.e_star_pa * r.sqrt())).powf(2.0 / 3.0);
@@ -342,7 +330,9 @@ fn resting_sphere(r: f64, mu: f64, damp_ratio: f64, g: Vector3<f64>, v0: f64) ->
         RHO,
     );
     p.vel[0] = Vector3::new(v0, 0.0, 0.0);
-    Dem::new(s, p, 0.1)
+    let mut s = setup(model, mat, mat, l, l, p, 0.1);
+    s.gravity_m_s2 = g;
+    Dem::new(s)
 }
 
 register!("704" => case_704);
@@ -366,12 +356,12 @@ pub fn case_704(ctx: &CaseContext) -> Result<Vec<Row>> {
         let slip = |d: &Dem| d.p.vel[0].x - r * d.p.omega[0].y;
         let mut prev = slip(&dem);
         let mut t_got = f64::NAN;
-        let steps = (3.0 * t_roll / dem.dt_s) as u64;
+        let steps = (3.0 * t_roll / dem.dt_s()) as u64;
         for _ in 0..steps {
             dem.step()?;
             let s = slip(&dem);
             if t_got.is_nan() && s <= 0.0 {
-                t_got = dem.time_s - dem.dt_s * (-s) / (prev - s);
+                t_got = dem.time_s - dem.dt_s() * (-s) / (prev - s);
             }
             prev = s;
         }
@@ -385,7 +375,7 @@ pub fn case_704(ctx: &CaseContext) -> Result<Vec<Row>> {
                 format!("{label} rolling onset time (within dt)"),
                 t_got,
                 t_roll,
-                dem.dt_s,
+                dem.dt_s(),
             ));
         }
         if check.contains('v') {
@@ -424,7 +414,7 @@ pub fn case_705(ctx: &CaseContext) -> Result<Vec<Row>> {
         );
         let grav = Vector3::new(g * th.sin(), 0.0, -g * th.cos());
         let mut dem = resting_sphere(r, mu, 1.0, grav, 0.0)?;
-        let steps = (dur / dem.dt_s) as u64;
+        let steps = (dur / dem.dt_s()) as u64;
         dem.run(steps / 2)?;
         let (t1, v1) = (dem.time_s, dem.p.vel[0].x);
         dem.run(steps - steps / 2)?;
@@ -455,23 +445,20 @@ pub fn case_705(ctx: &CaseContext) -> Result<Vec<Row>> {
 fn settle(r: f64, mu: f64, rho_f: f64, g: f64, t_end: f64, dt: f64) -> Result<(f64, f64)> {
     // no contact happens; a soft material keeps the contact-time limit on dt above tau / 10
     let mat = Material::new(1e2, 0.3)?;
-    let model = ContactModel {
-        normal: NormalModel::Hertz,
-        damping: DampingModel::None,
-        tangential: TangentialModel::None,
-    };
+    let model = ContactModel::new(
+        NormalModel::Hertz,
+        DampingModel::None,
+        TangentialModel::None,
+    )?;
     let l = 10.0 * r;
     let h = 1e9 * r;
-    let mut s = setup(model, mat, mat, l, h);
+    let p = Particles::at_rest(vec![Vector3::new(0.5 * l, 0.5 * l, 0.5 * h)], vec![r], RHO);
+    let mut s = setup(model, mat, mat, l, h, p, 1e-3);
     s.gravity_m_s2 = Vector3::new(0.0, 0.0, -g);
     s.fluid_density_kg_m3 = rho_f;
-    s.drag = Some(Drag {
-        viscosity_pa_s: mu,
-        fluid_velocity_m_s: Vector3::zeros(),
-    });
-    s.dt_s = Some(dt);
-    let p = Particles::at_rest(vec![Vector3::new(0.5 * l, 0.5 * l, 0.5 * h)], vec![r], RHO);
-    let mut dem = Dem::new(s, p, 1e-3)?;
+    s.drag = Some(Drag::new(mu, Vector3::zeros())?);
+    s.time_step = TimeStep::Given { dt_s: dt };
+    let mut dem = Dem::new(s)?;
     let n = (t_end / dt).round() as u64;
     dem.run(n)?;
     let m = mass(r);
@@ -521,11 +508,11 @@ pub fn case_706(ctx: &CaseContext) -> Result<Vec<Row>> {
 fn gas(n: usize, seed: u64, dt_frac: f64, t_end: f64) -> Result<(f64, f64, usize)> {
     let r = 1e-3;
     let mat = Material::new(1e7, 0.3)?;
-    let model = ContactModel {
-        normal: NormalModel::Hertz,
-        damping: DampingModel::None,
-        tangential: TangentialModel::None,
-    };
+    let model = ContactModel::new(
+        NormalModel::Hertz,
+        DampingModel::None,
+        TangentialModel::None,
+    )?;
     let l = 12.0 * r;
     let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
     let radius = vec![r; n];
@@ -538,13 +525,15 @@ fn gas(n: usize, seed: u64, dt_frac: f64, t_end: f64) -> Result<(f64, f64, usize
             rng.gen::<f64>() - 0.5,
         );
     }
-    let mut s = setup(model, mat, mat, l, l);
+    let mut s = setup(model, mat, mat, l, l, p, 2.0);
     let dt0 = auto_time_step(&s, r, 2.0);
-    s.dt_s = Some(dt0 * dt_frac);
-    let mut dem = Dem::new(s, p, 2.0)?;
+    s.time_step = TimeStep::Given {
+        dt_s: dt0 * dt_frac,
+    };
+    let mut dem = Dem::new(s)?;
     let e0 = dem.kinetic_energy() + dem.normal_elastic_energy();
     let mut worst: f64 = 0.0;
-    let steps = (t_end / dem.dt_s) as u64;
+    let steps = (t_end / dem.dt_s()) as u64;
     let mut contacts = 0usize;
     let mut was: Vec<bool> = Vec::new();
     for _ in 0..steps {
@@ -620,39 +609,34 @@ pub fn case_708(ctx: &CaseContext) -> Result<Vec<Row>> {
     let rho_f = t.f64(0, "fluid_density_kg_m3")?;
     let r: f64 = 2e-4;
     let mat = Material::new(1e7, 0.3)?;
-    let model = ContactModel {
-        normal: NormalModel::Hertz,
-        damping: DampingModel::restitution(0.3)?,
-        tangential: TangentialModel::Mindlin {
+    let model = ContactModel::new(
+        NormalModel::Hertz,
+        DampingModel::restitution(0.3)?,
+        TangentialModel::Mindlin {
             mu,
             damp_ratio: 1.0,
         },
-    };
+    )?;
     let l = 8.0 * 2.0 * r;
     let h = (n as f64 * 4.0 / 3.0 * PI * r.powi(3)) / (0.25 * l * l);
     let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
     let radius: Vec<f64> = (0..n).map(|_| r * (0.9 + 0.2 * rng.gen::<f64>())).collect();
     let pos = crate::dem::start::random_dispersion(&radius, l, l, h, &mut rng)?;
     let p = Particles::at_rest(pos, radius, RHO);
-    let mut s = setup(model, mat, mat, l, h);
+    let mut s = setup(model, mat, mat, l, h, p, (2.0 * 9.81 * h).sqrt());
     s.gravity_m_s2 = Vector3::new(0.0, 0.0, -9.81);
     s.fluid_density_kg_m3 = rho_f;
-    let mut dem = Dem::new(s, p, (2.0 * 9.81 * h).sqrt())?;
+    let mut dem = Dem::new(s)?;
     let w = dem.buoyant_weight_n();
     let ke_tol = t.f64(0, "ke_over_mgr")?;
     let mgr = w * r;
-    let max_steps = (2.0 / dem.dt_s) as u64;
-    let mut settled = false;
-    let mut k = 0u64;
-    while k < max_steps {
-        dem.run(1000)?;
-        k += 1000;
-        if dem.time_s > 0.1 && dem.kinetic_energy() < ke_tol * mgr {
-            settled = true;
-            break;
-        }
-    }
-    if !settled {
+    // at rest: KE below ke_tol m g r after 0.1 s, checked every 1000 steps, within 2 s
+    let rest = Rest::Absolute {
+        below_j: ke_tol * mgr,
+        after_s: 0.1,
+    };
+    let rule = StopRule::new(1000.0 * dem.dt_s(), 2.0, rest)?;
+    if crate::dem::settle(&mut dem, &rule)? != crate::dem::Stop::AtRest {
         return Err(Error::Validation(format!(
             "bed not at rest after {:.3} s: KE = {:e} J",
             dem.time_s,
@@ -702,10 +686,11 @@ pub fn case_709(ctx: &CaseContext) -> Result<Vec<Row>> {
         );
     let scene = crate::scene::dem::parse_scene(&text, "case 709")?;
     let mut dem = crate::scene::dem::build(&scene)?;
-    let (stop, _) = crate::scene::dem::run(&scene, &mut dem, |_, _| {})?;
-    if stop.starts_with("time limit") {
+    let stop = crate::dem::settle(&mut dem, &scene.rule)?;
+    if stop == crate::dem::Stop::TimeLimit {
         return Err(Error::Validation(format!(
-            "the bed did not consolidate: {stop}"
+            "the bed did not consolidate: {}",
+            stop.reason(&scene.rule)
         )));
     }
     let area = scene.setup.lx_m * scene.setup.ly_m;
@@ -716,7 +701,7 @@ pub fn case_709(ctx: &CaseContext) -> Result<Vec<Row>> {
         sum += dem.top_force_n / area;
         v2 += dem.top_v_m_s * dem.top_v_m_s;
     }
-    let d = 2.0 * scene.radius[0];
+    let d = 2.0 * scene.setup.start.radii()[0];
     Ok(vec![
         Row::new(
             format!("mean wall pressure over {window} steps / target {target} Pa"),
@@ -847,18 +832,18 @@ pub fn case_710(ctx: &CaseContext) -> Result<Vec<Row>> {
 fn oblique_impact(model: ContactModel, r: f64, v: f64, theta: f64) -> Result<(f64, f64, f64, f64)> {
     let mat = Material::new(1e8, 0.3)?;
     let l = 40.0 * r;
-    let mut s = setup(model, mat, mat, l, l);
     let (vt, vn) = (v * theta.sin(), v * theta.cos());
     let m = mass(r);
     let pm = PairMaterial::new(&mat, &mat);
     let tc = hertz_constant() * (m * m / (r * pm.e_star_pa * pm.e_star_pa * vn)).powf(0.2);
-    s.dt_s = Some(tc / 200.0);
     let gap = 0.01 * r;
     let mut p = Particles::at_rest(vec![Vector3::new(0.5 * l, 0.5 * l, r + gap)], vec![r], RHO);
     p.vel[0] = Vector3::new(vt, 0.0, -vn);
-    let mut dem = Dem::new(s, p, v)?;
+    let mut s = setup(model, mat, mat, l, l, p, v);
+    s.time_step = TimeStep::Given { dt_s: tc / 200.0 };
+    let mut dem = Dem::new(s)?;
     let mut touched = false;
-    for _ in 0..(20.0 * (gap / vn + tc) / dem.dt_s) as u64 {
+    for _ in 0..(20.0 * (gap / vn + tc) / dem.dt_s()) as u64 {
         dem.step()?;
         let delta = r - dem.p.pos[0].z;
         if delta > 0.0 {
@@ -894,14 +879,14 @@ pub fn case_711(ctx: &CaseContext) -> Result<Vec<Row>> {
             t.f64(i, "tan_theta_over_threshold")?,
         );
         let (r, v) = (1e-3, 1.0);
-        let model = ContactModel {
-            normal: NormalModel::Hertz,
-            damping: DampingModel::restitution(e_req)?,
-            tangential: TangentialModel::Mindlin {
+        let model = ContactModel::new(
+            NormalModel::Hertz,
+            DampingModel::restitution(e_req)?,
+            TangentialModel::Mindlin {
                 mu,
                 damp_ratio: t.f64(i, "tangential_damping_ratio")?,
             },
-        };
+        )?;
         // the threshold uses the restitution the contact law gives (measured head-on on the
         // same impact: Hertz restitution damping gives e close to, not exactly, the input)
         let (_, _, _, e) = oblique_impact(model, r, v, 0.0)?;

@@ -8,9 +8,9 @@
 use super::common::band_rows;
 use crate::analysis::pore_size::distribution_quantile;
 use crate::analysis::rdf::Bed;
-use crate::dem::{observe, TopWall};
+use crate::dem::{observe, settle, Stop, TopWall};
 use crate::io::xyz;
-use crate::scene::dem::{build, parse_scene, pore_sizes, run_checks, DemScene, RunProgress};
+use crate::scene::dem::{build, parse_scene, pore_sizes, DemScene};
 use crate::validation::{CaseContext, Row};
 use crate::{Error, Result};
 use nalgebra::Vector3;
@@ -29,13 +29,13 @@ struct FinalBed {
 }
 
 impl FinalBed {
-    fn new(scene: &DemScene, dem: &crate::dem::Dem, stop: &str, seconds: f64) -> FinalBed {
+    fn new(scene: &DemScene, dem: &crate::dem::Dem, stop: Stop, seconds: f64) -> FinalBed {
         FinalBed {
             pos: dem.p.pos.clone(),
             radius: dem.p.radius.clone(),
             lx_m: scene.setup.lx_m,
             ly_m: scene.setup.ly_m,
-            settled: stop.starts_with("settled"),
+            settled: stop == Stop::AtRest,
             seconds,
         }
     }
@@ -80,13 +80,6 @@ impl FinalBed {
     }
 }
 
-/// Runs a parsed scene to its own stop rule (kinetic energy and bed top steady, or its time
-/// limit); returns the stop reason.
-fn run_to_stop(scene: &DemScene, dem: &mut crate::dem::Dem) -> Result<String> {
-    let mut progress = RunProgress::start(dem);
-    Ok(run_checks(scene, dem, &mut progress, None, |_, _, _| Ok(()))?.unwrap_or_default())
-}
-
 /// The built-in seed bed `name` (dem-seed-gravity, -compression, -drag) run to its stop rule
 /// once and kept for the process, so that cases 930 and 931 share the gravity and drag runs;
 /// also kept on disk under `target/porelab/validation-beds/` (keyed by the scene text's hash),
@@ -115,11 +108,14 @@ fn seed_bed(root: &std::path::Path, name: &'static str) -> Result<Arc<FinalBed>>
         None => {
             let mut dem = build(&scene)?;
             let clock = Instant::now();
-            let stop = run_to_stop(&scene, &mut dem)?;
-            let b = FinalBed::new(&scene, &dem, &stop, clock.elapsed().as_secs_f64());
+            let stop = settle(&mut dem, &scene.rule)?;
+            let b = FinalBed::new(&scene, &dem, stop, clock.elapsed().as_secs_f64());
             eprintln!(
-                "{name}: {stop} at t = {:.3} s ({} steps, {:.0} s)",
-                dem.time_s, dem.steps, b.seconds
+                "{name}: {} at t = {:.3} s ({} steps, {:.0} s)",
+                stop.reason(&scene.rule),
+                dem.time_s,
+                dem.steps,
+                b.seconds
             );
             write_bed(&b, &stem)?;
             b
@@ -293,28 +289,27 @@ pub fn case_932(ctx: &CaseContext) -> Result<Vec<Row>> {
         path: path.display().to_string(),
         msg: e.to_string(),
     })?;
-    let mut scene = parse_scene(&text, &path.display().to_string())?;
+    let scene = parse_scene(&text, &path.display().to_string())?;
     let mut dem = build(&scene)?;
     let clock = Instant::now();
-    let stop1 = run_to_stop(&scene, &mut dem)?;
-    let initial = FinalBed::new(&scene, &dem, &stop1, clock.elapsed().as_secs_f64());
+    let stop1 = settle(&mut dem, &scene.rule)?;
+    let initial = FinalBed::new(&scene, &dem, stop1, clock.elapsed().as_secs_f64());
     let p1 = dem.top_force_n / (scene.setup.lx_m * scene.setup.ly_m);
-    let TopWall::Pressure { speed_max_m_s, .. } = scene.setup.top else {
+    if !matches!(scene.setup.top, TopWall::Pressure { .. }) {
         return Err(Error::Validation(format!(
             "{}: case 932 needs a pressure-controlled top wall (drivers.top_pressure_pa)",
             path.display()
         )));
-    };
-    dem.setup.top = TopWall::Pressure {
-        z0_m: dem.top_z_m,
-        target_pa: FIG8_FINAL_PRESSURE_PA,
-        speed_max_m_s,
-    };
+    }
+    dem.set_top_pressure(FIG8_FINAL_PRESSURE_PA)?;
     // the second stage gets the same simulated-time allowance as the first
-    scene.max_time_s += dem.time_s;
-    let stop2 = run_to_stop(&scene, &mut dem)?;
-    let fin = FinalBed::new(&scene, &dem, &stop2, clock.elapsed().as_secs_f64());
+    let rule2 = scene
+        .rule
+        .with_max_time_s(scene.rule.max_time_s() + dem.time_s)?;
+    let stop2 = settle(&mut dem, &rule2)?;
+    let fin = FinalBed::new(&scene, &dem, stop2, clock.elapsed().as_secs_f64());
     let p2 = dem.top_force_n / (scene.setup.lx_m * scene.setup.ly_m);
+    let (stop1, stop2) = (stop1.reason(&scene.rule), stop2.reason(&rule2));
     let (e1, _, _) = initial.bulk_and_thirds("initial state")?;
     let (e2, _, _) = fin.bulk_and_thirds("final state")?;
     eprintln!(

@@ -4,7 +4,8 @@
 //! seed 002 (36 % and 44 %), and porosity rising with the friction coefficient (Spearman).
 
 use super::deposition_figures::{spearman, spearman_critical_5_percent};
-use crate::scene::dem::{build, parse_scene, run, summarize};
+use crate::dem::{settle, Stop};
+use crate::scene::dem::{build, parse_scene, summarize};
 use crate::validation::{CaseContext, Row};
 use crate::{Error, Result};
 
@@ -42,13 +43,15 @@ pub fn case_715(ctx: &CaseContext) -> Result<Vec<Row>> {
             let origin = format!("case 715 mu={mu} seed={seed}");
             let scene = parse_scene(&gravity_scene(n, side, mu, seed), &origin)?;
             let mut dem = build(&scene)?;
-            let (stop, secs) = run(&scene, &mut dem, |_, _| {})?;
-            let s = summarize(&scene, &dem, stop.clone(), secs);
+            let clock = std::time::Instant::now();
+            let stop = settle(&mut dem, &scene.rule)?;
+            let secs = clock.elapsed().as_secs_f64();
+            let s = summarize(&scene, &dem, stop.reason(&scene.rule), secs);
             let e = s.porosity_bulk.ok_or_else(|| {
                 Error::Validation(format!("{origin}: bed too thin for a bulk region"))
             })?;
             // a bed still moving at the time limit is measured where it stands, and marked
-            let mark = if stop.starts_with("settled") { "" } else { "*" };
+            let mark = if stop == Stop::AtRest { "" } else { "*" };
             eps.push((e, mark));
         }
         let mean = eps.iter().map(|e| e.0).sum::<f64>() / eps.len() as f64;

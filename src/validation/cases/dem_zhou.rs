@@ -14,16 +14,14 @@ use crate::validation::{CaseContext, Row};
 use crate::{Error, Result};
 use nalgebra::Vector3;
 
-fn zhou(c_n: f64, mu: f64) -> ContactModel {
-    ContactModel {
-        normal: NormalModel::Hertz,
-        damping: if c_n > 0.0 {
-            DampingModel::Zhou { c_n }
-        } else {
-            DampingModel::None
-        },
-        tangential: TangentialModel::Zhou { mu, c_t: 0.0 },
-    }
+/// The law of Zhou et al. (2002) with damping c_n (none at 0), friction mu and no tangential
+/// dashpot.
+fn zhou(c_n: f64, mu: f64) -> Result<ContactModel> {
+    ContactModel::new(
+        NormalModel::Hertz,
+        DampingModel::zhou(c_n)?,
+        TangentialModel::zhou(mu, 0.0)?,
+    )
 }
 
 /// Tangential force magnitude of a static contact (overlap `delta`, normal z) after the spring
@@ -36,8 +34,8 @@ fn stretched(
     pm: &PairMaterial,
     x: f64,
     steps: usize,
-) -> (f64, f64) {
-    let model = zhou(0.0, mu);
+) -> Result<(f64, f64)> {
+    let model = zhou(0.0, mu)?;
     let xi_max = zhou_slip_displacement(mu, delta, pm);
     let dt = 1e-6;
     let u = x * xi_max / (steps as f64 * dt);
@@ -55,7 +53,7 @@ fn stretched(
         };
         f = model.force(&c, pm, &mut xi).0;
     }
-    (-f.x, f.z)
+    Ok((-f.x, f.z))
 }
 
 register!("713", "714" => case_713_714);
@@ -86,7 +84,7 @@ pub fn case_713_714(ctx: &CaseContext) -> Result<Vec<Row>> {
                 let frac = t.f64(i, "dt_over_tc")?;
                 let tc = hertz_constant()
                     * (m_eff * m_eff / (r_eff * pm.e_star_pa * pm.e_star_pa * v)).powf(0.2);
-                let model = zhou(c_n, mu);
+                let model = zhou(c_n, mu)?;
                 let (e, tc_got) = impact(model, mat, mat, r, v, frac * tc, false)?;
                 let label = format!("c_n={c_n} v={v} dt=tc*{frac}");
                 match check {
@@ -119,7 +117,7 @@ pub fn case_713_714(ctx: &CaseContext) -> Result<Vec<Row>> {
             "spring" | "stiffness" => {
                 let delta = t.f64(i, "delta_m")?;
                 let x = t.f64(i, "x_over_xmax")?;
-                let (ft, fn_) = stretched(mu, delta, r_eff, &pm, x, 16);
+                let (ft, fn_) = stretched(mu, delta, r_eff, &pm, x, 16)?;
                 if check == "spring" {
                     let xc = x.min(1.0);
                     rows.push(Row::new(
