@@ -20,33 +20,39 @@
 //! momentum equation (Guo & Zhao 2002 eq. 9) carries them to the source term the particles
 //! receive, so no separate local pressure-gradient force is added (it would be counted twice).
 //!
-//! Refusals at run time: a particle moving more than [`CoupledSetup::max_move_cells`] of a
+//! Refusals at run time: a particle moving more than [`Setup::max_move_cells`] of a
 //! cell in one coupling step, a drag relaxation gamma_i dt_LBM / m_i above
-//! [`CoupledSetup::max_relaxation`] (the force is explicit over the coupling step), and any
+//! [`Setup::max_relaxation`] (the force is explicit over the coupling step), and any
 //! non-finite state. Lattice units inside the LBM (dx = dt = 1, rho = 1); SI everywhere else.
 
 use super::drag::{cell_coefficients, Switch};
 use super::porosity::{sphere_cells, Overlap};
-use crate::dem::{Dem, WallLedger};
-use crate::error::{invalid, Result};
+use crate::dem::{Dem, TimeStep, WallLedger};
+use crate::error::{invalid, Error, Result};
 use crate::lbm::units::{Units, MACH_MAX};
-use crate::lbm::{Bgk, Dims, Geometry, Porous, Record, Solver, D3Q15};
+use crate::lbm::{
+    Accel, CollisionModel, Dims, Domain, ForcingModel, LatticeKind, Lbm, Medium, Porous, Record,
+};
 use nalgebra::Vector3;
 use rayon::prelude::*;
 use std::f64::consts::PI;
 use std::time::Instant;
 
-/// The fluid and coupling parameters (SI).
-#[derive(Debug, Clone, PartialEq)]
-pub struct CoupledSetup {
-    /// Lattice spacing (m); the box must hold a whole number of cells in x and y.
+/// Everything a coupled run is made of (SI): the DEM bed, the fluid's lattice and collision,
+/// and the coupling.
+#[derive(Debug, Clone)]
+pub struct Setup {
+    /// The particles, their box and contacts. Its time step stays automatic: the coupled run
+    /// steps the DEM at dt_LBM / M ([`Setup::dem_steps`]), so a given one is refused.
+    pub dem: crate::dem::Setup,
+    /// Lattice spacing (m); the box must hold a whole number of cells in x and y. The lattice
+    /// spans the DEM box up to its top wall's start height (and the basesheet below it).
     pub dx_m: f64,
-    /// BGK relaxation time (sets dt = (tau - 1/2)/3 dx^2 / nu).
-    pub tau: f64,
+    pub lattice: LatticeKind,
+    /// Collision and relaxation time (sets dt = (tau - 1/2)/3 dx^2 / nu, `lbm::units`).
+    pub collision: CollisionModel,
     pub fluid_density_kg_m3: f64,
     pub viscosity_pa_s: f64,
-    /// Lattice height in cells (>= the DEM top wall over dx).
-    pub nz: usize,
     pub overlap: Overlap,
     pub switch: Switch,
     /// Porosity floor of a cell (the Carman–Kozeny K stays finite and the 1/eps terms of the
@@ -172,7 +178,7 @@ impl Column {
 ///   not exceed [`MAX_DENSITY_VARIATION`].
 fn check_driving(
     dem: &Dem,
-    setup: &CoupledSetup,
+    setup: &Setup,
     units: &Units,
     dims: Dims,
     sheet_cells: usize,
@@ -248,12 +254,23 @@ fn check_driving(
     Ok(())
 }
 
+/// The fluid's Guo-Zhao medium ([`Coupled::new`] builds the fluid with one).
+fn medium(lbm: &Lbm) -> Result<&Porous> {
+    lbm.porous()
+        .ok_or_else(|| Error::InvalidInput("coupled: the fluid has no porous medium".into()))
+}
+
+fn medium_mut(lbm: &mut Lbm) -> Result<&mut Porous> {
+    lbm.porous_mut()
+        .ok_or_else(|| Error::InvalidInput("coupled: the fluid has no porous medium".into()))
+}
+
 /// A coupled LBM–DEM system.
 pub struct Coupled {
     pub dem: Dem,
-    pub lbm: Solver<D3Q15, Bgk, Porous>,
+    pub lbm: Lbm,
     pub units: Units,
-    pub setup: CoupledSetup,
+    pub setup: Setup,
     pub dims: Dims,
     pub dt_dem_s: f64,
     /// Coupling steps done.
@@ -287,8 +304,15 @@ pub struct Coupled {
 }
 
 impl Coupled {
-    /// Builds the lattice around the DEM box and checks the two time steps.
-    pub fn new(dem: Dem, setup: CoupledSetup) -> Result<Coupled> {
+    /// Builds the DEM bed and the lattice around its box, and checks the two time steps.
+    pub fn new(setup: Setup) -> Result<Coupled> {
+        if let TimeStep::Given { dt_s } = setup.dem.time_step {
+            return invalid(format!(
+                "dem.run.dt_s = {dt_s} s: a coupled run steps the DEM at dt_LBM / M (M = \
+                 coupling.dem_steps_per_lbm_step); remove dt_s and choose M instead"
+            ));
+        }
+        let dem = Dem::new(setup.dem.clone())?;
         let dx = setup.dx_m;
         for (key, v) in [
             ("fluid.dx_m", dx),
@@ -326,12 +350,8 @@ impl Coupled {
         };
         let nx = cells_along(dem.setup().lx_m, "box.lx_m")?;
         let ny = cells_along(dem.setup().ly_m, "box.ly_m")?;
-        if (setup.nz as f64) * dx < dem.top_z_m * (1.0 - 1e-12) {
-            return invalid(format!(
-                "fluid height {} cells x {dx} m is below the DEM top wall at {} m",
-                setup.nz, dem.top_z_m
-            ));
-        }
+        // the top wall's start height in whole cells (a height of n cells gives n)
+        let nz = ((dem.top_z_m / dx) * (1.0 - 1e-12)).ceil().max(1.0) as usize;
         let sheet_cells = match setup.basesheet {
             None => 0,
             Some(b) => {
@@ -350,9 +370,10 @@ impl Coupled {
                 cells_along(b.thickness_m, "fluid.basesheet.thickness_m")?
             }
         };
-        let dims = Dims::new(nx, ny, setup.nz + sheet_cells)?;
+        let dims = Dims::new(nx, ny, nz + sheet_cells)?;
         let nu = setup.viscosity_pa_s / setup.fluid_density_kg_m3;
-        let units = Units::from_tau(dx, nu, setup.fluid_density_kg_m3, setup.tau)?;
+        let tau = setup.collision.tau.get();
+        let units = Units::from_tau(dx, nu, setup.fluid_density_kg_m3, tau)?;
         let dt_dem = units.dt / setup.dem_steps as f64;
         if (dem.setup().fluid_density_kg_m3 - setup.fluid_density_kg_m3).abs()
             > 1e-12 * setup.fluid_density_kg_m3
@@ -393,9 +414,11 @@ impl Coupled {
         }
         check_driving(&dem, &setup, &units, dims, sheet_cells)?;
         let cells = dims.cells();
-        let geometry = Geometry::open::<D3Q15>(dims);
-        let porous = Porous::clear(cells, units.nu_lattice(), [0.0; 3], true);
-        let lbm = Solver::new(geometry, Bgk::from_tau(setup.tau), porous)?;
+        // Guo-Zhao with the Forchheimer term; every cell's medium is set each coupling step
+        let medium = Medium::clear(Accel::new([0.0; 3])?, true);
+        let fluid = crate::lbm::Setup::new(setup.lattice, setup.collision, Domain::open(dims))
+            .with_forcing(ForcingModel::Porous(medium));
+        let lbm = Lbm::new(fluid)?;
         let n = dem.p.len();
         Ok(Coupled {
             dem,
@@ -481,7 +504,7 @@ impl Coupled {
         let (eps_min, switch) = (self.setup.eps_min, self.setup.switch);
         let g = -self.grad_p() / self.setup.fluid_density_kg_m3;
         let gl = self.units.accel_to_lattice(1.0);
-        let porous = self.lbm.forcing_mut();
+        let porous = medium_mut(&mut self.lbm)?;
         porous.g = [g.x * gl, g.y * gl, g.z * gl];
         for c in 0..self.dims.cells() {
             let vs = self.solid_volume_m3[c];
@@ -526,7 +549,7 @@ impl Coupled {
         self.timing.lbm_s += t.elapsed().as_secs_f64();
         let t = Instant::now();
         let cells = self.dims.cells();
-        let porous = self.lbm.forcing();
+        let porous = medium(&self.lbm)?;
         let g = porous.g;
         // per cell: lost force F_c and D_c (lattice)
         let mut fc = vec![[0.0; 3]; cells];
@@ -643,10 +666,11 @@ impl Coupled {
             j_ext += (fp + self.dem.setup().gravity_m_s2 * (m * b)) * dt;
         }
         // the fluid's driving impulse: sum rho_c eps_c G over the cells (lattice -> SI)
-        let g = self.lbm.forcing().g;
+        let porous = medium(&self.lbm)?;
+        let g = porous.g;
         let mut drive = [0.0; 3];
         for c in 0..self.dims.cells() {
-            let re = self.record.rho[c] * self.lbm.forcing().eps(c);
+            let re = self.record.rho[c] * porous.eps(c);
             for k in 0..3 {
                 drive[k] += re * g[k];
             }
@@ -763,195 +787,5 @@ impl Coupled {
             .chunks(nxy)
             .map(|l| l.iter().sum::<f64>() / nxy as f64)
             .collect()
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-    use crate::scene::coupled::{build, parse_scene};
-
-    fn quick(edit: impl Fn(String) -> String) -> Result<Coupled> {
-        let text = edit(include_str!("../scene/builtin/coupled-quick.toml").to_string());
-        build(&parse_scene(&text, "test")?)
-    }
-
-    /// A driving too large for the weakly compressible fluid is refused before the run,
-    /// naming the key, the value and the rule (it used to stop at the first non-finite
-    /// density); the built-ins pass.
-    #[test]
-    fn too_strong_a_driving_is_refused_up_front() {
-        let e = quick(|t| {
-            t.replace(
-                "pressure_gradient_pa_m = [0.0, 0.0, 500.0]",
-                "pressure_gradient_pa_m = [0.0, 0.0, 5e5]",
-            )
-        })
-        .err()
-        .expect("refused")
-        .to_string();
-        assert!(
-            e.contains("fluid.pressure_gradient_pa_m")
-                && e.contains("Mach")
-                && e.contains("500000"),
-            "{e}"
-        );
-        // Mach within its limit (3000 Pa/m: Mach ~0.13) but the free fluid's density
-        // variation beyond 0.5 (~0.76)
-        let e = quick(|t| {
-            t.replace(
-                "pressure_gradient_pa_m = [0.0, 0.0, 500.0]",
-                "pressure_gradient_pa_m = [0.0, 0.0, 3000.0]",
-            )
-        })
-        .err()
-        .expect("refused")
-        .to_string();
-        assert!(
-            e.contains("fluid.pressure_gradient_pa_m") && e.contains("density"),
-            "{e}"
-        );
-        for b in crate::scene::coupled::builtins() {
-            build(&parse_scene(b.toml, b.name).unwrap()).unwrap();
-        }
-    }
-
-    /// A coupling interval too long for the motion (a particle moving more than
-    /// max_move_cells of a cell per coupling step) is refused with the reason, never NaN; so
-    /// is a drag relaxation beyond the limit.
-    #[test]
-    fn too_long_a_coupling_step_is_refused() {
-        let mut c = quick(|t| {
-            t.replace(
-                "max_relaxation = 1.0",
-                "max_relaxation = 1.0\nmax_move_cells = 0.001",
-            )
-        })
-        .unwrap();
-        let mut err = None;
-        for _ in 0..200 {
-            if let Err(e) = c.step() {
-                err = Some(e.to_string());
-                break;
-            }
-        }
-        let e = err.expect("a refusal");
-        assert!(e.contains("coupling.max_move_cells = 0.001"), "{e}");
-        // a drag relaxation beyond the limit is refused at the first step
-        let mut c = quick(|t| {
-            // (a gentler gradient: dt_LBM grows 178-fold with tau = 0.7)
-            t.replace("tau = 0.515", "tau = 0.7")
-                .replace(
-                    "dem_steps_per_lbm_step = 200",
-                    "dem_steps_per_lbm_step = 3000",
-                )
-                .replace(
-                    "pressure_gradient_pa_m = [0.0, 0.0, 500.0]",
-                    "pressure_gradient_pa_m = [0.0, 0.0, 1.0]",
-                )
-        })
-        .unwrap();
-        let e = c.step().err().expect("refused").to_string();
-        assert!(e.contains("max_relaxation"), "{e}");
-    }
-
-    /// Cells packed far beyond any real porosity (eps -> 0) stay finite: the floor eps_min
-    /// and Guo–Zhao's implicit drag keep the fluid stable, and the state is refused or finite.
-    #[test]
-    fn porosity_near_zero_stays_finite() {
-        let mut c = quick(|t| {
-            t.replace("eps_min = 0.1", "eps_min = 0.01")
-                .replace("[coupling]", "[coupling]\neps_min = 0.01")
-                .replace(
-                    "max_relaxation = 1.0",
-                    "max_relaxation = 1.0\nfrozen = true",
-                )
-        })
-        .unwrap();
-        // squeeze every sphere into the first cell column
-        for p in c.dem.p.pos.iter_mut() {
-            p.x = 2.5e-4;
-            p.y = 2.5e-4;
-        }
-        for _ in 0..20 {
-            c.step().unwrap();
-        }
-        assert!(c.eps.iter().any(|&e| e == 0.01));
-        assert!(c.record.u.iter().all(|u| u.iter().all(|v| v.is_finite())));
-        assert!(c.lbm.mass().is_finite());
-    }
-
-    /// The seed's lens weights do not add up to the particle volume, but the exchange still
-    /// balances: the shares are normalised by the solid volume of each cell.
-    #[test]
-    fn lens_variant_balances_momentum() {
-        let mut c = quick(|t| t.replace("overlap = \"exact\"", "overlap = \"seed-lens\"")).unwrap();
-        let b = c.step().unwrap();
-        let sum: f64 = c.hydro_n.iter().map(|f| f.z).sum();
-        assert!(sum.abs() > 0.0);
-        assert!(b.relative_error() < 1e-12, "{}", b.relative_error());
-    }
-
-    /// The ledger closes with the floor in it: particles of the quick scene settle onto the
-    /// floor and every coupling step balances to rounding, wall impulse included.
-    #[test]
-    fn ledger_closes_with_wall_contacts() {
-        let mut c = quick(|t| t).unwrap();
-        let (mut wall, mut steps_with_wall) = (0.0f64, 0);
-        for _ in 0..4000 {
-            let b = c.step().unwrap();
-            assert!(
-                b.relative_error() < 1e-12,
-                "step {}: {}",
-                c.steps,
-                b.relative_error()
-            );
-            if b.walls.norm() > 0.0 {
-                steps_with_wall += 1;
-                wall = wall.max(b.walls.norm() / b.scale);
-            }
-            if steps_with_wall >= 50 {
-                break;
-            }
-        }
-        eprintln!("{} steps, {steps_with_wall} with wall contacts, largest wall share {wall:.3}, worst {:.2e}", c.steps, c.worst_balance);
-        assert!(
-            steps_with_wall >= 50 && wall > 1e-3,
-            "the floor was not reached"
-        );
-    }
-
-    /// A basesheet adds lattice layers under the floor, keeps the particles' porosity where it
-    /// was (shifted by its thickness) and its drag enters the ledger; bad values name the key.
-    #[test]
-    fn basesheet_layers_and_ledger() {
-        let sheet = "[fluid.basesheet]\nthickness_m = 1e-3\npermeability_m2 = 1e-10\n[coupling]";
-        let mut plain = quick(|t| t).unwrap();
-        let mut c = quick(|t| t.replacen("[coupling]", sheet, 1)).unwrap();
-        assert_eq!(c.sheet_cells, 2);
-        assert_eq!(c.dims.nz, plain.dims.nz + 2);
-        plain.update_porosity().unwrap();
-        c.update_porosity().unwrap();
-        let nxy = c.dims.nx * c.dims.ny;
-        // the same cells shifted (the shifted centre rounds differently: 1e-15)
-        for (a, b) in c.eps[2 * nxy..].iter().zip(&plain.eps) {
-            assert!((a - b).abs() < 1e-12, "{a} vs {b}");
-        }
-        assert!(c.eps[..2 * nxy].iter().all(|&e| e == 1.0));
-        for _ in 0..30 {
-            let b = c.step().unwrap();
-            assert!(b.relative_error() < 1e-12, "{}", b.relative_error());
-        }
-        assert!(c.last_balance.walls.z.abs() > 0.0);
-        let e = quick(|t| t.replacen("[coupling]", &sheet.replace("1e-10", "-1.0"), 1))
-            .err()
-            .unwrap()
-            .to_string();
-        assert!(e.contains("fluid.basesheet.permeability_m2"), "{e}");
-        let e = quick(|t| t.replacen("[coupling]", &sheet.replace("1e-3", "7e-4"), 1))
-            .err()
-            .unwrap()
-            .to_string();
-        assert!(e.contains("fluid.basesheet.thickness_m"), "{e}");
     }
 }

@@ -7,14 +7,18 @@
 //!
 //! * [`porosity`]: solid volume of spheres per cell, exact sphere ∩ cube or the seed's lens;
 //! * [`drag`]: Carman–Kozeny K (eq. 11), Ergun / Wen–Yu drag and their switch;
-//! * [`engine`]: the coupling loop, momentum balance and the run-time refusals;
+//! * [`engine`]: the one door, [`Setup`] and [`Coupled::new`] / [`Coupled::step`]: the
+//!   coupling loop, momentum balance and the run-time refusals;
+//! * [`driver`]: runs a system to a step count or to a steady observable;
 //! * [`checkpoint`]: the run's state, bitwise, for resuming.
 
 pub mod checkpoint;
 pub mod drag;
+pub mod driver;
 pub mod engine;
 pub mod porosity;
 
 pub use drag::Switch;
-pub use engine::{Balance, Basesheet, Coupled, CoupledSetup, Timing};
+pub use driver::{run_to_steady, run_to_step, Steady, Stop};
+pub use engine::{Balance, Basesheet, Coupled, Setup, Timing};
 pub use porosity::Overlap;

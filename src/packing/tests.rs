@@ -551,3 +551,55 @@ fn stage_budget_bounds_the_moves_and_cuts_the_run_short() {
     let e = bad.validate().unwrap_err().to_string();
     assert!(e.contains("stage_budget_per_particle"), "{e}");
 }
+
+/// The analysis' cell-binned pair search returns the brute force's list, pair for pair and gap for gap
+/// (bitwise): a dense sphere packing (many near contacts, pairs through the boundary),
+/// random rods, and a mixture of superballs, ellipsoids and spheres with overlaps, at gaps
+/// from 0 to 1; and boxes that fit fewer than three reaches (the brute force itself).
+#[test]
+fn binned_pair_search_equals_the_brute_force() {
+    use crate::analysis::{pair_gaps, pair_gaps_brute_force, Configuration};
+    use crate::contact::pairgen::random_rotation;
+    use crate::contact::ContactShape;
+    use rand::{Rng, SeedableRng};
+    let mut prm = Setup::new(400, 0.0, 7);
+    prm.scheme = Scheme::Original;
+    let dense = run_to_end(prm.clone()).unwrap().packing;
+    let rods = random_start(300, 1.0, 0.3, 4).unwrap();
+    let small = random_start(40, 0.0, 0.3, 4).unwrap();
+    let mut checked = 0;
+    for p in [&dense, &rods, &small] {
+        let v = p.view();
+        for max_gap in [0.0, 1e-3, 0.3, 1.0] {
+            let binned = pair_gaps(&v, max_gap).unwrap();
+            assert_eq!(binned, pair_gaps_brute_force(&v, max_gap).unwrap());
+            checked += binned.len();
+        }
+    }
+    // Mixture: superballs (gamma 3), ellipsoids and spheres at random in a box of 3.3
+    // reaches, overlaps included.
+    let shapes = [
+        ContactShape::Superquadric {
+            semi_axes: [0.5; 3],
+            exponents: [3.0; 3],
+        },
+        ContactShape::Ellipsoid {
+            semi_axes: [0.6, 0.4, 0.3],
+        },
+        ContactShape::Sphere { radius: 0.45 },
+    ];
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(3);
+    let box_length = 7.0;
+    let n = 150;
+    let species: Vec<usize> = (0..n).map(|i| i % 3).collect();
+    let pos: Vec<Vector3<f64>> = (0..n)
+        .map(|_| Vector3::new(rng.gen(), rng.gen(), rng.gen()) * box_length)
+        .collect();
+    let ori: Vec<UnitQuaternion<f64>> = (0..n).map(|_| random_rotation(&mut rng)).collect();
+    let r = Configuration::periodic(box_length, &shapes, &species, &pos, &ori);
+    let binned = pair_gaps(&r, 0.1).unwrap();
+    assert_eq!(binned, pair_gaps_brute_force(&r, 0.1).unwrap());
+    assert!(binned.iter().any(|g| g.gap < 0.0));
+    checked += binned.len();
+    assert!(checked > 5000, "{checked} pairs");
+}

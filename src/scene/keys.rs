@@ -63,6 +63,23 @@ pub fn parse_renamed<T: serde::de::DeserializeOwned>(
 
 /// Notes already printed in this process: a sweep that checks a thousand jobs of one scene
 /// prints each note once.
+/// A lattice named in a scene ("D3Q15", "D3Q19"), for `deserialize_with`.
+pub fn lattice_kind<'de, D: serde::Deserializer<'de>>(
+    d: D,
+) -> Result<crate::lbm::LatticeKind, D::Error> {
+    use serde::de::{Deserialize, Error};
+    crate::lbm::LatticeKind::parse(&String::deserialize(d)?, "lattice").map_err(D::Error::custom)
+}
+
+/// A collision named in a scene ("bgk", "trt", ...), for `deserialize_with`.
+pub fn collision_kind<'de, D: serde::Deserializer<'de>>(
+    d: D,
+) -> Result<crate::lbm::CollisionKind, D::Error> {
+    use serde::de::{Deserialize, Error};
+    crate::lbm::CollisionKind::parse(&String::deserialize(d)?, "collision")
+        .map_err(D::Error::custom)
+}
+
 static PRINTED: Mutex<Vec<String>> = Mutex::new(Vec::new());
 
 fn note(msg: String) {

@@ -81,7 +81,7 @@ mod schema;
 
 pub use outputs::{bed_pore_sizes, bed_rdf, pore_sizes, summarize, DemSummary, PoreSummary};
 pub use run::{build, run_scene};
-pub use schema::{parse_scene, DemScene, OutputSettings, ZHOU_C_N_DEFAULT};
+pub use schema::{parse_scene, DemFile, DemScene, OutputSettings, ZHOU_C_N_DEFAULT};
 
 use super::{Builtin, RunOptions};
 use crate::Result;

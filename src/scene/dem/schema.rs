@@ -4,7 +4,7 @@
 //! and the output settings of a [`DemScene`]. Every error names the file, the key, the value
 //! and the rule.
 
-use super::super::keys::rename_old_keys;
+use super::super::keys::parse_renamed;
 use crate::dem::{
     ContactModel, DampingModel, Drag, Material, NormalModel, Rest, Setup, Start, StopRule,
     TangentialModel, TimeStep, TopWall,
@@ -13,14 +13,14 @@ use crate::error::{invalid, Error};
 use crate::Result;
 use nalgebra::Vector3;
 use rand::{Rng, SeedableRng};
-use serde::de::DeserializeOwned;
 use serde::{Deserialize, Deserializer};
 use std::f64::consts::PI;
 
+/// A DEM scene file; the coupled scene's `[dem]` table is one without its `kind`.
 #[derive(Debug, Clone, Deserialize)]
 #[serde(deny_unknown_fields)]
-struct SceneFile {
-    kind: String,
+pub struct DemFile {
+    kind: Option<String>,
     #[serde(default)]
     title: String,
     #[serde(default = "one")]
@@ -273,59 +273,82 @@ fn keyed<T>(r: Result<T>, origin: &str, key: &str) -> Result<T> {
     r.map_err(|e| Error::InvalidInput(format!("{origin}: {key}: {e}")))
 }
 
-/// The scene file's schema read from `text`: old key spellings renamed first
-/// ([`rename_old_keys`]), then deserialised from the text itself when nothing was renamed, so
-/// that errors carry the line.
-fn read_file<T: DeserializeOwned>(text: &str, origin: &str) -> Result<T> {
-    let file_err = |e: toml::de::Error| Error::File {
-        path: origin.to_string(),
-        msg: format!("dem scene: {e}"),
-    };
-    let table: toml::Table = toml::from_str(text).map_err(file_err)?;
-    let mut renamed = table.clone();
-    rename_old_keys(&mut renamed, origin);
-    if renamed == table {
-        toml::from_str(text).map_err(file_err)
-    } else {
-        toml::Value::Table(renamed).try_into().map_err(file_err)
-    }
-}
-
 /// Parses a DEM scene; every error names the key, the value and the rule.
 pub fn parse_scene(text: &str, origin: &str) -> Result<DemScene> {
-    let f: SceneFile = read_file(text, origin)?;
-    if f.kind != "dem" {
+    let f: DemFile = parse_renamed(text, origin).map_err(|e| Error::File {
+        path: origin.to_string(),
+        msg: format!("dem scene: {e}"),
+    })?;
+    if f.kind.as_deref() != Some("dem") {
         return invalid(format!(
             "{origin}: kind = \"{}\": a DEM scene needs kind = \"dem\"",
-            f.kind
+            f.kind.as_deref().unwrap_or("")
         ));
     }
-    let (diameters, rho) = f.particles.0.diameters(origin, f.seed)?;
-    let radius: Vec<f64> = diameters.iter().map(|d| 0.5 * d).collect();
-    let [lx, ly, height] = f.box_.sides(origin, &radius)?;
-    let (contact, particle_material, wall_material) = f.contact.read(origin)?;
-    let start = Start::Dispersed {
-        radius,
-        seed: f.seed ^ DISPERSION_STREAM,
-    };
-    let mut setup = Setup::in_box([lx, ly, height], contact, particle_material, rho, start);
-    setup.wall_material = wall_material;
-    f.drivers.apply(origin, &mut setup)?;
-    f.run.apply(origin, &mut setup)?;
-    setup
-        .check()
-        .map_err(|e| Error::InvalidInput(format!("{origin}: {e}")))?;
-    let rule = f.run.stop_rule(origin)?;
-    let outputs = f.run.outputs(origin, rule.check_every_s())?;
-    Ok(DemScene {
-        title: f.title,
-        seed: f.seed,
-        setup,
-        height_m: height,
-        rule,
-        outputs,
-        fingerprint: format!("{:016x}", crate::io::fnv1a64(text.as_bytes())),
-    })
+    let fingerprint = format!("{:016x}", crate::io::fnv1a64(text.as_bytes()));
+    f.into_scene(origin, fingerprint)
+}
+
+impl DemFile {
+    /// The table's `kind`, if it names one.
+    pub fn kind(&self) -> Option<&str> {
+        self.kind.as_deref()
+    }
+
+    /// The keys of `[drivers]` that put the particles in a fluid of their own (drag and
+    /// buoyancy), present in this file.
+    pub fn fluid_keys(&self) -> Vec<&'static str> {
+        let d = &self.drivers;
+        [
+            ("drivers.viscosity_pa_s", d.viscosity_pa_s.is_some()),
+            ("drivers.fluid_velocity_m_s", d.fluid_velocity_m_s.is_some()),
+            (
+                "drivers.fluid_density_kg_m3",
+                d.fluid_density_kg_m3.is_some(),
+            ),
+        ]
+        .into_iter()
+        .filter_map(|(k, given)| given.then_some(k))
+        .collect()
+    }
+
+    /// The same file with the buoyancy fluid's density set (kg/m^3).
+    pub fn with_fluid_density(mut self, density_kg_m3: f64) -> DemFile {
+        self.drivers.fluid_density_kg_m3 = Some(density_kg_m3);
+        self
+    }
+
+    /// Reads the file into the engine's setup, the stop rule and the outputs; `fingerprint`
+    /// identifies the scene's text for its checkpoints.
+    pub fn into_scene(self, origin: &str, fingerprint: String) -> Result<DemScene> {
+        let f = self;
+        let (diameters, rho) = f.particles.0.diameters(origin, f.seed)?;
+        let radius: Vec<f64> = diameters.iter().map(|d| 0.5 * d).collect();
+        let [lx, ly, height] = f.box_.sides(origin, &radius)?;
+        let (contact, particle_material, wall_material) = f.contact.read(origin)?;
+        let start = Start::Dispersed {
+            radius,
+            seed: f.seed ^ DISPERSION_STREAM,
+        };
+        let mut setup = Setup::in_box([lx, ly, height], contact, particle_material, rho, start);
+        setup.wall_material = wall_material;
+        f.drivers.apply(origin, &mut setup)?;
+        f.run.apply(origin, &mut setup)?;
+        setup
+            .check()
+            .map_err(|e| Error::InvalidInput(format!("{origin}: {e}")))?;
+        let rule = f.run.stop_rule(origin)?;
+        let outputs = f.run.outputs(origin, rule.check_every_s())?;
+        Ok(DemScene {
+            title: f.title,
+            seed: f.seed,
+            setup,
+            height_m: height,
+            rule,
+            outputs,
+            fingerprint,
+        })
+    }
 }
 
 impl BoxSpec {

@@ -9,7 +9,8 @@ mod outputs;
 mod run;
 mod schema;
 
-pub use run::{run_one, run_scene, RunResult};
+pub use outputs::RunResult;
+pub use run::{run_one, run_scene};
 pub use schema::{parse_scene, DepositionScene};
 
 use super::{Builtin, RunOptions};

@@ -2,8 +2,8 @@
 //! history.csv, summary.json}`, and over the runs `runs.csv`, `ensemble.csv`,
 //! `porosity_profile.svg` and `summary.json`.
 
-use super::run::RunResult;
 use super::schema::DepositionScene;
+use crate::deposition::driver::Deposited;
 use crate::deposition::measure::{posed, DepositMeasures};
 use crate::deposition::{run_seed, Setup};
 use crate::error::{Error, Result};
@@ -14,6 +14,14 @@ use crate::io::xyz::{Cell, XyzParticle};
 use serde::Serialize;
 use std::fmt::Display;
 use std::path::Path;
+
+/// One measured run.
+pub struct RunResult {
+    pub deposit: Deposited,
+    pub measures: DepositMeasures,
+    /// Wall time of the whole run (start, deposit, measures), s.
+    pub seconds: f64,
+}
 
 /// Mean and standard error of a sample (None for an empty one; stderr None below 2 values).
 fn mean_se(v: &[f64]) -> (Option<f64>, Option<f64>) {

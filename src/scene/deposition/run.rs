@@ -2,24 +2,16 @@
 //! driver ([`deposition::driver::run_one`]) from its own random stream, then measured; results
 //! in run order, the same at any thread count.
 
-use super::outputs::{ensemble, fmt_mean, write_outputs};
+use super::outputs::{ensemble, fmt_mean, write_outputs, RunResult};
 use super::schema::{parse_scene, DepositionScene};
-use crate::deposition::measure::{measure, DepositMeasures};
-use crate::deposition::{self, driver::Deposited, Deposition};
+use crate::deposition::measure::measure;
+use crate::deposition::{self, Deposition};
 use crate::driver::Hooks;
 use crate::scene::{on_threads, RunOptions};
 use crate::Result;
 use rayon::prelude::*;
 use std::path::Path;
 use std::time::Instant;
-
-/// One measured run.
-pub struct RunResult {
-    pub deposit: Deposited,
-    pub measures: DepositMeasures,
-    /// Wall time of the whole run (start, deposit, measures), s.
-    pub seconds: f64,
-}
 
 /// `porelab run` entry point for `kind = "deposition"`.
 pub fn run_scene(text: &str, origin: &str, out: &Path, opts: &RunOptions) -> Result<()> {

@@ -18,8 +18,8 @@ use crate::lbm::problems::{Channel, DrivenChannel, Inlet, NodeCouette};
 use crate::lbm::units::{check_mach, Units};
 use crate::lbm::voxels::voxel_dims;
 use crate::lbm::{CollisionKind, CollisionModel, Dims, LatticeKind, Tau};
-use crate::scene::keys::rename_old_keys;
-use serde::{de::Error as _, Deserialize, Deserializer};
+use crate::scene::keys::{collision_kind, lattice_kind, rename_old_keys};
+use serde::Deserialize;
 use std::path::Path;
 
 /// The keys every flow has: the fields of [`Common`].
@@ -57,14 +57,6 @@ fn max_steps() -> u64 {
     1_000_000
 }
 
-fn lattice<'de, D: Deserializer<'de>>(d: D) -> std::result::Result<LatticeKind, D::Error> {
-    LatticeKind::parse(&String::deserialize(d)?, "lattice").map_err(D::Error::custom)
-}
-
-fn collision<'de, D: Deserializer<'de>>(d: D) -> std::result::Result<CollisionKind, D::Error> {
-    CollisionKind::parse(&String::deserialize(d)?, "collision").map_err(D::Error::custom)
-}
-
 /// The keys every flow has ([`COMMON_KEYS`]). The fluid on a lattice of its own (`nu_m2_s`,
 /// `density_kg_m3`, `length_m`, `cells`) is refused for a packing, whose lattice follows from
 /// its configuration.
@@ -76,9 +68,9 @@ pub(super) struct Common {
     #[allow(dead_code)]
     #[serde(default)]
     title: String,
-    #[serde(default = "default_lattice", deserialize_with = "lattice")]
+    #[serde(default = "default_lattice", deserialize_with = "lattice_kind")]
     lattice: LatticeKind,
-    #[serde(default = "default_collision", deserialize_with = "collision")]
+    #[serde(default = "default_collision", deserialize_with = "collision_kind")]
     collision: CollisionKind,
     #[serde(default = "one")]
     tau: f64,

@@ -2,12 +2,14 @@
 //! Expected values are closed forms written out here (Ergun 1952, Wen & Yu 1966 as combined by
 //! Gidaspow 1994, Stokes 1851), never values of the code under test.
 
-use crate::coupled::{Basesheet, Coupled, CoupledSetup, Overlap, Switch};
+use crate::coupled::{driver, Basesheet, Coupled, Overlap, Switch};
 use crate::dem::{
-    ContactModel, DampingModel, Dem, ImpactSpeed, Material, NormalModel, Particles, Setup, Start,
+    ContactModel, DampingModel, ImpactSpeed, Material, NormalModel, Particles, Setup, Start,
     TangentialModel,
 };
+use crate::driver::Hooks;
 use crate::error::invalid;
+use crate::lbm::{CollisionKind, CollisionModel, LatticeKind, Tau};
 use crate::validation::{CaseContext, Row};
 use crate::Result;
 use nalgebra::Vector3;
@@ -32,24 +34,27 @@ fn hertz_mindlin(t: TangentialModel) -> Result<ContactModel> {
     ContactModel::new(NormalModel::Hertz, DampingModel::restitution(0.5)?, t)
 }
 
+/// The coupled setup of the cases: the DEM `dem` in a D3Q15 BGK fluid of relaxation time
+/// `tau` (the lattice spans the DEM box), exact overlaps, eps_min 0.1.
 #[allow(clippy::too_many_arguments)]
 fn coupled_setup(
+    dem: Setup,
     dx: f64,
     tau: f64,
     mu: f64,
-    nz: usize,
     switch: Switch,
     grad_p: Vector3<f64>,
     balance: bool,
     m: u64,
     frozen: bool,
-) -> CoupledSetup {
-    CoupledSetup {
+) -> Result<crate::coupled::Setup> {
+    Ok(crate::coupled::Setup {
+        dem,
         dx_m: dx,
-        tau,
+        lattice: LatticeKind::D3Q15,
+        collision: CollisionModel::new(CollisionKind::Bgk, Tau::new(tau)?),
         fluid_density_kg_m3: 1000.0,
         viscosity_pa_s: mu,
-        nz,
         overlap: Overlap::Exact,
         switch,
         eps_min: 0.1,
@@ -60,7 +65,13 @@ fn coupled_setup(
         max_relaxation: 1.0,
         frozen,
         basesheet: None,
-    }
+    })
+}
+
+/// Mean superficial fluid velocity along z over the lattice (m/s).
+fn mean_uz(c: &Coupled) -> f64 {
+    let v = c.velocity_si();
+    v.iter().map(|w| w[2]).sum::<f64>() / v.len() as f64
 }
 
 /// Gidaspow's beta (per unit mixture volume) at porosity eps and interstitial slip w (SI),
@@ -107,20 +118,20 @@ pub fn case_811(ctx: &CaseContext) -> Result<Vec<Row>> {
             p.z += 0.25 * l[2];
         }
         let p = Particles::at_rest(pos, radius, 2500.0);
-        let dem = Dem::new(dem_setup(l, 2500.0, 9.81, 1000.0, p, 0.1)?)?;
+        let dem = dem_setup(l, 2500.0, 9.81, 1000.0, p, 0.1)?;
         let grad = Vector3::new(t.f64(i, "grad_p_x_pa_m")?, 0.0, 0.0);
         let cs = coupled_setup(
+            dem,
             dx,
             t.f64(i, "tau")?,
             t.f64(i, "viscosity_pa_s")?,
-            cells[2] as usize,
             Switch::Blend,
             grad,
             true,
             t.f64(i, "dem_steps")? as u64,
             false,
-        );
-        let mut c = Coupled::new(dem, cs)?;
+        )?;
+        let mut c = Coupled::new(cs)?;
         let m0 = c.lbm.mass();
         let mut worst_mass: f64 = 0.0;
         let mut exchanged: f64 = 0.0;
@@ -187,30 +198,21 @@ pub fn case_812(ctx: &CaseContext) -> Result<Vec<Row>> {
         }
         let radius = vec![0.5 * d; pos.len()];
         let p = Particles::at_rest(pos, radius, 2500.0);
-        let dem = Dem::new(dem_setup(l, 2500.0, 0.0, 1000.0, p, 0.1)?)?;
+        let dem = dem_setup(l, 2500.0, 0.0, 1000.0, p, 0.1)?;
         let cs = coupled_setup(
+            dem,
             dx,
             t.f64(i, "tau")?,
             mu,
-            n,
             if blend { Switch::Blend } else { Switch::Sharp },
             Vector3::new(0.0, 0.0, gp),
             false,
             1,
             true,
-        );
-        let mut c = Coupled::new(dem, cs)?;
-        let mut u_prev = f64::INFINITY;
-        let mut u = 0.0;
-        for _ in 0..200_000 {
-            c.step()?;
-            let v = c.velocity_si();
-            u = v.iter().map(|w| w[2]).sum::<f64>() / v.len() as f64;
-            if (u - u_prev).abs() <= 1e-15 * u.abs() {
-                break;
-            }
-            u_prev = u;
-        }
+        )?;
+        let mut c = Coupled::new(cs)?;
+        let steady = driver::run_to_steady(&mut c, 200_000, 1e-15, mean_uz)?;
+        let u = steady.value;
         let eps = 1.0 - PI / 6.0 * (d / dx).powi(3);
         let speed = u.abs();
         let beta = beta_gidaspow(eps, d, mu, 1000.0, speed / eps, blend);
@@ -241,7 +243,7 @@ pub fn case_812(ctx: &CaseContext) -> Result<Vec<Row>> {
             1.0,
             1.0,
         ));
-        if u_prev.is_infinite() || !u.is_finite() {
+        if !(steady.steady && u.is_finite()) {
             return invalid("case 812: no steady state");
         }
     }
@@ -264,19 +266,19 @@ fn settle(
     let l = [cells as f64 * dx; 3];
     let pos = vec![Vector3::new(0.37 * l[0], 0.61 * l[1], 0.8 * l[2])];
     let p = Particles::at_rest(pos, vec![0.5 * d], 2500.0);
-    let dem = Dem::new(dem_setup(l, 2500.0, 9.81, 1000.0, p, 0.1)?)?;
+    let dem = dem_setup(l, 2500.0, 9.81, 1000.0, p, 0.1)?;
     let cs = coupled_setup(
+        dem,
         dx,
         tau,
         mu,
-        cells,
         Switch::Sharp,
         Vector3::zeros(),
         true,
         m,
         false,
-    );
-    let mut c = Coupled::new(dem, cs)?;
+    )?;
+    let mut c = Coupled::new(cs)?;
     let mut v_sum = 0.0;
     let mut slip_sum = 0.0;
     let mut corr_sum = 0.0;
@@ -534,20 +536,20 @@ pub fn case_816(ctx: &CaseContext) -> Result<Vec<Row>> {
         let p = Particles::at_rest(pos, vec![0.5 * d; n], rho_p);
         let mut setup = dem_setup(l, rho_p, 9.81, 1000.0, p, 0.01)?;
         setup.contact = hertz_mindlin(TangentialModel::None)?;
-        let dem = Dem::new(setup)?;
+        let dem = setup;
         let mut cs = coupled_setup(
+            dem,
             dx,
             t.f64(i, "tau")?,
             mu,
-            cells[2] as usize,
             Switch::Blend,
             Vector3::zeros(),
             true,
             t.f64(i, "dem_steps")? as u64,
             false,
-        );
+        )?;
         cs.max_move_cells = t.f64(i, "max_move_cells")?;
-        let mut c = Coupled::new(dem, cs)?;
+        let mut c = Coupled::new(cs)?;
         // the middle half of the height, away from both walls
         let (z0, z1) = (0.25 * l[2], 0.75 * l[2]);
         let nxy = (cells[0] * cells[1]) as usize;
@@ -645,24 +647,24 @@ pub fn case_817(ctx: &CaseContext) -> Result<Vec<Row>> {
         let mut setup = dem_setup(l, 2500.0, 0.0, 1000.0, p, 0.1)?;
         // no particles: the neighbour skin is given (its default scales with a diameter)
         setup.skin_m = Some(0.1 * dx);
-        let dem = Dem::new(setup)?;
+        let dem = setup;
         let mut cs = coupled_setup(
+            dem,
             dx,
             t.f64(i, "tau")?,
             mu,
-            nc,
             Switch::Blend,
             Vector3::new(0.0, 0.0, gp),
             false,
             1,
             true,
-        );
+        )?;
         let h = ns as f64 * dx;
         cs.basesheet = Some(Basesheet {
             thickness_m: h,
             permeability_m2: k,
         });
-        let mut c = Coupled::new(dem, cs)?;
+        let mut c = Coupled::new(cs)?;
         let nxy = 4;
         let nz = ns + nc;
         let flux = |c: &Coupled| -> f64 {
@@ -672,19 +674,11 @@ pub fn case_817(ctx: &CaseContext) -> Result<Vec<Row>> {
                 .sum();
             s / (ns * nxy) as f64 * dx / c.units.dt
         };
-        let (mut u, mut u_prev, mut steps) = (0.0, f64::INFINITY, 0);
-        let mut worst_balance: f64 = 0.0;
-        while steps < 200_000 {
-            let b = c.step()?;
-            worst_balance = worst_balance.max(b.relative_error());
-            steps += 1;
-            u = flux(&c);
-            if (u - u_prev).abs() <= 1e-15 * u.abs() {
-                break;
-            }
-            u_prev = u;
-        }
-        if !u.is_finite() || (u - u_prev).abs() > 1e-15 * u.abs() {
+        let steady = driver::run_to_steady(&mut c, 200_000, 1e-15, flux)?;
+        let (u, steps) = (steady.value, steady.steps);
+        // the worst over every step of the run
+        let worst_balance = c.worst_balance;
+        if !(steady.steady && u.is_finite()) {
             return invalid(format!(
                 "case 817 row {i}: no steady state in {steps} steps"
             ));
@@ -852,31 +846,22 @@ pub fn case_840(ctx: &CaseContext) -> Result<Vec<Row>> {
         let u_target = re_target * mu / (rho * d);
         let gp = ergun_gradient(eps_b, d, mu, rho, u_target);
         let p = Particles::at_rest(pos.clone(), vec![r; n], 2500.0);
-        let dem = Dem::new(dem_setup(l, 2500.0, 0.0, rho, p, 0.1)?)?;
+        let dem = dem_setup(l, 2500.0, 0.0, rho, p, 0.1)?;
         let cs = coupled_setup(
+            dem,
             dx,
             tau,
             mu,
-            nz,
             Switch::Sharp,
             Vector3::new(0.0, 0.0, gp),
             false,
             1,
             true,
-        );
-        let mut c = Coupled::new(dem, cs)?;
-        let (mut u, mut u_prev, mut steady) = (0.0, f64::INFINITY, false);
-        for _ in 0..400_000 {
-            c.step()?;
-            let v = c.velocity_si();
-            u = -v.iter().map(|w| w[2]).sum::<f64>() / v.len() as f64;
-            if (u - u_prev).abs() <= 1e-10 * u.abs() {
-                steady = true;
-                break;
-            }
-            u_prev = u;
-        }
-        if !(steady && u > 0.0) {
+        )?;
+        let mut c = Coupled::new(cs)?;
+        let steady = driver::run_to_steady(&mut c, 400_000, 1e-10, |c| -mean_uz(c))?;
+        let u = steady.value;
+        if !(steady.steady && u > 0.0) {
             return invalid(format!(
                 "case 840: {file}: no steady downward flow (U = {u})"
             ));
@@ -995,16 +980,26 @@ fn seed_bed_run(overlap: &str) -> Result<std::sync::Arc<SeedBedRun>> {
         .replace("overlap = \"exact\"", &format!("overlap = \"{overlap}\""));
     let scene = crate::scene::coupled::parse_scene(&text, "coupled-seed-bed")?;
     let mut c = crate::scene::coupled::build(&scene)?;
-    let every = ((scene.profile_every_s / c.units.dt).round() as u64).max(1);
-    let mut series = Vec::new();
-    crate::scene::coupled::run(&scene, &mut c, |c| {
-        if c.steps % every == 0 {
-            let u = c.velocity_si();
-            let uz = u.iter().map(|w| w[2]).sum::<f64>() / u.len() as f64;
-            series.push((c.time_s, c.porosity_profile(), uz.abs()));
+    /// The porosity profile and mean |u_z| at every profile time.
+    struct Profiles {
+        every: u64,
+        series: Vec<(f64, Vec<f64>, f64)>,
+    }
+    impl Hooks<Coupled> for Profiles {
+        fn progress(&mut self, c: &Coupled, _: Option<f64>, _: &str) {
+            if c.steps % self.every == 0 {
+                self.series
+                    .push((c.time_s, c.porosity_profile(), mean_uz(c).abs()));
+            }
         }
-        Ok(true)
-    })?;
+    }
+    let mut profiles = Profiles {
+        every: ((scene.profile_every_s / c.units.dt).round() as u64).max(1),
+        series: Vec::new(),
+    };
+    let end = driver::steps_for(&c, scene.time_s);
+    driver::run_to_step(&mut c, end, &mut profiles)?;
+    let series = profiles.series;
     let run = Arc::new(SeedBedRun {
         series,
         dz: c.setup.dx_m,
