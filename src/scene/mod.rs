@@ -299,6 +299,19 @@ pub fn cli_run(
     }
 }
 
+/// Test helper: the run `run` of `text` with its seed changed, into a folder that holds a
+/// checkpoint of `text`, is refused, naming the checkpoint.
+#[cfg(test)]
+pub(crate) fn assert_other_scene_refused(run: impl FnOnce(&str) -> Result<()>, text: &str) {
+    let other = text.replace("seed = 1", "seed = 2");
+    assert_ne!(other, text, "the scene has no `seed = 1` to change");
+    let e = run(&other).unwrap_err().to_string();
+    assert!(
+        e.contains("checkpoint.json") && e.contains("different scene"),
+        "{e}"
+    );
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -269,18 +269,7 @@ fn interrupted_run_resumes_to_the_same_result() {
     assert_eq!(s["coupling_steps"], 80);
     assert_eq!(s, strip(&killed));
     run_scene_limited(&text, "test", &killed, &quiet(), Some(5)).unwrap();
-    let e = run_scene(
-        &text.replace("seed = 1", "seed = 2"),
-        "test",
-        &killed,
-        &quiet(),
-    )
-    .unwrap_err()
-    .to_string();
-    assert!(
-        e.contains("checkpoint.json") && e.contains("different scene"),
-        "{e}"
-    );
+    crate::scene::assert_other_scene_refused(|t| run_scene(t, "test", &killed, &quiet()), &text);
     let _ = std::fs::remove_dir_all(&base);
 }
 

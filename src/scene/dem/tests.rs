@@ -75,18 +75,7 @@ fn interrupted_run_resumes_to_the_same_result() {
     assert_eq!(strip(&whole), strip(&killed));
     // a checkpoint of another scene is refused, naming the file
     run_scene_limited(&text, "test", &killed, &quiet(), Some(1)).unwrap();
-    let e = run_scene(
-        &text.replace("seed = 1", "seed = 2"),
-        "test",
-        &killed,
-        &quiet(),
-    )
-    .unwrap_err()
-    .to_string();
-    assert!(
-        e.contains("checkpoint.json") && e.contains("different scene"),
-        "{e}"
-    );
+    crate::scene::assert_other_scene_refused(|t| run_scene(t, "test", &killed, &quiet()), &text);
     let _ = std::fs::remove_dir_all(&base);
 }
 
