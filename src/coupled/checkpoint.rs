@@ -9,8 +9,9 @@
 //!   displacement seen (the summary reports both).
 //!
 //! Everything else of a coupling step (porosity, overlaps, Guo–Zhao fields, the record, the
-//! hydrodynamic forces) is recomputed from these before it is read. The coupled run draws no
-//! random numbers after the DEM's initial dispersion, which the scene rebuilds from its seed.
+//! hydrodynamic forces) is recomputed from these before it is read (the porosity on loading).
+//! The coupled run draws no random numbers after the DEM's initial dispersion, which the scene
+//! rebuilds from its seed.
 
 use super::engine::Coupled;
 use crate::dem::checkpoint::DemState;
@@ -76,6 +77,7 @@ impl Coupled {
         if !(self.lbm.mass().is_finite() && self.slip.iter().all(|v| v.is_finite())) {
             return invalid("checkpoint: non-finite fluid state");
         }
-        Ok(())
+        // the porosity of the restored positions (and the lagged slip), as the step left it
+        self.update_porosity()
     }
 }

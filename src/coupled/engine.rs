@@ -3,7 +3,9 @@
 //! 1. porosity per cell from the particles ([`super::porosity`]), the local mean diameter and
 //!    the solid velocity, hence the Guo–Zhao fields of every cell: eps, the drag coefficients
 //!    of [`super::drag`] (Carman–Kozeny K for the Ergun branch, seed 002 eq. 10-11) and the
-//!    matrix velocity w = eps u_s;
+//!    matrix velocity w = eps u_s (computed when the particles have moved, at the end of the
+//!    step before and by [`Coupled::new`], so that between steps the porosity is that of the
+//!    particles' positions, as the outputs show it);
 //! 2. one LBM step, recording the density, velocity and source acceleration of each cell;
 //! 3. the force the fluid of each cell lost to its solid, F_c = rho_c (eps_c G - a_c) (G the
 //!    driving body force), shared among the particles in the cell by their volume in it (the
@@ -420,7 +422,10 @@ impl Coupled {
             .with_forcing(ForcingModel::Porous(medium));
         let lbm = Lbm::new(fluid)?;
         let n = dem.p.len();
-        Ok(Coupled {
+        // the fluid at rest (rho = 1, lattice units) until the first step records its state
+        let mut record = Record::zeros(cells);
+        record.rho.fill(1.0);
+        let mut c = Coupled {
             dem,
             lbm,
             units,
@@ -429,7 +434,7 @@ impl Coupled {
             steps: 0,
             time_s: 0.0,
             timing: Timing::default(),
-            record: Record::zeros(cells),
+            record,
             solid_volume_m3: vec![0.0; cells],
             eps: vec![1.0; cells],
             vd: vec![0.0; cells],
@@ -444,7 +449,9 @@ impl Coupled {
             sheet_cells,
             sheet_force: [0.0; 3],
             setup,
-        })
+        };
+        c.update_porosity()?;
+        Ok(c)
     }
 
     /// Cell volume (m^3).
@@ -627,12 +634,12 @@ impl Coupled {
         Ok(())
     }
 
-    /// One coupling step: porosity, one LBM step, M DEM steps. Returns its momentum balance.
+    /// One coupling step: one LBM step in the porosity of the particles' positions, the forces,
+    /// M DEM steps, and the porosity of the new positions. Returns its momentum balance.
     pub fn step(&mut self) -> Result<Balance> {
         let t = Instant::now();
         let p_f0 = self.lbm.momentum();
         let p_s0 = self.particle_momentum();
-        self.update_porosity()?;
         self.timing.coupling_s += t.elapsed().as_secs_f64();
         self.fluid_step()?;
         let t = Instant::now();
@@ -747,6 +754,7 @@ impl Coupled {
         self.last_balance = bal;
         self.steps += 1;
         self.time_s += dt;
+        self.update_porosity()?;
         self.timing.coupling_s += t.elapsed().as_secs_f64();
         Ok(bal)
     }

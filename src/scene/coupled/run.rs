@@ -155,7 +155,6 @@ pub(crate) fn run_scene_limited(
     };
     let stop = on_threads(opts.threads, || -> Result<driver::Stop> {
         if c.steps == 0 {
-            c.update_porosity()?;
             frame(&c, out, hooks.frames)?;
             hooks.frames += 1;
         }

@@ -300,3 +300,21 @@ fn builtins_parse_and_bad_keys_are_named() {
     let e = parse_scene(&bad, "t").err().unwrap().to_string();
     assert!(e.contains("dem.kind"), "{e}");
 }
+
+/// Between steps the porosity is that of the particles where they are (the frames show both
+/// at one time): recomputing it from the current positions changes nothing. Before the first
+/// step the fluid's pressure deviation is 0 everywhere (it once showed -rho c_s^2 from an
+/// empty record).
+#[test]
+fn porosity_and_pressure_belong_to_the_time_they_are_shown_at() {
+    let mut c = quick(|t| t).unwrap();
+    assert!(c.pressure_si().iter().all(|&p| p == 0.0));
+    assert!(c.velocity_si().iter().all(|u| *u == [0.0; 3]));
+    for _ in 0..20 {
+        c.step().unwrap();
+    }
+    let moved = c.eps.clone();
+    c.update_porosity().unwrap();
+    assert_eq!(moved, c.eps);
+    assert!(c.eps.iter().any(|&e| e < 1.0));
+}
