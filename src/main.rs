@@ -124,9 +124,7 @@ fn main() -> ExitCode {
         Command::Contact(args) => porelab::cli::contact::run_contact(&args),
         Command::Shape(args) => porelab::cli::shape::run_shape(&args),
         Command::Drag(args) => porelab::cli::drag::run_drag(&args),
-        Command::Permeability(args) => {
-            porelab::cli::permeability::run_permeability(&args).map(|_| ExitCode::SUCCESS)
-        }
+        Command::Permeability(args) => porelab::cli::permeability::run_permeability(&args),
         Command::Run {
             show: Some(name), ..
         } => porelab::scene::cli_show(&name).map(|_| ExitCode::SUCCESS),

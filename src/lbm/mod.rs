@@ -24,6 +24,7 @@ pub mod engine;
 pub mod flows;
 pub mod forcing;
 pub mod geometry;
+pub mod ladder;
 pub mod lattice;
 pub mod memory;
 pub mod pore;
