@@ -5,5 +5,6 @@
 pub mod contact;
 pub mod drag;
 pub mod field;
+pub mod packing_input;
 pub mod permeability;
 pub mod shape;

@@ -22,15 +22,24 @@ use std::process::ExitCode;
 
 #[derive(Debug, Clone, clap::Args)]
 pub struct PermeabilityArgs {
-    /// Extended XYZ configuration (periodic box), e.g. a packing's final.xyz.
+    /// Periodic packing: extended XYZ (porelab, OVITO, ASE: `pos` and `radius` columns in any
+    /// order) or a LAMMPS/LIGGGHTS dump of spheres; the format is told by the content.
     pub packing: PathBuf,
+    /// Frame of a file of several: 0 the first, -1 the last.
+    #[arg(long, default_value_t = -1, allow_hyphen_values = true)]
+    pub frame: i64,
+    /// Deepest particle overlap allowed, as a fraction of the smaller particle's size
+    /// (diameter): ten times porelab's own packing tolerance (overlap_tol 1e-4 D); raise it
+    /// (e.g. 0.01) for a soft-sphere DEM packing.
+    #[arg(long, default_value_t = 1e-3, allow_hyphen_values = true)]
+    pub max_overlap: f64,
     /// One resolution only (cells along the box's x edge), with a second run at half of it
     /// for a rough convergence estimate, instead of the ladder.
-    #[arg(long)]
+    #[arg(long, allow_hyphen_values = true)]
     pub resolution: Option<usize>,
     /// Ladder: stop when two successive Richardson extrapolations of k differ by less than
     /// this (relative).
-    #[arg(long, default_value_t = 0.01)]
+    #[arg(long, default_value_t = 0.01, allow_hyphen_values = true)]
     pub rtol: f64,
     /// Ladder: cells along x of the first rung [about 1.7 cells per smallest particle
     /// diameter, at least 16].
@@ -47,7 +56,7 @@ pub struct PermeabilityArgs {
     #[arg(long)]
     pub out: Option<PathBuf>,
     /// The configuration's length unit in metres (e.g. the particle diameter), for k in m^2.
-    #[arg(long)]
+    #[arg(long, allow_hyphen_values = true)]
     pub unit_m: Option<f64>,
     /// D3Q15 or D3Q19.
     #[arg(long, default_value = "D3Q19")]
@@ -56,14 +65,14 @@ pub struct PermeabilityArgs {
     #[arg(long, default_value = "trt")]
     pub collision: String,
     /// Relaxation time.
-    #[arg(long, default_value_t = 1.0)]
+    #[arg(long, default_value_t = 1.0, allow_hyphen_values = true)]
     pub tau: f64,
     /// Body force in lattice units (small: Re << 1).
-    #[arg(long, default_value_t = 1e-6)]
+    #[arg(long, default_value_t = 1e-6, allow_hyphen_values = true)]
     pub force: f64,
     /// With --resolution: stop when the mean velocity changes by less than this (relative)
     /// over 100 steps.
-    #[arg(long, default_value_t = 1e-7)]
+    #[arg(long, default_value_t = 1e-7, allow_hyphen_values = true)]
     pub tol: f64,
     /// Steps allowed per run.
     #[arg(long, default_value_t = 500_000)]
@@ -74,11 +83,15 @@ pub struct PermeabilityArgs {
 
 /// `porelab permeability`: exit 0, or 3 for a ladder that did not converge under `--strict`.
 pub fn run_permeability(a: &PermeabilityArgs) -> Result<ExitCode> {
-    let text = std::fs::read_to_string(&a.packing).map_err(|e| Error::File {
-        path: a.packing.display().to_string(),
-        msg: e.to_string(),
+    // the resolution checked against the smallest particle: the one asked for, or the ladder's
+    // finest (its coarse rungs may leave particles unresolved: the fit uses the last three)
+    let (cell, parts) = super::packing_input::read_packing(&super::packing_input::PackingInput {
+        path: &a.packing,
+        frame: a.frame,
+        resolution: a.resolution.unwrap_or(a.max_resolution),
+        unit_m: a.unit_m,
+        max_overlap: a.max_overlap,
     })?;
-    let (cell, parts) = xyz::parse(&text, &a.packing.display().to_string())?;
     let lattice = LatticeKind::parse(&a.lattice, "--lattice")?;
     let kind = CollisionKind::parse(&a.collision, "--collision")?;
     let collision = CollisionModel::new(kind, Tau::new(a.tau)?);

@@ -1,7 +1,10 @@
 //! Readers and writers: CSV tables with units in the headers; atomic file writes; extended
-//! XYZ particle configurations ([`xyz`]).
+//! XYZ particle configurations ([`xyz`]); LAMMPS dumps of spheres ([`lammps_dump`]); a
+//! configuration from either, told by its content ([`configuration`]).
 
+pub mod configuration;
 pub mod csv_table;
+pub mod lammps_dump;
 pub mod plot;
 pub mod vtk;
 pub mod xyz;
