@@ -17,8 +17,14 @@
 //! reads `type` as a string array and, with no `species` column, gives every particle the
 //! dummy symbol X instead of misreading a shape name as a chemical element.
 //!
-//! [`parse`] also reads the first layout, whose columns were the same but named
-//! `species` and `roundness` ([`LEGACY_PROPERTIES`]).
+//! The reader ([`read_frame_at`], [`parse`]) takes any extended XYZ whose `Properties=`
+//! describes the particles, in any column order: porelab's layout, the first layout (columns
+//! `species` and `roundness`, [`LEGACY_PROPERTIES`]), OVITO's export (`radius` first, `species`
+//! for the type, `aspherical_shape` 0 0 0 for spheres; OVITO manual, "XYZ file reader" and
+//! "Non-spherical particle shapes") and ASE's (`species:S:1:pos:R:3` plus the arrays the user
+//! added, `Lattice`, `pbc`; ASE `ase.io.extxyz`). [`shaped`] turns one line's columns into a
+//! particle and [`contact_shape`] into the convex shape the voxeliser and the contact kernels
+//! see.
 
 use crate::contact::ContactShape;
 use crate::error::{invalid, Error};
