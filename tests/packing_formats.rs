@@ -413,3 +413,33 @@ fn the_command_says_what_it_read() {
     // cells of 2 across: the spheres of radius 0.3 need sqrt(3)/2 x 4 / 0.3 = 11.5 -> 12
     refused(&o, &["--resolution 2", "--resolution >= 12"]);
 }
+
+/// A jammed porelab packing passes the default tolerance, and the deepest overlap the check
+/// finds (cell list and contact kernels) is the one the packing's own analysis reports from
+/// its separate pair search (summary.json `deepest_overlap`; rods of diameter 1, so the
+/// fraction of the size is the depth).
+#[test]
+fn a_porelab_packing_passes_with_its_own_deepest_overlap() {
+    let d = scratch("rods");
+    let scene = "kind = \"packing\"\n[particles]\nshape = \"spherocylinder\"\nn = 60\n\
+                 length_over_diameter = 1.0\n[mcm]\nseed = 3\nhalvings = 3\n";
+    let opts = porelab::scene::RunOptions {
+        out: Some(d.clone()),
+        quiet: true,
+        threads: Some(1),
+        ..Default::default()
+    };
+    porelab::scene::run_text(scene, "rods", "rods", &opts).unwrap();
+    let summary: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(d.join("summary.json")).unwrap()).unwrap();
+    let want = summary["deepest_overlap"].as_f64().unwrap();
+    assert!(want > 1e-5, "a jammed packing touches: {want}");
+    let c = configuration::read(&d.join("final.xyz"), -1, "--frame").unwrap();
+    let r = check_overlaps(&c.data, "rods", 1e-3).unwrap();
+    assert!(
+        (r.deepest - want).abs() < 1e-9,
+        "{} against {want}",
+        r.deepest
+    );
+    assert_eq!(r.undecided, 0);
+}
