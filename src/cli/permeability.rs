@@ -8,12 +8,11 @@
 use crate::error::{Error, Result};
 use crate::io::csv_table::CsvTable;
 use crate::io::plot::{write_svg, Plot, Series};
-use crate::io::vtk::{write_image_data, CellField};
 use crate::io::{write_atomic, xyz};
 use crate::lbm::ladder::{climb, rung_control, Ladder, LadderOptions, Rung, ORDER, RATIO};
 use crate::lbm::pore::{
-    darcy_linearity, kozeny_constant, pore_permeability, report, setup_line, PoreOptions,
-    DARCY_LINEARITY_TOL,
+    darcy_linearity, kozeny_constant, pore_permeability, report, setup_line, write_fields_vtk,
+    PoreOptions, DARCY_LINEARITY_TOL,
 };
 use crate::lbm::voxels::voxelise;
 use crate::lbm::{CollisionKind, CollisionModel, LatticeKind, SteadyBar, SteadyControl, Tau};
@@ -375,19 +374,13 @@ fn write_outputs(
         ],
     };
     write_svg(&out.join("convergence.svg"), &plot)?;
-    let v = &l.finest;
     let fields = &l.rungs[l.rungs.len() - 1].result.run.steady.fields;
-    let solid: Vec<f64> = v.solid.iter().map(|&s| if s { 1.0 } else { 0.0 }).collect();
-    let unit = a.unit_m.unwrap_or(1.0);
-    write_image_data(
+    write_fields_vtk(
         &out.join("fields.vtk"),
         "porelab permeability, finest rung (lattice units; spacing in m with --unit-m)",
-        [v.dims.nx, v.dims.ny, v.dims.nz],
-        v.dx * unit,
-        cell.origin.map(|c| c * unit),
-        &[
-            CellField::Vector("velocity_lattice", &fields.u),
-            CellField::Scalar("solid", &solid),
-        ],
+        &l.finest,
+        fields,
+        cell.origin,
+        a.unit_m,
     )
 }

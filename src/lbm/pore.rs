@@ -11,10 +11,12 @@ use super::driver::SteadyControl;
 use super::engine::Lbm;
 use super::problems::{permeability, Permeability};
 use super::setup::{CollisionModel, Domain, LatticeKind};
+use super::solver::Fields;
 use super::units::describe;
 use super::voxels::Voxels;
 use crate::driver::Hooks;
 use crate::error::{invalid, Result};
+use crate::io::vtk::{write_image_data, CellField};
 use crate::io::xyz::{Cell, XyzParticle};
 
 /// What `porelab permeability` reports for one resolution.
@@ -152,6 +154,33 @@ pub fn report(v: &Voxels, r: &PoreResult, o: &PoreOptions, unit_m: Option<f64>) 
         s += &format!("  k = {:.6e} m^2\n", r.k * u * u);
     }
     s
+}
+
+/// Writes the steady `fields` on the voxels `v` as VTK image data at `path` (lattice units; the
+/// spacing and `origin` in metres with `unit_m`, else in the configuration's unit): velocity,
+/// density and the solid mask.
+pub fn write_fields_vtk(
+    path: &std::path::Path,
+    title: &str,
+    v: &Voxels,
+    fields: &Fields,
+    origin: [f64; 3],
+    unit_m: Option<f64>,
+) -> Result<()> {
+    let solid: Vec<f64> = v.solid.iter().map(|&s| if s { 1.0 } else { 0.0 }).collect();
+    let unit = unit_m.unwrap_or(1.0);
+    write_image_data(
+        path,
+        title,
+        [v.dims.nx, v.dims.ny, v.dims.nz],
+        v.dx * unit,
+        origin.map(|c| c * unit),
+        &[
+            CellField::Vector("velocity_lattice", &fields.u),
+            CellField::Scalar("density_lattice", &fields.rho),
+            CellField::Scalar("solid", &solid),
+        ],
+    )
 }
 
 /// The relative change of k from the driving force to half of it above which a run is said

@@ -8,7 +8,7 @@ use crate::io::plot::CsvPlot;
 use crate::io::vtk::{write_image_data, CellField};
 use crate::io::{write_atomic, CsvTable};
 use crate::lbm::flows::{brinkman_couette, brinkman_poiseuille, drag_coefficient};
-use crate::lbm::pore::{kozeny_constant, PoreResult};
+use crate::lbm::pore::{kozeny_constant, write_fields_vtk, PoreResult};
 use crate::lbm::problems::Inlet;
 use crate::lbm::voxels::Voxels;
 use crate::lbm::{Dims, Steady};
@@ -208,20 +208,13 @@ pub(super) fn write_packing(
     std::fs::create_dir_all(out)?;
     write_atomic(&out.join("permeability.txt"), report.as_bytes())?;
     write_atomic(&out.join("configuration.xyz"), p.text.as_bytes())?;
-    let fields = &r.run.steady.fields;
-    let solid: Vec<f64> = v.solid.iter().map(|&s| if s { 1.0 } else { 0.0 }).collect();
-    let unit = p.unit_m.unwrap_or(1.0);
-    write_image_data(
+    write_fields_vtk(
         &out.join("fields.vtk"),
         "porelab lbm packing (lattice units)",
-        [v.dims.nx, v.dims.ny, v.dims.nz],
-        v.dx * unit,
-        cell.origin.map(|c| c * unit),
-        &[
-            CellField::Vector("velocity_lattice", &fields.u),
-            CellField::Scalar("density_lattice", &fields.rho),
-            CellField::Scalar("solid", &solid),
-        ],
+        v,
+        &r.run.steady.fields,
+        cell.origin,
+        p.unit_m,
     )?;
     let kozeny = |phi: f64| v.v_over_s.map(|vs| kozeny_constant(r.k, phi, vs));
     let summary = serde_json::json!({
