@@ -113,7 +113,7 @@ struct SceneHooks<'a> {
 }
 
 impl SceneHooks<'_> {
-    /// Wall-clock seconds of the run, earlier sessions included.
+    /// Wall-clock seconds of the run, the parts before an interruption included.
     fn seconds(&self) -> f64 {
         self.base_seconds + self.started.elapsed().as_secs_f64()
     }
