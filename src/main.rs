@@ -1,6 +1,6 @@
 //! porelab command line: validate | reference regen | run | field | bench.
 
-use clap::{Parser, Subcommand};
+use clap::{CommandFactory, FromArgMatches, Parser, Subcommand};
 use std::process::ExitCode;
 
 #[derive(Parser)]
@@ -64,6 +64,10 @@ enum Command {
         /// and at the end.
         #[arg(long, default_value_t = 10.0)]
         checkpoint_every: f64,
+        /// Parse and check the scene as a run does before it starts, then stop: no run, no
+        /// output folder (exit 0 and one line on stdout when the scene would start).
+        #[arg(long)]
+        check: bool,
     },
     /// Permeability of a periodic particle configuration (extended XYZ) by lattice Boltzmann.
     Permeability(porelab::cli::permeability::PermeabilityArgs),
@@ -111,7 +115,15 @@ enum BenchWhat {
 }
 
 fn main() -> ExitCode {
-    let cli = Cli::parse();
+    // a negative number is a value for its option to check, not an unknown flag
+    fn negatives_allowed(c: clap::Command) -> clap::Command {
+        c.allow_negative_numbers(true)
+            .mut_subcommands(negatives_allowed)
+    }
+    let cli = match Cli::from_arg_matches(&negatives_allowed(Cli::command()).get_matches()) {
+        Ok(cli) => cli,
+        Err(e) => e.exit(),
+    };
     let result: porelab::Result<ExitCode> = match cli.command {
         Command::Validate { ids, all } => porelab::validation::cli_validate(&ids, all),
         Command::Reference { action } => match action {
@@ -137,10 +149,12 @@ fn main() -> ExitCode {
             threads,
             quiet,
             checkpoint_every,
+            check,
         } => porelab::scene::cli_run(
             scene.as_deref(),
             builtin.as_deref(),
             list,
+            check,
             &porelab::scene::RunOptions {
                 out,
                 threads,

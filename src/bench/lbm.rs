@@ -256,6 +256,11 @@ fn choices(args: &BenchArgs) -> Result<Choices> {
     if args.sizes.is_empty() || args.threads.is_empty() || args.threads.contains(&0) {
         return invalid("bench lbm: --sizes and --threads need at least one value, threads >= 1");
     }
+    if let Some(n) = args.sizes.iter().find(|&&n| n < 4) {
+        return invalid(format!(
+            "bench lbm: --sizes {n}: each lattice edge must be >= 4 cells"
+        ));
+    }
     if args.rounds == 0 {
         return invalid("bench lbm: --rounds must be at least 1");
     }

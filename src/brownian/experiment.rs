@@ -336,9 +336,9 @@ impl CaptureExperiment {
         require_positive(self.particle_radius_m, || {
             format!("particle radius {} m", self.particle_radius_m)
         })?;
-        require_positive(self.t_max_s, || format!("t_max {} s", self.t_max_s))?;
+        require_positive(self.t_max_s, || format!("run.t_max_s = {} s", self.t_max_s))?;
         require_positive(self.sample_every_s, || {
-            format!("sample interval {} s", self.sample_every_s)
+            format!("run.sample_every_s = {} s", self.sample_every_s)
         })?;
         super::setup::check_time_step(self.dt_s)?;
         if self.sample_every_s < self.dt_s {

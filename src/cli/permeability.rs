@@ -5,7 +5,7 @@
 //! `permeability.json`, `ladder.csv`, `convergence.svg` and the finest rung's `fields.vtk` into
 //! `--out`. With `--resolution N` it runs N/2 and N cells only, as a quick look.
 
-use crate::error::{Error, Result};
+use crate::error::{invalid, Error, Result};
 use crate::io::csv_table::CsvTable;
 use crate::io::plot::{write_svg, Plot, Series};
 use crate::io::{write_atomic, xyz};
@@ -82,15 +82,6 @@ pub struct PermeabilityArgs {
 
 /// `porelab permeability`: exit 0, or 3 for a ladder that did not converge under `--strict`.
 pub fn run_permeability(a: &PermeabilityArgs) -> Result<ExitCode> {
-    // the resolution checked against the smallest particle: the one asked for, or the ladder's
-    // finest (its coarse rungs may leave particles unresolved: the fit uses the last three)
-    let (cell, parts) = super::packing_input::read_packing(&super::packing_input::PackingInput {
-        path: &a.packing,
-        frame: a.frame,
-        resolution: a.resolution.unwrap_or(a.max_resolution),
-        unit_m: a.unit_m,
-        max_overlap: a.max_overlap,
-    })?;
     let lattice = LatticeKind::parse(&a.lattice, "--lattice")?;
     let kind = CollisionKind::parse(&a.collision, "--collision")?;
     let collision = CollisionModel::new(kind, Tau::new(a.tau)?);
@@ -102,7 +93,20 @@ pub fn run_permeability(a: &PermeabilityArgs) -> Result<ExitCode> {
         },
         None => rung_control(a.max_steps),
     };
+    if !(a.tol.is_finite() && a.tol > 0.0) {
+        return invalid(format!("--tol {}: must be positive and finite", a.tol));
+    }
     let o = PoreOptions::new(lattice, collision, (a.force, "--force"), ctl)?;
+    // the options checked, the file read: the resolution checked against the smallest
+    // particle, the one asked for or the ladder's finest (its coarse rungs may leave particles
+    // unresolved: the fit uses the last three)
+    let (cell, parts) = super::packing_input::read_packing(&super::packing_input::PackingInput {
+        path: &a.packing,
+        frame: a.frame,
+        resolution: a.resolution.unwrap_or(a.max_resolution),
+        unit_m: a.unit_m,
+        max_overlap: a.max_overlap,
+    })?;
     print!("{}", setup_line(&cell, &parts, &o));
     match a.resolution {
         Some(n) => two_resolutions(a, &cell, &parts, &o, n).map(|_| ExitCode::SUCCESS),

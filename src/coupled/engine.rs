@@ -305,9 +305,81 @@ pub struct Coupled {
     sheet_force: [f64; 3],
 }
 
+/// What [`Coupled::new`] settles before it allocates the lattice: the DEM bed, the lattice's
+/// size, the units and the DEM step, with every check of the setup done (`porelab run --check`
+/// stops here).
+pub struct Plan {
+    dem: Dem,
+    dims: Dims,
+    units: Units,
+    dt_dem_s: f64,
+    sheet_cells: usize,
+}
+
+/// Bytes per lattice cell the coupled engine holds beside the populations: the record (density
+/// and velocity), solid volume, porosity, diameter and velocity sums, slip, and the Guo–Zhao
+/// medium's porosity, inverse permeability and solid velocity.
+const BYTES_PER_CELL_BESIDE_POPULATIONS: usize = 8 * (4 + 3 + 3 + 1 + 5);
+
+impl Plan {
+    /// The lattice's cells.
+    pub fn dims(&self) -> Dims {
+        self.dims
+    }
+}
+
 impl Coupled {
     /// Builds the DEM bed and the lattice around its box, and checks the two time steps.
     pub fn new(setup: Setup) -> Result<Coupled> {
+        let Plan {
+            dem,
+            dims,
+            units,
+            dt_dem_s: dt_dem,
+            sheet_cells,
+        } = Coupled::plan(&setup)?;
+        let cells = dims.cells();
+        // Guo-Zhao with the Forchheimer term; every cell's medium is set each coupling step
+        let medium = Medium::clear(Accel::new([0.0; 3])?, true);
+        let fluid = crate::lbm::Setup::new(setup.lattice, setup.collision, Domain::open(dims))
+            .with_forcing(ForcingModel::Porous(medium));
+        let lbm = Lbm::new(fluid)?;
+        let n = dem.p.len();
+        // the fluid at rest (rho = 1, lattice units) until the first step records its state
+        let mut record = Record::zeros(cells);
+        record.rho.fill(1.0);
+        let mut c = Coupled {
+            dem,
+            lbm,
+            units,
+            dims,
+            dt_dem_s: dt_dem,
+            steps: 0,
+            time_s: 0.0,
+            timing: Timing::default(),
+            record,
+            solid_volume_m3: vec![0.0; cells],
+            eps: vec![1.0; cells],
+            vd: vec![0.0; cells],
+            vv: vec![[0.0; 3]; cells],
+            slip: vec![0.0; cells],
+            hydro_n: vec![Vector3::zeros(); n],
+            gamma_kg_s: vec![0.0; n],
+            overlaps: vec![Vec::new(); n],
+            worst_balance: 0.0,
+            last_balance: Balance::default(),
+            max_move_seen_cells: 0.0,
+            sheet_cells,
+            sheet_force: [0.0; 3],
+            setup,
+        };
+        c.update_porosity()?;
+        Ok(c)
+    }
+
+    /// Every check of [`Coupled::new`], the DEM bed built and the lattice sized (its memory
+    /// checked), without allocating the lattice.
+    pub fn plan(setup: &Setup) -> Result<Plan> {
         if let TimeStep::Given { dt_s } = setup.dem.time_step {
             return invalid(format!(
                 "dem.run.dt_s = {dt_s} s: a coupled run steps the DEM at dt_LBM / M (M = \
@@ -414,44 +486,19 @@ impl Coupled {
             }
             dem = dem.with_time_step(dt_dem, v_max)?;
         }
-        check_driving(&dem, &setup, &units, dims, sheet_cells)?;
-        let cells = dims.cells();
-        // Guo-Zhao with the Forchheimer term; every cell's medium is set each coupling step
-        let medium = Medium::clear(Accel::new([0.0; 3])?, true);
-        let fluid = crate::lbm::Setup::new(setup.lattice, setup.collision, Domain::open(dims))
-            .with_forcing(ForcingModel::Porous(medium));
-        let lbm = Lbm::new(fluid)?;
-        let n = dem.p.len();
-        // the fluid at rest (rho = 1, lattice units) until the first step records its state
-        let mut record = Record::zeros(cells);
-        record.rho.fill(1.0);
-        let mut c = Coupled {
-            dem,
-            lbm,
-            units,
+        check_driving(&dem, setup, &units, dims, sheet_cells)?;
+        crate::lbm::memory::check_memory(
             dims,
+            setup.lattice.q(),
+            BYTES_PER_CELL_BESIDE_POPULATIONS,
+        )?;
+        Ok(Plan {
+            dem,
+            dims,
+            units,
             dt_dem_s: dt_dem,
-            steps: 0,
-            time_s: 0.0,
-            timing: Timing::default(),
-            record,
-            solid_volume_m3: vec![0.0; cells],
-            eps: vec![1.0; cells],
-            vd: vec![0.0; cells],
-            vv: vec![[0.0; 3]; cells],
-            slip: vec![0.0; cells],
-            hydro_n: vec![Vector3::zeros(); n],
-            gamma_kg_s: vec![0.0; n],
-            overlaps: vec![Vec::new(); n],
-            worst_balance: 0.0,
-            last_balance: Balance::default(),
-            max_move_seen_cells: 0.0,
             sheet_cells,
-            sheet_force: [0.0; 3],
-            setup,
-        };
-        c.update_porosity()?;
-        Ok(c)
+        })
     }
 
     /// Cell volume (m^3).

@@ -55,9 +55,53 @@ pub fn parse_renamed<T: serde::de::DeserializeOwned>(
     let mut renamed = table.clone();
     rename_old_keys(&mut renamed, origin);
     if renamed == table {
-        toml::from_str(text)
+        toml::from_str(text).map_err(|e| name_the_key(text, e))
     } else {
         toml::Value::Table(renamed).try_into()
+    }
+}
+
+/// A value of the wrong type inside a table that is read as a whole (flattened or tagged
+/// tables) is reported by the TOML reader at the table's header, without the key: this finds
+/// the key in that table whose value is the one the error quotes, and names it with its line.
+/// Any other error is returned as it was.
+pub(crate) fn name_the_key(text: &str, e: toml::de::Error) -> toml::de::Error {
+    let found = (|| {
+        let span = e.span()?;
+        let rest = e.message().strip_prefix("invalid type: ")?;
+        let (what, expected) = rest.split_once(", expected ")?;
+        // as written in the file: "text" for a string, 5 for an integer `5`
+        let literal = match what.strip_prefix("string ") {
+            Some(quoted) => quoted.to_string(),
+            None => what.split('`').nth(1)?.to_string(),
+        };
+        let header = text.get(span.clone())?.trim();
+        let table = header.trim_start_matches('[').trim_end_matches(']');
+        if !header.starts_with('[') {
+            return None;
+        }
+        let first_line = text[..span.start].lines().count();
+        let lines = text.lines().enumerate().skip(first_line + 1);
+        for (k, line) in lines {
+            let code = line.split('#').next().unwrap_or("").trim();
+            if code.starts_with('[') {
+                break;
+            }
+            if let Some((key, value)) = code.split_once('=') {
+                if value.trim() == literal {
+                    return Some(format!(
+                        "line {}: key `{table}.{}` = {literal}: must be {expected}",
+                        k + 1,
+                        key.trim()
+                    ));
+                }
+            }
+        }
+        None
+    })();
+    match found {
+        Some(msg) => <toml::de::Error as serde::de::Error>::custom(msg),
+        None => e,
     }
 }
 

@@ -115,6 +115,7 @@ fn scene_kind(text: &str, origin: &str) -> Result<&'static dyn Scene> {
         path: origin.to_string(),
         msg: format!("not valid TOML: {e}"),
     })?;
+    refuse_non_finite(&value, text, origin)?;
     match value.get("kind") {
         Some(toml::Value::String(s)) => kind_named(s).map_or_else(
             || {
@@ -143,13 +144,92 @@ pub fn run_text(text: &str, origin: &str, out_stem: &str, opts: &RunOptions) -> 
         .out
         .clone()
         .unwrap_or_else(|| default_out_dir(out_stem));
-    scene_kind(text, origin)?.run(text, origin, &out, opts)
+    scene_kind(text, origin)?
+        .run(text, origin, &out, opts)
+        .map_err(|e| naming_origin(e, origin))
+}
+
+/// `e` with the scene's file in front when its message does not name it yet (engine checks
+/// name the key or quantity, the scene adds where it was read).
+fn naming_origin(e: Error, origin: &str) -> Error {
+    match e {
+        Error::InvalidInput(msg) if !msg.contains(origin) => {
+            Error::InvalidInput(format!("{origin}: {msg}"))
+        }
+        e => e,
+    }
+}
+
+/// Refuses a NaN or infinite number anywhere in a scene file, naming its key path and line: no
+/// engine reads a non-finite number as a setting (a bound is left out for its default, or
+/// written as a large finite value), and one that slipped through would poison a run silently.
+fn refuse_non_finite(table: &toml::Table, text: &str, origin: &str) -> Result<()> {
+    fn walk(v: &toml::Value, path: &str, found: &mut Option<(String, f64)>) {
+        if found.is_some() {
+            return;
+        }
+        match v {
+            toml::Value::Float(x) if !x.is_finite() => *found = Some((path.to_string(), *x)),
+            toml::Value::Table(t) => {
+                for (k, v) in t {
+                    let p = if path.is_empty() {
+                        k.clone()
+                    } else {
+                        format!("{path}.{k}")
+                    };
+                    walk(v, &p, found);
+                }
+            }
+            toml::Value::Array(a) => {
+                for (i, v) in a.iter().enumerate() {
+                    walk(v, &format!("{path}[{i}]"), found);
+                }
+            }
+            _ => {}
+        }
+    }
+    let mut found = None;
+    walk(&toml::Value::Table(table.clone()), "", &mut found);
+    let Some((path, x)) = found else {
+        return Ok(());
+    };
+    // the line: the first that assigns a non-finite literal to the key's last name
+    let leaf = path
+        .rsplit('.')
+        .next()
+        .unwrap_or(&path)
+        .split('[')
+        .next()
+        .unwrap_or(&path);
+    let line = text.lines().position(|l| {
+        l.split('#').next().is_some_and(|code| {
+            code.find(leaf).is_some_and(|at| {
+                let rest = code[at + leaf.len()..].trim_start();
+                rest.starts_with('=') && (rest.contains("nan") || rest.contains("inf"))
+            })
+        })
+    });
+    let at = line.map_or(String::new(), |k| format!(" (line {})", k + 1));
+    invalid(format!(
+        "{origin}{at}: key `{path}` = {x}: a scene's numbers must be finite (leave the key out \
+         for its default, or write a finite value)"
+    ))
 }
 
 /// Parses and checks the scene in `text` as [`run_text`] does before it runs, without running
 /// it (each engine's own parse and validation; `porelab sweep plan` checks every job so).
 pub fn check_text(text: &str, origin: &str) -> Result<()> {
-    scene_kind(text, origin)?.check(text, origin)
+    scene_kind(text, origin)?
+        .check(text, origin)
+        .map_err(|e| naming_origin(e, origin))
+}
+
+/// `porelab run --check`: [`check_text`], then one line on stdout saying the scene would start.
+fn check_and_say(text: &str, origin: &str) -> Result<()> {
+    let kind = scene_kind(text, origin)?;
+    check_text(text, origin)?;
+    println!("{origin}: a valid {} scene (checked, not run)", kind.kind());
+    Ok(())
 }
 
 /// `porelab run --show NAME`: prints the built-in scene's TOML to stdout, to start a scene
@@ -262,6 +342,7 @@ pub fn cli_run(
     file: Option<&Path>,
     builtin: Option<&str>,
     list: bool,
+    check_only: bool,
     opts: &RunOptions,
 ) -> Result<()> {
     check_threads(opts.threads)?;
@@ -281,7 +362,11 @@ pub fn cli_run(
                 .file_stem()
                 .map(|s| s.to_string_lossy().into_owned())
                 .unwrap_or_else(|| "scene".into());
-            run_text(&text, &path.display().to_string(), &stem, opts)
+            let origin = path.display().to_string();
+            if check_only {
+                return check_and_say(&text, &origin);
+            }
+            run_text(&text, &origin, &stem, opts)
         }
         (None, Some(name)) => {
             let all = builtins();
@@ -292,7 +377,11 @@ pub fn cli_run(
                     names.join(", ")
                 ));
             };
-            run_text(b.toml, &format!("builtin:{name}"), name, opts)
+            let origin = format!("builtin:{name}");
+            if check_only {
+                return check_and_say(b.toml, &origin);
+            }
+            run_text(b.toml, &origin, name, opts)
         }
         (Some(_), Some(_)) => invalid("give either a scene file or --builtin NAME, not both"),
         (None, None) => invalid("give a scene file, --builtin NAME, or --list"),

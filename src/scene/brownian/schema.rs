@@ -326,10 +326,50 @@ impl Default for VolumeSection {
 /// Parses a Brownian scene (old key spellings renamed, with a note); unknown keys and bad
 /// values are errors naming them.
 pub(super) fn parse(text: &str, origin: &str) -> Result<Scene> {
-    parse_renamed(text, origin).map_err(|e| Error::File {
+    let scene: Scene = parse_renamed(text, origin).map_err(|e| Error::File {
         path: origin.to_string(),
         msg: e.to_string(),
-    })
+    })?;
+    scene.check_positive(origin)?;
+    Ok(scene)
+}
+
+impl Scene {
+    /// Refuses a size, time or count of the file that must be positive, naming its key (the
+    /// engine would meet some of them only deep in a run: a cascade's stage, the capture map).
+    fn check_positive(&self, origin: &str) -> Result<()> {
+        let p = &self.particles;
+        let keys = [
+            ("run.max_step_radii", self.run.max_step_radii),
+            ("particles.region_thickness_m", p.region_thickness_m),
+            ("particles.concentration_g_per_mL", p.concentration_g_per_mL),
+            ("particles.density_g_per_cm3", p.density_g_per_cm3),
+            ("particles.block_distance_m", p.block_distance_m),
+            ("particles.chain_bond_factor", p.chain_bond_factor),
+            ("cylinder.diameter_m", self.cylinder.diameter_m),
+            ("cylinder.aspect_ratio", self.cylinder.aspect_ratio),
+            ("cascade.stage_time_s", self.cascade.stage_time_s),
+            (
+                "capture_volume.force_cutoff_N",
+                self.capture_volume.force_cutoff_N,
+            ),
+            ("capture_volume.margin_m", self.capture_volume.margin_m),
+        ];
+        for (key, v) in keys {
+            if !(v.is_finite() && v > 0.0) {
+                return invalid(format!(
+                    "{origin}: {key} = {v}: must be positive and finite"
+                ));
+            }
+        }
+        let gap = p.region_gap_m;
+        if !(gap.is_finite() && gap >= 0.0) {
+            return invalid(format!(
+                "{origin}: particles.region_gap_m = {gap}: must be finite and not negative"
+            ));
+        }
+        Ok(())
+    }
 }
 
 /// One point of the sweep.
@@ -580,6 +620,13 @@ pub(super) fn prepare(
         .iter()
         .map(|c| scene.experiment(*c))
         .collect::<Result<Vec<_>>>()
+        .and_then(|exps| {
+            // the cylinder's magnet of every point, as the run builds it first
+            for exp in &exps {
+                exp.magnet(crate::brownian::experiment::axis_at_angle(exp.alpha))?;
+            }
+            Ok(exps)
+        })
         .map_err(|e| match e {
             Error::InvalidInput(m) if !m.starts_with(origin) => {
                 Error::InvalidInput(format!("{origin}: {m}"))

@@ -80,7 +80,9 @@ impl super::Scene for Kind {
         Some("dem.seed")
     }
     fn check(&self, text: &str, origin: &str) -> Result<()> {
-        parse_scene(text, origin).map(|_| ())
+        // everything a run checks before it allocates the lattice
+        let scene = parse_scene(text, origin)?;
+        crate::coupled::Coupled::plan(&scene.setup).map(|_| ())
     }
     fn run(&self, text: &str, origin: &str, out: &Path, opts: &RunOptions) -> Result<()> {
         run_scene(text, origin, out, opts)

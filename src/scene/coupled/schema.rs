@@ -137,7 +137,11 @@ pub fn parse_scene(text: &str, origin: &str) -> Result<CoupledScene> {
              table's lattice-Boltzmann flow)"
         ));
     }
-    let rho_f = f.fluid.density_kg_m3.unwrap_or(1000.0);
+    let rho_f = positive(
+        origin,
+        "fluid.density_kg_m3",
+        f.fluid.density_kg_m3.unwrap_or(1000.0),
+    )?;
     let fingerprint = format!("{:016x}", crate::io::fnv1a64(text.as_bytes()));
     let dem = f
         .dem

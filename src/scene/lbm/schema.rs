@@ -9,7 +9,7 @@
 //! keys of the others, every error naming its key (an internally tagged enum would buffer the
 //! keys and lose their names in type errors).
 
-use crate::error::{invalid, Error, Result};
+use crate::error::{invalid, require_positive, Error, Result};
 use crate::io::xyz::{self, Cell, XyzParticle};
 use crate::lbm::driver::SteadyControl;
 use crate::lbm::memory::check_memory;
@@ -280,6 +280,16 @@ fn prepare_flow(
     let length_m = need(c.length_m, "length_m", &name)?;
     if cells < 4 {
         return invalid(format!("cells = {cells}: must be >= 4"));
+    }
+    // the keys named before the lattice units derived from them (dx, nu, rho)
+    for (key, v) in [
+        ("length_m", Some(length_m)),
+        ("nu_m2_s", c.nu_m2_s),
+        ("density_kg_m3", c.density_kg_m3),
+    ] {
+        if let Some(v) = v {
+            require_positive(v, || format!("{key} = {v}"))?;
+        }
     }
     let u = Units::from_tau(
         length_m / cells as f64,

@@ -276,10 +276,12 @@ pub struct PackingScene {
 
 /// Parses a packing scene; `origin` names the source in errors.
 pub fn parse_scene(text: &str, origin: &str) -> Result<PackingScene> {
-    let f: SceneFile = toml::from_str(text).map_err(|e| Error::File {
-        path: origin.to_string(),
-        msg: format!("packing scene: {e}"),
-    })?;
+    let f: SceneFile = toml::from_str(text)
+        .map_err(|e| crate::scene::keys::name_the_key(text, e))
+        .map_err(|e| Error::File {
+            path: origin.to_string(),
+            msg: format!("packing scene: {e}"),
+        })?;
     let bad = |msg: String| invalid::<PackingScene>(format!("{origin}: {msg}"));
     if f.kind != "packing" {
         return bad(format!(
