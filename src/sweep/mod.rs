@@ -25,10 +25,13 @@
 //! DIR/sweep.toml               copy of the sweep file
 //! DIR/manifest.csv             job,point,run,seed,<varied keys>,scene_fnv1a64 (written last)
 //! DIR/jobs/NNNNN/scene.toml    the complete scene of job NNNNN (header: point values, seed)
-//! DIR/jobs/NNNNN/tmp-<pid>/    a job under way (removed when stale)
-//! DIR/jobs/NNNNN/out/          its outputs, renamed from tmp-<pid>/ on success
+//! DIR/jobs/NNNNN/claim.json    the process running the job ([`claim`]; O_EXCL, liveness-checked)
+//! DIR/jobs/NNNNN/work/         a job under way, with its checkpoint (kept until done: resumed)
+//! DIR/jobs/NNNNN/out/          its outputs, renamed from work/ once summary.json is written
 //! DIR/jobs/NNNNN/done.json     written atomically after the rename: the job is finished
 //! DIR/jobs/NNNNN/failed.json   the error of a failed job
+//! DIR/jobs/NNNNN/interrupted.json  a job stopped by a signal: "timed out" or "cancelled (...)"
+//! DIR/slurm/arrays.csv         the arrays `sweep slurm --submit` submitted: id, first job
 //! DIR/collected.csv            `porelab sweep collect`: per point mean, standard error, count
 //! ```
 //!

@@ -183,9 +183,28 @@ pub fn run_job(dir: &Path, plan: &Plan, i: usize, threads: Option<usize>) -> Res
     }
     remove_if_there(&d.join("failed.json"))?;
     remove_if_there(&d.join(INTERRUPTED))?;
+    let work = d.join("work");
+    let checkpoint = work.join("checkpoint.json");
+    if work.join("summary.json").is_file() {
+        if checkpoint.is_file() {
+            // killed after its summary but before its checkpoint was removed: the resumed
+            // scene writes both again; a stale summary must not pass for the end of this one
+            remove_if_there(&work.join("summary.json"))?;
+        } else {
+            // killed after its last output, before the rename
+            std::fs::rename(&work, d.join("out"))?;
+            write_done(&d, plan, i, None)?;
+            return Ok(Outcome::Done(None));
+        }
+    }
     let started = Instant::now();
     let scene_path = d.join("scene.toml");
-    let work = d.join("work");
+    if checkpoint.is_file() {
+        eprintln!(
+            "porelab sweep job {i:05}: resuming from {}",
+            checkpoint.display()
+        );
+    }
     let attempt = || -> Result<()> {
         let text = std::fs::read_to_string(&scene_path).map_err(|e| Error::File {
             path: scene_path.display().to_string(),
