@@ -350,7 +350,7 @@ fn the_slurm_script_lists_only_unfinished_tasks() {
     assert_eq!(
         cmds.trim(),
         format!(
-            "sbatch --array=2-3,5%2 --export=ALL,PORELAB_JOB_BASE=0 {}",
+            "sbatch --array=0-1,3%2 --export=ALL,PORELAB_JOB_BASE=2 {}",
             script.display()
         )
     );
