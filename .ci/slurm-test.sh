@@ -4,6 +4,9 @@
 # `slurmd -C`; no cgroups: proctrack/linuxproc, task/none), starts munged, slurmctld and slurmd,
 # and waits (bounded) until `sinfo` shows the node idle. Needs root.
 #
+# MaxArraySize is small here (PORELAB_SLURM_MAX_ARRAY_SIZE, default 5: array task ids 0-4), so
+# that tests/slurm.rs's 6-job sweep has more jobs than one array may hold and must be split.
+#
 #   .ci/slurm-test.sh          start (or confirm) the cluster; exit 0 when sinfo shows it idle
 #   .ci/slurm-test.sh stop     stop the daemons it started (by their pid files)
 #
@@ -79,6 +82,7 @@ SelectTypeParameters=CR_Core
 SchedulerType=sched/backfill
 ReturnToService=2
 MinJobAge=600
+MaxArraySize=${PORELAB_SLURM_MAX_ARRAY_SIZE:-5}
 StateSaveLocation=$STATE/ctld
 SlurmdSpoolDir=$STATE/d
 SlurmctldPidFile=$PIDS/slurmctld.pid

@@ -3,6 +3,22 @@
 //! and checkpoints the same way from every engine.
 
 use crate::Result;
+use std::sync::atomic::{AtomicBool, Ordering};
+
+/// Set by a signal handler (a sweep job told by Slurm that its time limit is near, or
+/// cancelled): scenes with checkpoints stop at their next check as `stop_requested` does,
+/// writing the checkpoint.
+static STOP_SIGNALLED: AtomicBool = AtomicBool::new(false);
+
+/// Asks every running driver to stop at its next check (async-signal-safe: one atomic store).
+pub fn signal_stop() {
+    STOP_SIGNALLED.store(true, Ordering::SeqCst);
+}
+
+/// True once [`signal_stop`] was called.
+pub fn stop_signalled() -> bool {
+    STOP_SIGNALLED.load(Ordering::SeqCst)
+}
 
 /// The caller's side of a run. Every method has a default that does nothing, so a caller
 /// implements only what it needs; [`NoHooks`] implements none.

@@ -25,13 +25,39 @@ fn run(dir: &Path, jobs: usize) -> std::process::Output {
         .unwrap()
 }
 
-/// What `porelab sweep status DIR` prints.
-fn status(dir: &Path) -> String {
-    ok(porelab().args(["sweep", "status"]).arg(dir)).0
+/// What `porelab sweep status DIR` prints, and its exit code.
+fn status(dir: &Path) -> (String, Option<i32>) {
+    let out = porelab()
+        .args(["sweep", "status"])
+        .arg(dir)
+        .output()
+        .unwrap();
+    (
+        String::from_utf8_lossy(&out.stdout).into_owned(),
+        out.status.code(),
+    )
 }
 
 fn collected(dir: &Path) -> String {
     ok(porelab().args(["sweep", "collect"]).arg(dir));
+    std::fs::read_to_string(dir.join("collected.csv")).unwrap()
+}
+
+/// `collect --partial`: the table of the finished jobs while others are missing; a plain
+/// `collect` must refuse the same set.
+fn collected_partial(dir: &Path) -> String {
+    let plain = porelab()
+        .args(["sweep", "collect"])
+        .arg(dir)
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&plain.stderr);
+    assert_eq!(plain.status.code(), Some(2), "{err}");
+    assert!(
+        err.contains("refused") && err.contains("--partial"),
+        "{err}"
+    );
+    ok(porelab().args(["sweep", "collect", "--partial"]).arg(dir));
     std::fs::read_to_string(dir.join("collected.csv")).unwrap()
 }
 
@@ -150,7 +176,8 @@ fn a_killed_sweep_resumes_to_the_same_table() {
     let (_, dir) = planned("resume");
     assert!(run(&dir, 1).status.success());
     let whole = collected(&dir);
-    // Job 2 killed mid-way: a stale tmp folder with partial output, no out/, no record.
+    // Job 2 killed mid-way by an older porelab: a stale tmp folder with partial output, no
+    // out/, no record.
     std::fs::remove_file(job(&dir, 2).join("done.json")).unwrap();
     std::fs::remove_dir_all(job(&dir, 2).join("out")).unwrap();
     std::fs::create_dir_all(job(&dir, 2).join("tmp-999999")).unwrap();
@@ -161,13 +188,15 @@ fn a_killed_sweep_resumes_to_the_same_table() {
     .unwrap();
     // Job 4 killed between the rename and the record: out/ but no done.json.
     std::fs::remove_file(job(&dir, 4).join("done.json")).unwrap();
-    let st = status(&dir);
+    let (st, code) = status(&dir);
     assert!(
-        st.contains("4 done, 0 failed, 1 started") && st.contains("1 pending"),
+        st.contains("4 done, 0 running, 0 failed, 0 timed out, 0 cancelled, 1 killed, 1 pending")
+            && code == Some(0),
         "{st}"
     );
-    // Collect meanwhile lists both and averages over the rest only.
-    let partial = table(&collected(&dir));
+    // Collect meanwhile refuses the partial set; with --partial it lists both and averages
+    // over the rest only.
+    let partial = table(&collected_partial(&dir));
     assert_eq!(
         (
             partial[0]["runs_done"].as_str(),
@@ -207,12 +236,28 @@ fn a_failing_job_is_recorded_and_the_others_finish() {
     for i in [0, 2, 3, 4, 5] {
         assert!(job(&dir, i).join("done.json").is_file(), "job {i}");
     }
-    let st = status(&dir);
+    let (st, code) = status(&dir);
     assert!(
-        st.contains("5 done, 1 failed") && st.contains("job 00001 failed: "),
+        st.contains("5 done, 0 running, 1 failed") && st.contains("job 00001 failed: "),
         "{st}"
     );
-    let rows = table(&collected(&dir));
+    assert_eq!(code, Some(1), "status exits 1 when a job failed");
+    // Nothing left to submit, but not "every job is finished": exit 1, the failure named.
+    let slurm = porelab()
+        .args(["sweep", "slurm"])
+        .arg(&dir)
+        .args(["--max-array-size", "1001"])
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&slurm.stderr);
+    assert_eq!(slurm.status.code(), Some(1), "{err}");
+    assert!(
+        err.contains("nothing to submit")
+            && err.contains("1 failed")
+            && err.contains("--retry-failed"),
+        "{err}"
+    );
+    let rows = table(&collected_partial(&dir));
     assert_eq!(rows[0]["runs_done"], "2");
     assert_eq!(rows[0]["packing_fraction.n"], "2");
     let missing = std::fs::read_to_string(dir.join("collect-missing.txt")).unwrap();
@@ -230,6 +275,7 @@ fn a_failing_job_is_recorded_and_the_others_finish() {
     assert!(job(&dir, 1).join("done.json").is_file() && !job(&dir, 1).join("failed.json").exists());
     // One job alone, as a Slurm task runs it: exit code 1 on failure.
     std::fs::remove_file(job(&dir, 3).join("done.json")).unwrap();
+    std::fs::remove_dir_all(job(&dir, 3).join("out")).unwrap();
     std::fs::write(job(&dir, 3).join("scene.toml"), "kind = \"packing\"\n").unwrap();
     let one = porelab()
         .args(["sweep", "job"])
@@ -259,25 +305,77 @@ fn the_slurm_script_lists_only_unfinished_tasks() {
             .arg(&dir)
             .arg(i.to_string()));
     }
-    ok(porelab().args(["sweep", "slurm"]).arg(&dir).args([
+    let (cmds, _) = ok(porelab().args(["sweep", "slurm"]).arg(&dir).args([
         "--max-running",
         "2",
         "--partition",
         "short",
         "--time",
         "00:10:00",
+        "--signal-before",
+        "90",
+        "--mem",
+        "4G",
+        "--account",
+        "proj-1",
+        "--qos",
+        "normal",
+        "--gres",
+        "gpu:1",
+        "--requeue",
+        "--max-array-size",
+        "1001",
     ]));
     let s = std::fs::read_to_string(dir.join("sweep.sbatch")).unwrap();
     let abs = std::fs::canonicalize(&dir).unwrap();
     for line in [
-        "#SBATCH --array=2-3,5%2".to_string(),
         format!("#SBATCH --output={}/slurm/%A_%a.out", abs.display()),
         "#SBATCH --partition=short".into(),
         "#SBATCH --time=00:10:00".into(),
-        format!("sweep job '{}' \"$SLURM_ARRAY_TASK_ID\"", abs.display()),
+        "#SBATCH --signal=B:USR1@90".into(),
+        "#SBATCH --mem=4G".into(),
+        "#SBATCH --account=proj-1".into(),
+        "#SBATCH --qos=normal".into(),
+        "#SBATCH --gres=gpu:1".into(),
+        "#SBATCH --requeue".into(),
+        format!(
+            "sweep job '{}' \"$((${{PORELAB_JOB_BASE:-0}} + SLURM_ARRAY_TASK_ID))\" --threads 1 \
+             --requeue",
+            abs.display()
+        ),
     ] {
         assert!(s.contains(&line), "missing {line} in\n{s}");
     }
+    let script = abs.join("sweep.sbatch");
+    assert_eq!(
+        cmds.trim(),
+        format!(
+            "sbatch --array=0-1,3%2 --export=ALL,PORELAB_JOB_BASE=2 {}",
+            script.display()
+        )
+    );
+    // A cluster whose MaxArraySize is 2 (task ids 0 and 1): one array per block of ids.
+    let (cmds, _) = ok(porelab()
+        .args(["sweep", "slurm"])
+        .arg(&dir)
+        .args(["--max-array-size", "2"]));
+    let arrays: Vec<&str> = cmds.lines().collect();
+    assert_eq!(
+        arrays,
+        [
+            format!(
+                "sbatch --array=0-1 --export=ALL,PORELAB_JOB_BASE=2 {}",
+                script.display()
+            ),
+            format!(
+                "sbatch --array=0 --export=ALL,PORELAB_JOB_BASE=5 {}",
+                script.display()
+            ),
+        ]
+    );
+    assert!(!std::fs::read_to_string(&script)
+        .unwrap()
+        .contains("--requeue"));
     let exe = std::fs::canonicalize(env!("CARGO_BIN_EXE_porelab")).unwrap();
     assert!(s.contains(&format!("exec '{}'", exe.display())), "{s}");
     let bad = porelab()
@@ -313,7 +411,7 @@ fn a_point_that_passes_the_plan_but_fails_at_run_time_is_isolated() {
     );
     assert!(job(&dir, 1).join("done.json").is_file());
     assert!(!job(&dir, 0).join("out").exists());
-    let rows = table(&collected(&dir));
+    let rows = table(&collected_partial(&dir));
     assert_eq!(
         (rows[0]["runs_done"].as_str(), rows[1]["runs_done"].as_str()),
         ("0", "1")
@@ -368,4 +466,194 @@ fn a_run_killed_for_real_finishes_on_restart() {
         );
     }
     assert_eq!(collected(&dir), collected(&reference));
+}
+
+/// The claim a process holds on a job folder, as `porelab sweep job` writes it.
+fn claim_of(pid: u32) -> String {
+    let stat = std::fs::read_to_string(format!("/proc/{pid}/stat")).unwrap();
+    let after = &stat[stat.rfind(')').unwrap() + 1..];
+    let start: u64 = after.split_whitespace().nth(19).unwrap().parse().unwrap();
+    let read = |p: &str| std::fs::read_to_string(p).unwrap().trim().to_string();
+    serde_json::json!({
+        "host": read("/proc/sys/kernel/hostname"),
+        "pid": pid,
+        "start_ticks": start,
+        "boot_id": read("/proc/sys/kernel/random/boot_id"),
+        "slurm_job": null,
+    })
+    .to_string()
+}
+
+#[test]
+fn a_job_claimed_by_a_live_process_is_never_run_twice() {
+    let (_, dir) = planned("claims");
+    // Job 0 held by a live process (a sleeping child stands in for a running job).
+    let mut holder = std::process::Command::new("sleep")
+        .arg("60")
+        .spawn()
+        .unwrap();
+    std::fs::write(job(&dir, 0).join("claim.json"), claim_of(holder.id())).unwrap();
+    let (o, e) = ok(porelab().args(["sweep", "job"]).arg(&dir).arg("0"));
+    assert!(
+        e.contains("running in pid") && e.contains("left to it"),
+        "{o}{e}"
+    );
+    assert!(!job(&dir, 0).join("done.json").exists());
+    let (st, _) = status(&dir);
+    assert!(
+        st.contains("1 running") && st.contains("job 00000 running: pid"),
+        "{st}"
+    );
+    // `sweep run` leaves it too, and says the sweep is not complete.
+    let out = run(&dir, 2);
+    assert_eq!(out.status.code(), Some(1));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("5 of 6 jobs to run"));
+    assert!(!job(&dir, 0).join("done.json").exists());
+    // The holder dies: its claim is dead and taken over (the same pid with another start
+    // time, a reused pid, would be dead as well).
+    holder.kill().unwrap();
+    holder.wait().unwrap();
+    let (st, _) = status(&dir);
+    assert!(st.contains("1 killed"), "{st}");
+    assert!(run(&dir, 1).status.success());
+    assert!(
+        !job(&dir, 0).join("claim.json").exists(),
+        "released at the end"
+    );
+
+    // Two runners started together on a fresh sweep: every job runs exactly once, no folder
+    // ends with both records.
+    let (_, reference) = planned("claims-reference");
+    assert!(run(&reference, 1).status.success());
+    let (_, fresh) = planned("claims-race");
+    let spawn = || {
+        porelab()
+            .args(["sweep", "run"])
+            .arg(&fresh)
+            .stderr(std::process::Stdio::piped())
+            .spawn()
+            .unwrap()
+    };
+    let (r1, r2) = (spawn(), spawn());
+    for r in [r1, r2] {
+        let out = r.wait_with_output().unwrap();
+        // One runner may find a job still held by the other at its end: exit 1 is allowed.
+        assert!(matches!(out.status.code(), Some(0 | 1)), "{out:?}");
+    }
+    for i in 0..6 {
+        let d = job(&fresh, i);
+        assert!(d.join("done.json").is_file(), "job {i}");
+        assert!(!d.join("failed.json").exists(), "job {i}");
+        let log = std::fs::read_to_string(d.join("log.txt")).unwrap();
+        assert_eq!(
+            log.matches(": done (").count(),
+            1,
+            "job {i} ran twice:\n{log}"
+        );
+    }
+    assert_eq!(collected(&fresh), collected(&reference));
+}
+
+/// A packing sweep of one job that takes seconds (600 spheres, 10 halvings of Delta V: about
+/// 20 s on a busy 2-core machine), with a checkpoint after its first halving.
+fn slow_sweep(name: &str) -> PathBuf {
+    let root = fresh_dir(name);
+    std::fs::write(root.join("base.toml"), sweep_scene::BASE_SCENE).unwrap();
+    let sweep = root.join("sweep.toml");
+    std::fs::write(
+        &sweep,
+        "scene = \"base.toml\"\ncombine = \"zip\"\n[vary]\n\"particles.n\" = [600]\n\
+         \"mcm.halvings\" = [10]\n",
+    )
+    .unwrap();
+    let dir = root.join("sweep");
+    plan(&sweep, &dir);
+    dir
+}
+
+#[test]
+fn a_stopped_run_ends_its_jobs_which_resume_from_their_checkpoint() {
+    let dir = slow_sweep("sigterm");
+    let reference = slow_sweep("sigterm-reference");
+    assert!(run(&reference, 1).status.success());
+    let runner = porelab()
+        .args(["sweep", "run"])
+        .arg(&dir)
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    // SIGTERM to the runner alone once its first job wrote a checkpoint.
+    let ckpt = job(&dir, 0).join("work").join("checkpoint.json");
+    let started = std::time::Instant::now();
+    while !ckpt.is_file() {
+        assert!(
+            started.elapsed().as_secs() < 120,
+            "no checkpoint within 120 s"
+        );
+        std::thread::sleep(std::time::Duration::from_millis(20));
+    }
+    let claim: serde_json::Value = json(&job(&dir, 0).join("claim.json"));
+    let job_pid = claim["pid"].as_u64().unwrap();
+    ok(std::process::Command::new("kill").args(["-TERM", &runner.id().to_string()]));
+    let out = runner.wait_with_output().unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(128 + 15), "{err}");
+    assert!(err.contains("stopped by SIGTERM"), "{err}");
+    // Its job process is gone, recorded as cancelled, checkpoint kept.
+    assert!(
+        !Path::new(&format!("/proc/{job_pid}")).exists(),
+        "job process {job_pid} still runs"
+    );
+    let rec = json(&job(&dir, 0).join("interrupted.json"));
+    assert_eq!(rec["reason"], "cancelled (SIGTERM)", "{rec}");
+    assert!(ckpt.is_file());
+    assert!(!job(&dir, 0).join("done.json").exists());
+    let (st, _) = status(&dir);
+    assert!(st.contains("1 cancelled"), "{st}");
+    // The next run resumes job 0 from its checkpoint and ends with the uninterrupted table.
+    assert!(run(&dir, 1).status.success());
+    let log = std::fs::read_to_string(job(&dir, 0).join("log.txt")).unwrap();
+    assert!(log.contains("resum"), "job 0 did not resume:\n{log}");
+    assert_eq!(collected(&dir), collected(&reference));
+}
+
+#[test]
+fn collect_refuses_mixed_versions_and_unconverged_runs() {
+    let (_, dir) = planned("mixed");
+    assert!(run(&dir, 1).status.success());
+    let whole = collected(&dir);
+    // Job 1 recorded by another porelab version.
+    let done = job(&dir, 1).join("done.json");
+    let original = std::fs::read_to_string(&done).unwrap();
+    let mut v = json(&done);
+    v["porelab_version"] = "0.0.1".into();
+    std::fs::write(&done, v.to_string()).unwrap();
+    let out = porelab()
+        .args(["sweep", "collect"])
+        .arg(&dir)
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{err}");
+    assert!(
+        err.contains("several porelab versions") && err.contains("0.0.1 (1 jobs)"),
+        "{err}"
+    );
+    ok(porelab().args(["sweep", "collect", "--partial"]).arg(&dir));
+    std::fs::write(&done, original).unwrap();
+    // Job 4 did not converge (its packing did not jam): left out and named.
+    let summary = job(&dir, 4).join("out/summary.json");
+    let mut s = json(&summary);
+    s["jammed"] = false.into();
+    std::fs::write(&summary, s.to_string()).unwrap();
+    let rows = table(&collected_partial(&dir));
+    assert_eq!(rows[1]["runs_done"], "2");
+    let missing = std::fs::read_to_string(dir.join("collect-missing.txt")).unwrap();
+    assert!(
+        missing.contains("job 00004") && missing.contains("unconverged"),
+        "{missing}"
+    );
+    s["jammed"] = true.into();
+    std::fs::write(&summary, s.to_string()).unwrap();
+    assert_eq!(collected(&dir), whole);
 }

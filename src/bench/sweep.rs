@@ -94,7 +94,7 @@ pub fn run(a: &BenchArgs) -> Result<()> {
             )));
         }
         let t = Instant::now();
-        crate::sweep::cli_collect(&dir)?;
+        crate::sweep::cli_collect(&dir, false)?;
         let collect_s = t.elapsed().as_secs_f64();
         let plan = Plan::read(&dir)?;
         let n = plan.jobs.len() as f64;

@@ -3,7 +3,12 @@
 //! names, booleans as 0/1, arrays, strings and nulls left out). Timing-like keys (wall seconds,
 //! thread counts, the version, the seed) are left out, so the table depends only on the
 //! results: the same sweep run on a laptop or on Slurm gives the same bytes. Jobs that are not
-//! done are listed on stderr and in `DIR/collect-missing.txt` and never averaged over.
+//! done are listed on stderr and in `DIR/collect-missing.txt` and never averaged over, and so
+//! are runs that did not converge (a DEM bed stopped by its time limit before settling,
+//! `stop` = "time limit ..."; `converged` or `jammed` false): averaging them with converged
+//! runs would mix two different states. A set with any such job is refused unless `--partial`
+//! ([`Collected::refusal`]), and so is one whose jobs ran different porelab versions or scene
+//! kinds.
 //!
 //! Standard error of the mean: s / sqrt(n) with the sample standard deviation
 //! s^2 = sum (x - mean)^2 / (n - 1); empty for n = 1.
@@ -83,19 +88,42 @@ pub struct Collected {
     pub rows: Vec<PointRow>,
     /// One line per job that is not in the table, with the reason.
     pub missing: Vec<String>,
+    /// The porelab versions and scene kinds of the jobs in the table, with their counts.
+    pub versions: BTreeMap<String, usize>,
+    pub kinds: BTreeMap<String, usize>,
+}
+
+/// Why a finished run did not converge, from its summary: a DEM `stop` other than
+/// "settled ...", `converged` (deposition) or `jammed` (packing) false.
+pub fn unconverged(summary: &serde_json::Value) -> Option<String> {
+    if let Some(stop) = summary["stop"].as_str() {
+        if !stop.starts_with("settled") {
+            return Some(format!("did not settle (stop: {stop})"));
+        }
+    }
+    for key in ["converged", "jammed"] {
+        if summary[key] == serde_json::Value::Bool(false) {
+            return Some(format!("did not converge ({key} = false)"));
+        }
+    }
+    None
+}
+
+/// What a finished job tells about how it ran, beside its numbers.
+struct JobFacts {
+    values: BTreeMap<String, f64>,
+    /// porelab version that ran it ("unknown" for records of versions that did not say).
+    version: String,
+    /// The scene's `kind`.
+    kind: String,
 }
 
 /// The summary of a finished job, or why it is not available.
-fn job_summary(
-    dir: &Path,
-    plan: &Plan,
-    j: usize,
-) -> std::result::Result<BTreeMap<String, f64>, String> {
+fn job_summary(dir: &Path, plan: &Plan, j: usize) -> std::result::Result<JobFacts, String> {
     match job_state(dir, j) {
         JobState::Done => {}
         JobState::Failed(m) => return Err(format!("failed: {m}")),
-        JobState::Started => return Err("started, not finished (running, or killed)".into()),
-        JobState::Pending => return Err("pending".into()),
+        other => return Err(other.name().to_string()),
     }
     let d = job_dir(dir, j);
     let done: serde_json::Value = std::fs::read_to_string(d.join("done.json"))
@@ -114,9 +142,27 @@ fn job_summary(
         .ok()
         .and_then(|t| serde_json::from_str(&t).ok())
         .ok_or_else(|| format!("done, but {} is missing or not JSON", path.display()))?;
-    let mut m = BTreeMap::new();
-    flatten("", &v, &mut m);
-    Ok(m)
+    if let Some(why) = unconverged(&v) {
+        return Err(format!("unconverged: {why}"));
+    }
+    let version = done["porelab_version"]
+        .as_str()
+        .or(v["porelab_version"].as_str())
+        .or(v["version"].as_str())
+        .unwrap_or("unknown")
+        .to_string();
+    let kind = std::fs::read_to_string(d.join("scene.toml"))
+        .ok()
+        .and_then(|t| t.parse::<toml::Table>().ok())
+        .and_then(|t| t.get("kind").and_then(|k| k.as_str()).map(String::from))
+        .unwrap_or_else(|| "unknown".into());
+    let mut values = BTreeMap::new();
+    flatten("", &v, &mut values);
+    Ok(JobFacts {
+        values,
+        version,
+        kind,
+    })
 }
 
 /// Reads every job of the sweep in `dir` and averages per point.
@@ -125,10 +171,15 @@ pub fn collect(dir: &Path) -> Result<Collected> {
     let mut per_point: Vec<Vec<BTreeMap<String, f64>>> = vec![vec![]; plan.points()];
     let mut planned = vec![0usize; plan.points()];
     let mut missing = Vec::new();
+    let (mut versions, mut kinds) = (BTreeMap::new(), BTreeMap::new());
     for j in &plan.jobs {
         planned[j.point] += 1;
         match job_summary(dir, &plan, j.job) {
-            Ok(m) => per_point[j.point].push(m),
+            Ok(f) => {
+                *versions.entry(f.version).or_insert(0) += 1;
+                *kinds.entry(f.kind).or_insert(0) += 1;
+                per_point[j.point].push(f.values)
+            }
             Err(why) => missing.push(format!(
                 "job {:05} (point {}, run {}): {why}",
                 j.job, j.point, j.run
@@ -170,10 +221,44 @@ pub fn collect(dir: &Path) -> Result<Collected> {
         quantities: quantities.into_iter().collect(),
         rows,
         missing,
+        versions,
+        kinds,
     })
 }
 
 impl Collected {
+    /// Why this set must not be published as complete: jobs missing or unconverged, several
+    /// porelab versions, several scene kinds; None when it is whole.
+    pub fn refusal(&self) -> Option<String> {
+        let mut why = Vec::new();
+        if !self.missing.is_empty() {
+            why.push(format!(
+                "{} job(s) not in the table (first: {})",
+                self.missing.len(),
+                self.missing[0]
+            ));
+        }
+        let list = |m: &BTreeMap<String, usize>| {
+            m.iter()
+                .map(|(k, n)| format!("{k} ({n} jobs)"))
+                .collect::<Vec<_>>()
+                .join(", ")
+        };
+        if self.versions.len() > 1 {
+            why.push(format!(
+                "jobs of several porelab versions: {}",
+                list(&self.versions)
+            ));
+        }
+        if self.kinds.len() > 1 {
+            why.push(format!(
+                "jobs of several scene kinds: {}",
+                list(&self.kinds)
+            ));
+        }
+        (!why.is_empty()).then(|| why.join("; "))
+    }
+
     /// The table as CSV: point, the varied keys, runs planned and done, then for every
     /// quantity its mean, standard error and count (`Q.mean`, `Q.sem`, `Q.n`).
     pub fn csv(&self) -> String {

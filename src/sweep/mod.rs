@@ -25,10 +25,13 @@
 //! DIR/sweep.toml               copy of the sweep file
 //! DIR/manifest.csv             job,point,run,seed,<varied keys>,scene_fnv1a64 (written last)
 //! DIR/jobs/NNNNN/scene.toml    the complete scene of job NNNNN (header: point values, seed)
-//! DIR/jobs/NNNNN/tmp-<pid>/    a job under way (removed when stale)
-//! DIR/jobs/NNNNN/out/          its outputs, renamed from tmp-<pid>/ on success
+//! DIR/jobs/NNNNN/claim.json    the process running the job ([`claim`]; O_EXCL, liveness-checked)
+//! DIR/jobs/NNNNN/work/         a job under way, with its checkpoint (kept until done: resumed)
+//! DIR/jobs/NNNNN/out/          its outputs, renamed from work/ once summary.json is written
 //! DIR/jobs/NNNNN/done.json     written atomically after the rename: the job is finished
 //! DIR/jobs/NNNNN/failed.json   the error of a failed job
+//! DIR/jobs/NNNNN/interrupted.json  a job stopped by a signal: "timed out" or "cancelled (...)"
+//! DIR/slurm/arrays.csv         the arrays `sweep slurm --submit` submitted: id, first job
 //! DIR/collected.csv            `porelab sweep collect`: per point mean, standard error, count
 //! ```
 //!
@@ -36,6 +39,7 @@
 //! same file, and the collected table depends only on the jobs' results.
 
 pub mod builtin;
+pub mod claim;
 pub mod collect;
 pub mod plan;
 pub mod plots;
@@ -176,13 +180,47 @@ impl Plan {
 /// Where a job stands, read from its folder.
 #[derive(Debug, Clone, PartialEq)]
 pub enum JobState {
-    /// `done.json` present.
+    /// `done.json` present (written only beside a complete `out/` with its `summary.json`).
     Done,
+    /// A live claim (`claim.json`): running now, in the process it names.
+    Running(String),
     /// `failed.json` present: its message.
     Failed(String),
-    /// A `tmp-*` folder and neither record: running now, or killed (the next run cleans it).
-    Started,
+    /// `interrupted.json` with reason "timed out": stopped at (or warned of) its time limit;
+    /// the next attempt resumes from the checkpoint in `work/`.
+    TimedOut,
+    /// `interrupted.json` with another reason (cancelled, stopped by a signal): its text.
+    Cancelled(String),
+    /// A `work/` folder (or a dead claim) and no record: its process was killed (SIGKILL, a
+    /// node lost); the next attempt resumes from the checkpoint in `work/`.
+    Killed,
     Pending,
+}
+
+impl JobState {
+    /// The state's name as `sweep status` prints it.
+    pub fn name(&self) -> &'static str {
+        match self {
+            JobState::Done => "done",
+            JobState::Running(_) => "running",
+            JobState::Failed(_) => "failed",
+            JobState::TimedOut => "timed out",
+            JobState::Cancelled(_) => "cancelled",
+            JobState::Killed => "killed",
+            JobState::Pending => "pending",
+        }
+    }
+}
+
+/// The `error` (failed.json) or `reason` (interrupted.json) of a job record, or its text.
+fn record_field(path: &Path, field: &str) -> Option<String> {
+    let text = std::fs::read_to_string(path).ok()?;
+    Some(
+        serde_json::from_str::<serde_json::Value>(&text)
+            .ok()
+            .and_then(|v| v[field].as_str().map(String::from))
+            .unwrap_or(text),
+    )
 }
 
 /// The state of job `job` of the sweep in `dir`.
@@ -191,34 +229,45 @@ pub fn job_state(dir: &Path, job: usize) -> JobState {
     if d.join("done.json").is_file() {
         return JobState::Done;
     }
-    if let Ok(text) = std::fs::read_to_string(d.join("failed.json")) {
-        let msg = serde_json::from_str::<serde_json::Value>(&text)
-            .ok()
-            .and_then(|v| v["error"].as_str().map(String::from))
-            .unwrap_or(text);
+    if let Some(o) = claim::live_holder(&d) {
+        return JobState::Running(o.describe());
+    }
+    if let Some(msg) = record_field(&d.join("failed.json"), "error") {
         return JobState::Failed(msg);
+    }
+    if let Some(reason) = record_field(&d.join(run::INTERRUPTED), "reason") {
+        return if reason == run::TIMED_OUT {
+            JobState::TimedOut
+        } else {
+            JobState::Cancelled(reason)
+        };
     }
     let started = std::fs::read_dir(&d)
         .into_iter()
         .flatten()
         .flatten()
-        .any(|e| e.file_name().to_string_lossy().starts_with("tmp-"));
+        .any(|e| {
+            let name = e.file_name().to_string_lossy().into_owned();
+            name == "work" || name == claim::CLAIM || name.starts_with("tmp-")
+        });
     if started {
-        JobState::Started
+        JobState::Killed
     } else {
         JobState::Pending
     }
 }
 
-/// The jobs still to run: not done, and not failed unless `retry_failed`.
+/// The jobs still to run: not done, not running, and not failed unless `retry_failed`.
 pub fn unfinished(dir: &Path, plan: &Plan, retry_failed: bool) -> Vec<usize> {
     plan.jobs
         .iter()
         .map(|j| j.job)
         .filter(|&j| match job_state(dir, j) {
-            JobState::Done => false,
+            JobState::Done | JobState::Running(_) => false,
             JobState::Failed(_) => retry_failed,
-            JobState::Started | JobState::Pending => true,
+            JobState::TimedOut | JobState::Cancelled(_) | JobState::Killed | JobState::Pending => {
+                true
+            }
         })
         .collect()
 }
@@ -254,20 +303,33 @@ pub enum SweepAction {
         #[arg(long)]
         retry_failed: bool,
     },
-    /// Run exactly one job (what a Slurm array task calls); exit code 0 done, 1 failed.
+    /// Run exactly one job (what a Slurm array task calls); exit code 0 done (or running in
+    /// another live process), 1 failed, 128 + signal when stopped by SIGTERM, SIGINT or SIGUSR1
+    /// (checkpoint written; the next attempt resumes).
     Job {
         dir: PathBuf,
         index: usize,
         #[arg(long)]
         threads: Option<usize>,
+        /// Under Slurm: a job stopped at its time limit requeues its array task.
+        #[arg(long)]
+        requeue: bool,
     },
-    /// Write DIR/sweep.sbatch, a Slurm job array of the unfinished jobs; --submit sends it.
+    /// Write DIR/sweep.sbatch for Slurm job arrays of the jobs still to run (split at the
+    /// cluster's MaxArraySize); --submit sends them.
     Slurm(slurm::SlurmArgs),
-    /// Counts of done, failed, started and pending jobs, with the failed jobs' messages.
+    /// Counts of done, running, failed, timed-out, cancelled, killed and pending jobs, with
+    /// the failed jobs' messages; exit code 1 when any failed.
     Status { dir: PathBuf },
     /// Per point mean, standard error and count of every numeric scalar of the jobs'
-    /// summary.json: DIR/collected.csv and DIR/plots/*.svg.
-    Collect { dir: PathBuf },
+    /// summary.json: DIR/collected.csv and DIR/plots/*.svg. Refuses a partial set, jobs of
+    /// another porelab version or of another scene kind, unless --partial.
+    Collect {
+        dir: PathBuf,
+        /// Write the table of the finished, converged jobs even when others are missing.
+        #[arg(long)]
+        partial: bool,
+    },
     /// A built-in sweep that redraws a seed figure: plan, run and collect in one command
     /// (again to resume); --list names them.
     Figure(builtin::FigureArgs),
@@ -287,10 +349,11 @@ pub fn cli(args: &SweepArgs) -> Result<ExitCode> {
             dir,
             index,
             threads,
-        } => run::cli_job(dir, *index, *threads),
-        SweepAction::Slurm(a) => slurm::cli_slurm(a).map(|_| ExitCode::SUCCESS),
-        SweepAction::Status { dir } => status::cli_status(dir).map(|_| ExitCode::SUCCESS),
-        SweepAction::Collect { dir } => cli_collect(dir).map(|_| ExitCode::SUCCESS),
+            requeue,
+        } => run::cli_job(dir, *index, *threads, *requeue),
+        SweepAction::Slurm(a) => slurm::cli_slurm(a),
+        SweepAction::Status { dir } => status::cli_status(dir),
+        SweepAction::Collect { dir, partial } => cli_collect(dir, *partial),
         SweepAction::Figure(a) => builtin::cli_figure(a),
     }
 }
@@ -303,24 +366,17 @@ fn at_least_one(value: usize, option: &str) -> Result<()> {
     Ok(())
 }
 
-/// `porelab sweep collect DIR`: writes `collected.csv`, `collect-missing.txt` and the plots.
-pub fn cli_collect(dir: &Path) -> Result<()> {
+/// `porelab sweep collect DIR`: writes `collect-missing.txt`, then `collected.csv` and the
+/// plots, unless the set is partial, mixed-version or mixed-kind ([`collect::Collected::refusal`])
+/// and `partial` is false; then it returns the refusal as an error.
+pub fn cli_collect(dir: &Path, partial: bool) -> Result<ExitCode> {
     let c = collect::collect(dir)?;
-    write_atomic(&dir.join("collected.csv"), c.csv().as_bytes())?;
     let mut missing = String::new();
     for m in &c.missing {
         missing += m;
         missing.push('\n');
     }
     write_atomic(&dir.join("collect-missing.txt"), missing.as_bytes())?;
-    let plots = plots::write_plots(dir, &c)?;
-    eprintln!(
-        "porelab sweep collect: {} points, {} quantities -> {}; {plots} plots in {}",
-        c.rows.len(),
-        c.quantities.len(),
-        dir.join("collected.csv").display(),
-        dir.join("plots").display()
-    );
     if !c.missing.is_empty() {
         eprintln!(
             "  {} job(s) not in the table (also in {}):",
@@ -331,7 +387,25 @@ pub fn cli_collect(dir: &Path) -> Result<()> {
             eprintln!("  {m}");
         }
     }
-    Ok(())
+    let refusal = c.refusal();
+    if let (Some(why), false) = (&refusal, partial) {
+        return Err(Error::Validation(format!(
+            "porelab sweep collect {}: refused: {why}; --partial writes the table of the \
+             finished, converged jobs anyway",
+            dir.display()
+        )));
+    }
+    write_atomic(&dir.join("collected.csv"), c.csv().as_bytes())?;
+    let plots = plots::write_plots(dir, &c)?;
+    eprintln!(
+        "porelab sweep collect: {} points, {} quantities -> {}; {plots} plots in {}{}",
+        c.rows.len(),
+        c.quantities.len(),
+        dir.join("collected.csv").display(),
+        dir.join("plots").display(),
+        if refusal.is_some() { " (partial)" } else { "" }
+    );
+    Ok(ExitCode::SUCCESS)
 }
 
 #[cfg(test)]

@@ -274,6 +274,6 @@ impl Hooks<Coupled> for SceneHooks<'_> {
     }
 
     fn stop_requested(&mut self, c: &Coupled) -> bool {
-        self.stop_after.is_some_and(|s| c.steps >= s)
+        self.stop_after.is_some_and(|s| c.steps >= s) || crate::driver::stop_signalled()
     }
 }

@@ -153,7 +153,7 @@ impl<'a> Hooks<Check<'a>> for SceneHooks<'_> {
     }
 
     fn stop_requested(&mut self, _: &Check<'a>) -> bool {
-        self.max_checks.is_some_and(|m| self.checks_here >= m)
+        self.max_checks.is_some_and(|m| self.checks_here >= m) || crate::driver::stop_signalled()
     }
 }
 

@@ -167,7 +167,8 @@ impl<'a> SceneHooks<'a> {
 impl Hooks<Mcm> for SceneHooks<'_> {
     /// The stop of the tests, after `max_new_steps` steps.
     fn stop_requested(&mut self, _: &Mcm) -> bool {
-        self.stopping |= self.max_new_steps.is_some_and(|m| self.new_steps >= m);
+        self.stopping |= self.max_new_steps.is_some_and(|m| self.new_steps >= m)
+            || crate::driver::stop_signalled();
         self.stopping
     }
 
