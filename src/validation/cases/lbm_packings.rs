@@ -236,3 +236,101 @@ pub fn case_921_922(ctx: &CaseContext) -> Result<Vec<Row>> {
     }
     Ok(rows)
 }
+
+register!("820" => case_820);
+/// Case 820: the built-in 1000-sphere packing (the configuration file of expected.csv's
+/// `packing` column, read as `porelab permeability` reads it) climbed by the resolution ladder
+/// twice, with curved walls (CLI) and with staircase walls, each extrapolated on its own. Rows:
+/// the two answers meet within the sum of their stated errors (got: the relative difference,
+/// its tolerance rtol x scale = that sum), and each answer's Kozeny constant (eq. 7.4, nu =
+/// V/S = D/6, particle phi) against `c_kc`.
+pub fn case_820(ctx: &CaseContext) -> Result<Vec<Row>> {
+    use crate::lbm::ladder::{climb, rung_control, LadderOptions};
+    use crate::lbm::WallRule;
+    let t = ctx.expected_table()?;
+    let path = ctx.resolve(t.str(0, "packing")?);
+    let text = std::fs::read_to_string(&path)
+        .map_err(|e| Error::Validation(format!("case 820: cannot read {}: {e}", path.display())))?;
+    let (cell, parts) = crate::io::xyz::parse(&text, &path.display().to_string())?;
+    let trt = CollisionModel::new(CollisionKind::Trt, Tau::new(t.f64(0, "tau")?)?);
+    let pore = PoreOptions::new(
+        LatticeKind::D3Q19,
+        trt,
+        (t.f64(0, "force_lattice")?, "force_lattice"),
+        rung_control(500_000),
+    )?;
+    let start = t.f64(0, "start")? as usize;
+    let mut answers = Vec::new();
+    for walls in [WallRule::Interpolated, WallRule::Staircase] {
+        let o = LadderOptions {
+            pore: pore.with_walls(walls),
+            start,
+            max_resolution: t.f64(0, "max_resolution")? as usize,
+            rtol: t.f64(0, "rtol_ladder")?,
+        };
+        let clock = std::time::Instant::now();
+        let l = climb(
+            &cell,
+            &parts,
+            &o,
+            |_| Box::new(NoHooks),
+            |r| {
+                eprintln!(
+                    "820 {} n={}: k/D^2 {:.5e} ({} steps, {:.1} s){}",
+                    walls.name(),
+                    r.cells,
+                    r.result.k,
+                    r.result.run.steps,
+                    r.seconds,
+                    r.k_extrapolated.map_or(String::new(), |(k, se)| format!(
+                        ", extrapolated {k:.5e} +- {se:.1e}"
+                    ))
+                )
+            },
+        )?;
+        eprintln!(
+            "820 {}: k/D^2 = {:.5e} +- {:.2} %, observed order {:?}, converged {}, {:.0} s",
+            walls.name(),
+            l.k,
+            100.0 * l.k_error / l.k,
+            l.observed_order,
+            l.converged,
+            clock.elapsed().as_secs_f64()
+        );
+        if !l.converged {
+            return Err(Error::Validation(format!(
+                "case 820: the {} ladder did not converge to {} by {} cells",
+                walls.name(),
+                o.rtol,
+                o.max_resolution
+            )));
+        }
+        let vs = l.finest.v_over_s.unwrap_or(f64::NAN);
+        answers.push((
+            walls,
+            l.k,
+            l.k_error,
+            kozeny_constant(l.k, l.finest.phi_particles, vs),
+        ));
+    }
+    let (kc, ks) = (answers[0].1, answers[1].1);
+    let combined = (answers[0].2 + answers[1].2) / ks;
+    let rtol = t.f64(0, "rtol")?;
+    let mut rows = vec![Row::new(
+        format!("k curved / k staircase - 1 within the combined error {combined:.2e}"),
+        kc / ks - 1.0,
+        0.0,
+        combined / rtol,
+    )];
+    let want = t.f64(0, "c_kc")?;
+    for (walls, k, _, c) in answers {
+        eprintln!("820 {}: C_KC {c:.3} (k/D^2 {k:.5e})", walls.name());
+        rows.push(Row::new(
+            format!("{} walls C_KC (nu = V/S)", walls.name()),
+            c,
+            want,
+            want,
+        ));
+    }
+    Ok(rows)
+}
