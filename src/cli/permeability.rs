@@ -70,7 +70,7 @@ pub struct PermeabilityArgs {
     pub tau: f64,
     /// How the fluid meets the particles: "interpolated" (curved walls: each lattice link's
     /// wall where the particle surface cuts it, Ginzburg's central linear interpolation) or
-    /// "staircase" (halfway bounce-back on the voxels' faces) [interpolated].
+    /// "staircase" (halfway bounce-back on the voxels' faces) [staircase].
     #[arg(long)]
     pub walls: Option<String>,
     /// Body force in lattice units (small: Re << 1).
