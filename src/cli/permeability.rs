@@ -12,10 +12,12 @@ use crate::io::{write_atomic, xyz};
 use crate::lbm::ladder::{climb, rung_control, Ladder, LadderOptions, Rung, ORDER, RATIO};
 use crate::lbm::pore::{
     darcy_linearity, kozeny_constant, pore_permeability, report, setup_line, write_fields_vtk,
-    PoreOptions, DARCY_LINEARITY_TOL,
+    PoreOptions, DARCY_LINEARITY_TOL, DEFAULT_WALLS,
 };
 use crate::lbm::voxels::voxelise;
-use crate::lbm::{CollisionKind, CollisionModel, LatticeKind, SteadyBar, SteadyControl, Tau};
+use crate::lbm::{
+    CollisionKind, CollisionModel, LatticeKind, SteadyBar, SteadyControl, Tau, WallRule,
+};
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
@@ -66,6 +68,11 @@ pub struct PermeabilityArgs {
     /// Relaxation time.
     #[arg(long, default_value_t = 1.0, allow_hyphen_values = true)]
     pub tau: f64,
+    /// How the fluid meets the particles: "interpolated" (curved walls: each lattice link's
+    /// wall where the particle surface cuts it, Ginzburg's central linear interpolation) or
+    /// "staircase" (halfway bounce-back on the voxels' faces) [staircase].
+    #[arg(long)]
+    pub walls: Option<String>,
     /// Body force in lattice units (small: Re << 1).
     #[arg(long, default_value_t = 1e-6, allow_hyphen_values = true)]
     pub force: f64,
@@ -96,7 +103,11 @@ pub fn run_permeability(a: &PermeabilityArgs) -> Result<ExitCode> {
     if !(a.tol.is_finite() && a.tol > 0.0) {
         return invalid(format!("--tol {}: must be positive and finite", a.tol));
     }
-    let o = PoreOptions::new(lattice, collision, (a.force, "--force"), ctl)?;
+    let walls = a
+        .walls
+        .as_deref()
+        .map_or(Ok(DEFAULT_WALLS), |w| WallRule::parse(w, "--walls"))?;
+    let o = PoreOptions::new(lattice, collision, (a.force, "--force"), ctl)?.with_walls(walls);
     // the options checked, the file read: the resolution checked against the smallest
     // particle, the one asked for or the ladder's finest (its coarse rungs may leave particles
     // unresolved: the fit uses the last three)

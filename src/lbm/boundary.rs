@@ -20,7 +20,7 @@
 use super::collision::{equilibrium, relax_cell, Collision};
 use super::forcing::Forcing;
 use super::geometry::{Dims, Geometry};
-use super::lattice::{density_momentum, opposite, Lattice};
+use super::lattice::{density_momentum, Lattice};
 use super::memory::Layout;
 use crate::error::{invalid, Result};
 
@@ -293,10 +293,10 @@ impl Boundaries {
             let c = L::C[q];
             *v = src[idx(d.shifted(p, [-c[0], -c[1], -c[2]]), q)];
         }
+        let row = layout.index(p[2], 0, p[1], 0);
         for l in geom.links(p[2] * d.ny + p[1]) {
             if l.x as usize == p[0] {
-                let q = l.q as usize;
-                pop.as_mut()[q] = src[idx(p, opposite(q))] + l.delta;
+                pop.as_mut()[l.q as usize] = l.value(src, row, layout.q_stride);
             }
         }
         pop

@@ -106,11 +106,16 @@ fn with_lattice<L: Lattice>(setup: Setup) -> Result<Box<dyn Kernel>> {
     } = setup;
     initial.check(domain.dims().cells())?;
     let (dims, solid, wall_velocity, walls) = domain.into_parts();
-    let geometry = match walls {
-        Walls::Halfway => Geometry::new::<L>(dims, solid, |c| {
-            wall_velocity.as_ref().map_or([0.0; 3], |v| v[c])
-        })?,
+    let fractions = match &walls {
+        Walls::Halfway => None,
+        Walls::Interpolated(f) => Some(f),
     };
+    let geometry = Geometry::with_walls::<L>(
+        dims,
+        solid,
+        |c| wall_velocity.as_ref().map_or([0.0; 3], |v| v[c]),
+        fractions,
+    )?;
     let planes = boundaries
         .iter()
         .map(|p| plane(&geometry, p))

@@ -3,6 +3,8 @@
 //! square array of cylinders.
 
 use super::geometry::Dims;
+use super::walls::{sphere_crossing, WallFractions};
+use crate::error::Result;
 
 /// Solid mask of a plane channel: walls are the rows y = 0 and y = ny - 1 (all x, z); with
 /// halfway bounce-back the walls sit at y = 1/2 and y = ny - 3/2, width H = ny - 2.
@@ -63,6 +65,50 @@ pub fn sphere_array_mask(n: usize, radius: f64) -> Vec<bool> {
             r2 < radius * radius
         })
         .collect()
+}
+
+/// The first crossing of the link from cell centre `a` along `c` (cell units) with any of the
+/// 27 periodic images (period `n` in x and y, and in z unless `flat`) of the ball of radius
+/// `radius` about `centre`; `flat`: the disc in the xy-plane (a cylinder along z).
+fn array_crossing(
+    a: [f64; 3],
+    c: [i32; 3],
+    (centre, radius, n, flat): ([f64; 3], f64, f64, bool),
+) -> Option<f64> {
+    let keep = |v: [f64; 3]| if flat { [v[0], v[1], 0.0] } else { v };
+    let d = keep(c.map(|v| v as f64));
+    let mut best: Option<f64> = None;
+    for s in 0..27 {
+        let shift = [s % 3, (s / 3) % 3, s / 9].map(|k| (k as f64 - 1.0) * n);
+        if flat && shift[2] != 0.0 {
+            continue;
+        }
+        let image = keep([0, 1, 2].map(|k| centre[k] + shift[k]));
+        if let Some(t) = sphere_crossing(keep(a), d, image, radius) {
+            best = Some(best.map_or(t, |b: f64| b.min(t)));
+        }
+    }
+    best
+}
+
+/// Wall fractions of [`sphere_array_mask`]: each link's first crossing with the sphere (or a
+/// periodic image), exact.
+pub fn sphere_array_fractions(n: usize, radius: f64) -> Result<WallFractions> {
+    let d = Dims::new(n, n, n)?;
+    let c = 0.5 * n as f64;
+    WallFractions::from_crossings(d, &sphere_array_mask(n, radius), |a, dir| {
+        array_crossing(a, dir, ([c; 3], radius, n as f64, false))
+    })
+}
+
+/// Wall fractions of [`cylinder_array_mask`]: each link's first crossing with the cylinder (or
+/// a periodic image), exact.
+pub fn cylinder_array_fractions(n: usize, nz: usize, radius: f64) -> Result<WallFractions> {
+    let d = Dims::new(n, n, nz)?;
+    let c = 0.5 * n as f64;
+    WallFractions::from_crossings(d, &cylinder_array_mask(n, nz, radius), |a, dir| {
+        array_crossing(a, dir, ([c, c, 0.0], radius, n as f64, true))
+    })
 }
 
 /// Solid mask of one cylinder of radius `radius` (cells), axis along z, centred in the periodic

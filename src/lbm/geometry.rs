@@ -4,6 +4,8 @@
 //! (fluid cell, direction q) whose upstream neighbour x - c_q is solid.
 
 use super::lattice::{opposite, Lattice};
+use super::memory::Layout;
+use super::walls::{cli_kappa, WallFractions};
 use crate::error::{invalid, Result};
 
 /// Lattice extent (cells along x, y, z); all boundaries are periodic unless a solid mask
@@ -59,13 +61,32 @@ impl Dims {
     }
 }
 
-/// One halfway bounce-back link: population q of fluid cell x (in its row) comes back from
-/// its own opposite, plus `delta` = 6 w_q rho_0 c_q . u_wall for a moving wall (Ladd 1994).
+/// One bounce-back link: population q of fluid cell x (in its row) comes back from its own
+/// opposite, plus `delta` = 6 w_q rho_0 c_q . u_wall for a moving wall (Ladd 1994); on a
+/// curved wall (CLI, [`super::walls`]) plus `kappa` [f*_opp(q)(x + c_q) - f*_q(x)], the first
+/// read at `far` in the population array. kappa = 0: halfway bounce-back.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Link {
     pub x: u32,
     pub q: u8,
     pub delta: f64,
+    pub kappa: f64,
+    pub far: usize,
+}
+
+impl Link {
+    /// The population this link gives its cell, read from the post-collision array `src`
+    /// whose row (y, z) starts at `row` (population 0) with populations `q_stride` apart.
+    #[inline(always)]
+    pub fn value(&self, src: &[f64], row: usize, q_stride: usize) -> f64 {
+        let (x, q) = (self.x as usize, self.q as usize);
+        let v = src[row + opposite(q) * q_stride + x] + self.delta;
+        if self.kappa == 0.0 {
+            v
+        } else {
+            v + self.kappa * (src[self.far] - src[row + q * q_stride + x])
+        }
+    }
 }
 
 /// Solid mask with its fluid runs and bounce-back links for lattice `L`.
@@ -94,6 +115,18 @@ impl Geometry {
         solid: Vec<bool>,
         wall_velocity: impl Fn(usize) -> [f64; 3],
     ) -> Result<Geometry> {
+        Geometry::with_walls::<L>(dims, solid, wall_velocity, None)
+    }
+
+    /// [`Geometry::new`] with curved walls where `fractions` is given: each link whose wall
+    /// fraction is known and whose second node x + c_q is fluid interpolates (CLI,
+    /// [`super::walls`]); the others stay halfway bounce-back.
+    pub fn with_walls<L: Lattice>(
+        dims: Dims,
+        solid: Vec<bool>,
+        wall_velocity: impl Fn(usize) -> [f64; 3],
+        fractions: Option<&WallFractions>,
+    ) -> Result<Geometry> {
         if solid.len() != dims.cells() {
             return invalid(format!(
                 "solid mask has {} cells, the lattice {}",
@@ -102,6 +135,7 @@ impl Geometry {
             ));
         }
         let rows = dims.ny * dims.nz;
+        let layout = Layout::new(&dims, L::Q);
         let mut run_start = Vec::with_capacity(rows + 1);
         let mut runs = Vec::new();
         let mut link_start = Vec::with_capacity(rows + 1);
@@ -136,10 +170,22 @@ impl Geometry {
                             let uw = wall_velocity(up_cell);
                             let cu =
                                 c[0] as f64 * uw[0] + c[1] as f64 * uw[1] + c[2] as f64 * uw[2];
+                            let cell = dims.cell(x, y, z);
+                            let second = dims.shifted([x, y, z], c);
+                            let (mut kappa, mut far) = (0.0, 0);
+                            if let Some(wq) = fractions
+                                .and_then(|f| f.get(cell, [-c[0], -c[1], -c[2]]))
+                                .filter(|_| !solid[dims.cell(second[0], second[1], second[2])])
+                            {
+                                kappa = cli_kappa(wq);
+                                far = layout.index(second[2], opposite(q), second[1], second[0]);
+                            }
                             links.push(Link {
                                 x: x as u32,
                                 q: q as u8,
                                 delta: 6.0 * L::W[q] * cu,
+                                kappa,
+                                far,
                             });
                         }
                     }
@@ -180,6 +226,10 @@ impl Geometry {
     }
     pub fn link_count(&self) -> usize {
         self.links.len()
+    }
+    /// Links that interpolate (CLI) rather than bounce back halfway.
+    pub fn interpolated_links(&self) -> usize {
+        self.links.iter().filter(|l| l.kappa != 0.0).count()
     }
     /// Whether a fluid cluster joined along the links of lattice `L` wraps round the periodic
     /// box along `axis` ([`percolates`]).

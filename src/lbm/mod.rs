@@ -36,6 +36,7 @@ pub mod solver;
 mod tests;
 pub mod units;
 pub mod voxels;
+pub mod walls;
 
 pub use collision::{Bgk, Collision, Trt};
 pub use driver::{run_steady, Steady, SteadyBar, SteadyControl};
@@ -45,6 +46,6 @@ pub use geometry::{Dims, Geometry};
 pub use lattice::{Lattice, D3Q15, D3Q19};
 pub use setup::{
     Accel, CollisionKind, CollisionModel, Domain, ForcingModel, Initial, LatticeKind, Medium,
-    PlaneCondition, PlaneSpec, PlaneVelocity, Setup, Tau, Walls,
+    PlaneCondition, PlaneSpec, PlaneVelocity, Setup, Tau, WallRule, Walls,
 };
 pub use solver::{Fields, Record, Solver};

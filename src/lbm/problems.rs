@@ -100,6 +100,9 @@ pub struct Permeability {
     pub residual: f64,
     pub converged: bool,
     pub steady: Steady,
+    /// Relative change of the total mass over the run (rounding only for halfway
+    /// bounce-back; curved walls, CLI, do not conserve mass exactly).
+    pub mass_change: f64,
 }
 
 /// Runs `domain` under body force `g` (lattice units) along x to steady state. Refuses a
@@ -127,7 +130,9 @@ pub fn permeability(
     let body = ForcingModel::Body(Accel::along_x(g)?);
     let mut lbm = Lbm::new(Setup::new(lattice, collision, domain).with_forcing(body))?;
     let nu = lbm.nu();
+    let mass0 = lbm.mass();
     let st = run_steady(&mut lbm, ctl, hooks)?;
+    let mass_change = lbm.mass() / mass0 - 1.0;
     Ok(Permeability {
         k: nu * st.mean_u[0] / g,
         nu,
@@ -138,6 +143,7 @@ pub fn permeability(
         residual: st.residual,
         converged: st.converged,
         steady: st,
+        mass_change,
     })
 }
 

@@ -14,6 +14,7 @@ use super::forcing::{check_permeability, check_porosity, BodyForce, Porous, Unfo
 use super::geometry::{percolates, Dims};
 use super::lattice::{Lattice, D3Q15, D3Q19};
 use super::units::{check_tau, nu_from_tau};
+use super::walls::WallFractions;
 use crate::error::{invalid, Error, Result};
 
 /// The velocity set.
@@ -225,14 +226,55 @@ impl ForcingModel {
     }
 }
 
-/// How fluid meets the solid cells of a [`Domain`]. One rule now; interpolated (curved) walls
-/// that place each link's wall at its own distance join as further variants.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+/// How fluid meets the solid cells of a [`Domain`].
+#[derive(Debug, Clone, PartialEq)]
 pub enum Walls {
     /// Halfway bounce-back: each fluid-solid link reflects midway between the two nodes (the
     /// walls are the solid cells' faces), with Ladd's (1994) term for a moving solid (seed 002
     /// ref. 12).
     Halfway,
+    /// Curved walls: each link's wall at its own fraction q of the link (Ginzburg's central
+    /// linear interpolation, [`super::walls`]); links without a fraction, or whose second
+    /// fluid node is solid, bounce back halfway. Resting walls only.
+    Interpolated(WallFractions),
+}
+
+/// Which wall rule a pore-resolving run asks for (the input's word for [`Walls`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum WallRule {
+    /// Halfway bounce-back on the voxels' faces.
+    Staircase,
+    /// Each link's wall where the particle surface cuts it (CLI).
+    Interpolated,
+}
+
+impl WallRule {
+    /// "staircase" or "interpolated" (any case); `key` names the input in the message.
+    pub fn parse(s: &str, key: &str) -> Result<WallRule> {
+        match s.to_ascii_lowercase().as_str() {
+            "staircase" => Ok(WallRule::Staircase),
+            "interpolated" => Ok(WallRule::Interpolated),
+            _ => invalid(format!(
+                "{key} = \"{s}\": must be \"staircase\" (halfway bounce-back) or \
+                 \"interpolated\" (curved walls, CLI)"
+            )),
+        }
+    }
+    /// The domain's walls of this rule; `fractions` gives the wall fractions of the mask
+    /// (called only for interpolated walls).
+    pub fn walls(self, fractions: impl FnOnce() -> Result<WallFractions>) -> Result<Walls> {
+        Ok(match self {
+            WallRule::Staircase => Walls::Halfway,
+            WallRule::Interpolated => Walls::Interpolated(fractions()?),
+        })
+    }
+
+    pub fn name(self) -> &'static str {
+        match self {
+            WallRule::Staircase => "staircase",
+            WallRule::Interpolated => "interpolated",
+        }
+    }
 }
 
 /// The lattice's extent, its solid cells (with their velocities) and the wall rule. All
@@ -290,6 +332,12 @@ impl Domain {
                 }
             }
         }
+        if matches!(self.walls, Walls::Interpolated(_)) {
+            return invalid(
+                "interpolated (curved) walls are for resting solids; moving solid cells take \
+                 halfway bounce-back",
+            );
+        }
         self.wall_velocity = Some(v);
         Ok(self)
     }
@@ -300,8 +348,21 @@ impl Domain {
     pub fn solid(&self) -> &[bool] {
         &self.solid
     }
-    pub fn walls(&self) -> Walls {
-        self.walls
+    pub fn walls(&self) -> &Walls {
+        &self.walls
+    }
+
+    /// Sets the wall rule; refuses interpolated walls on moving solid cells (CLI is applied
+    /// here to resting walls only).
+    pub fn with_walls(mut self, walls: Walls) -> Result<Domain> {
+        if matches!(walls, Walls::Interpolated(_)) && self.wall_velocity.is_some() {
+            return invalid(
+                "interpolated (curved) walls are for resting solids; moving solid cells take \
+                 halfway bounce-back",
+            );
+        }
+        self.walls = walls;
+        Ok(self)
     }
     pub fn fluid_cells(&self) -> usize {
         self.solid.iter().filter(|&&s| !s).count()

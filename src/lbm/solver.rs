@@ -258,9 +258,9 @@ impl<L: Lattice, C: Collision, F: Forcing> Solver<L, C, F> {
             }
         }
         let r = z * d.ny + y;
+        let row = layout.index(z, 0, y, 0);
         for l in geom.links(r) {
-            let (x, q) = (l.x as usize, l.q as usize);
-            buf[q * nx + x] = src[layout.index(z, opposite(q), y, x)] + l.delta;
+            buf[l.q as usize * nx + l.x as usize] = l.value(src, row, layout.q_stride);
         }
     }
 
@@ -337,7 +337,7 @@ impl<L: Lattice, C: Collision, F: Forcing> Solver<L, C, F> {
                 }
                 used += 1;
                 let q = l.q as usize;
-                let v = src[here + opposite(q) * rowc.layout.q_stride + x] + l.delta;
+                let v = l.value(src, here, rowc.layout.q_stride);
                 mask[q] = true;
                 while xs[lane] < x {
                     lane += 1;
@@ -877,6 +877,7 @@ mod kernel_tests {
     use crate::lbm::collision::{relax_cell, Bgk, Trt};
     use crate::lbm::forcing::{BodyForce, Porous};
     use crate::lbm::lattice::{D3Q15, D3Q19};
+    use crate::lbm::walls::WallFractions;
     use rand::{Rng, SeedableRng};
     use rand_chacha::ChaCha8Rng;
 
@@ -1017,17 +1018,29 @@ mod kernel_tests {
     }
 
     fn geometry<L: Lattice>(d: Dims, solid_fraction: f64, rng: &mut ChaCha8Rng) -> Geometry {
-        let mask = (0..d.cells())
+        let mask: Vec<bool> = (0..d.cells())
             .map(|_| rng.gen_bool(solid_fraction))
             .collect();
-        // a moving solid (Ladd's delta on its links)
-        Geometry::new::<L>(d, mask, |c| {
-            if c % 7 == 0 {
-                [0.01, -0.02, 0.0]
-            } else {
-                [0.0; 3]
-            }
+        // curved walls (CLI) on the links of every other fluid cell, at fractions spread over
+        // (0, 1]
+        let fractions = WallFractions::from_crossings(d, &mask, |x, c| {
+            let h = x[0] * 7.31 + x[1] * 3.17 + x[2] * 1.93 + (c[0] + 2 * c[1] + 4 * c[2]) as f64;
+            ((x[0] + x[1]) as usize % 2 == 1).then(|| 0.05 + 0.95 * h.fract())
         })
+        .unwrap();
+        // a moving solid (Ladd's delta on its links)
+        Geometry::with_walls::<L>(
+            d,
+            mask,
+            |c| {
+                if c % 7 == 0 {
+                    [0.01, -0.02, 0.0]
+                } else {
+                    [0.0; 3]
+                }
+            },
+            Some(&fractions),
+        )
         .unwrap()
     }
 

@@ -4,7 +4,9 @@
 use super::outputs::{write_flow, write_packing, Outcome};
 use super::schema::{prepare, FlowPlan, PackingPlan, Plan, Problem};
 use crate::error::Result;
-use crate::lbm::flows::{channel_coordinate, channel_mask, sphere_array_mask};
+use crate::lbm::flows::{
+    channel_coordinate, channel_mask, sphere_array_fractions, sphere_array_mask,
+};
 use crate::lbm::pore::{pore_permeability, report, setup_line};
 use crate::lbm::problems::{permeability, ChannelFlow};
 use crate::lbm::units::describe;
@@ -71,11 +73,16 @@ fn solve(p: &FlowPlan, bar: &mut SteadyBar) -> Result<Outcome> {
                 rows: (0..=n).map(|y| (y, y as f64)).collect(),
             }
         }
-        Problem::SphereArray { solid_fraction, g } => {
+        Problem::SphereArray {
+            solid_fraction,
+            g,
+            walls,
+        } => {
             let radius = n as f64 * (3.0 * solid_fraction / (4.0 * std::f64::consts::PI)).cbrt();
             let d = Dims::new(n, n, n)?;
             let mask = sphere_array_mask(n, radius);
-            let domain = Domain::with_solid(d, mask.clone())?;
+            let walls = walls.walls(|| sphere_array_fractions(n, radius))?;
+            let domain = Domain::with_solid(d, mask.clone())?.with_walls(walls)?;
             let perm = permeability(lat, coll, domain, *g, ctl, bar)?;
             Outcome {
                 k: Some(perm.k),

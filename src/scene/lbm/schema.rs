@@ -14,10 +14,11 @@ use crate::io::xyz::{self, Cell, XyzParticle};
 use crate::lbm::driver::SteadyControl;
 use crate::lbm::memory::check_memory;
 use crate::lbm::pore::PoreOptions;
+use crate::lbm::pore::DEFAULT_WALLS;
 use crate::lbm::problems::{Channel, DrivenChannel, Inlet, NodeCouette};
 use crate::lbm::units::{check_mach, Units};
 use crate::lbm::voxels::voxel_dims;
-use crate::lbm::{CollisionKind, CollisionModel, Dims, LatticeKind, Tau};
+use crate::lbm::{CollisionKind, CollisionModel, Dims, LatticeKind, Tau, WallRule};
 use crate::scene::keys::{collision_kind, lattice_kind, rename_old_keys};
 use serde::Deserialize;
 use std::path::Path;
@@ -136,6 +137,7 @@ struct PressureChannelKeys {
 struct SphereArrayKeys {
     acceleration_m_s2: Option<f64>,
     solid_fraction: f64,
+    walls: Option<String>,
 }
 
 #[derive(Debug, Clone, Deserialize)]
@@ -145,6 +147,15 @@ struct PackingKeys {
     resolution: usize,
     unit_m: Option<f64>,
     force_lattice: Option<f64>,
+    walls: Option<String>,
+}
+
+/// The wall rule of the key `walls` ("staircase" or "interpolated"), [`DEFAULT_WALLS`] where
+/// absent (the default of `porelab permeability --walls` too).
+fn wall_rule(walls: &Option<String>) -> Result<WallRule> {
+    walls
+        .as_deref()
+        .map_or(Ok(DEFAULT_WALLS), |w| WallRule::parse(w, "walls"))
 }
 
 /// What a scene runs: a flow on a lattice of its own, or the permeability of a configuration.
@@ -161,8 +172,13 @@ pub(super) enum Problem {
     Couette(NodeCouette),
     /// "pressure-channel".
     Driven(DrivenChannel),
-    /// "sphere-array": the simple cubic array of this solid fraction under body force `g`.
-    SphereArray { solid_fraction: f64, g: f64 },
+    /// "sphere-array": the simple cubic array of this solid fraction under body force `g`,
+    /// with the walls `walls`.
+    SphereArray {
+        solid_fraction: f64,
+        g: f64,
+        walls: WallRule,
+    },
 }
 
 /// A flow scene checked and converted: everything the run fixes before it builds a lattice.
@@ -352,6 +368,7 @@ fn prepare_flow(
             let array = Problem::SphereArray {
                 solid_fraction: phi,
                 g,
+                walls: wall_rule(&k.walls)?,
             };
             (array, g * h * h / (8.0 * nu))
         }
@@ -500,7 +517,8 @@ fn prepare_packing(
     let (source, text) = read_xyz(&k.xyz, origin)?;
     let (cell, parts) = xyz::parse(&text, &source)?;
     let force = (k.force_lattice.unwrap_or(1e-6), "force_lattice");
-    let options = PoreOptions::new(c.lattice, collision, force, ctl)?;
+    let options =
+        PoreOptions::new(c.lattice, collision, force, ctl)?.with_walls(wall_rule(&k.walls)?);
     let (dims, _) = voxel_dims(&cell, k.resolution)?;
     check_memory(dims, c.lattice.q(), SCENE_PER_CELL)?;
     Ok(PackingPlan {

@@ -4,11 +4,15 @@
 
 use crate::driver::NoHooks;
 use crate::lbm::flows::{
-    brinkman_poiseuille, channel_coordinate, cylinder_array_mask, drag_coefficient,
-    drummond_tahir_square_drag, poiseuille, sangani_acrivos_sc, sphere_array_mask,
+    brinkman_poiseuille, channel_coordinate, cylinder_array_fractions, cylinder_array_mask,
+    drag_coefficient, drummond_tahir_square_drag, poiseuille, sangani_acrivos_sc,
+    sphere_array_fractions, sphere_array_mask,
 };
+use crate::lbm::ladder::observed_order;
 use crate::lbm::problems::{permeability, taylor_green_viscosity, Channel, ChannelFlow};
-use crate::lbm::{CollisionKind, CollisionModel, Dims, Domain, LatticeKind, SteadyControl, Tau};
+use crate::lbm::{
+    CollisionKind, CollisionModel, Dims, Domain, LatticeKind, SteadyControl, Tau, WallRule, Walls,
+};
 use crate::validation::{CaseContext, Row, Table};
 use crate::{Error, Result};
 
@@ -219,16 +223,17 @@ pub fn case_804(ctx: &CaseContext) -> Result<Vec<Row>> {
 }
 
 /// (k in cells^2, solid fraction of the voxels, Re = <u> diameter / nu) of one periodic
-/// array cell, the solid `mask` on `dims`, under body force g along x; `diameter` (cells) is
-/// the Reynolds number's length. Refuses a run that did not reach the steady state.
+/// array cell, the solid `mask` on `dims` with the walls `walls`, under body force g along x;
+/// `diameter` (cells) is the Reynolds number's length. Refuses a run that did not reach the
+/// steady state.
 fn array_cell(
     (lat, coll): (LatticeKind, CollisionModel),
     dims: Dims,
-    mask: Vec<bool>,
+    (mask, walls): (Vec<bool>, Walls),
     diameter: f64,
     g: f64,
 ) -> Result<(f64, f64, f64)> {
-    let domain = Domain::with_solid(dims, mask)?;
+    let domain = Domain::with_solid(dims, mask)?.with_walls(walls)?;
     let p = permeability(lat, coll, domain, g, ARRAY_CTL, &mut NoHooks)?;
     if !p.converged {
         return Err(Error::Validation(format!(
@@ -253,12 +258,13 @@ fn sphere_array_k(
     scheme: (LatticeKind, CollisionModel),
     n: usize,
     phi: f64,
-    g16: f64,
+    (g16, walls): (f64, WallRule),
 ) -> Result<(f64, f64, f64)> {
     let radius = n as f64 * (3.0 * phi / (4.0 * std::f64::consts::PI)).cbrt();
     let g = g16 * (16.0 / n as f64).powi(3);
     let mask = sphere_array_mask(n, radius);
-    array_cell(scheme, Dims::new(n, n, n)?, mask, 2.0 * radius, g)
+    let walls = walls.walls(|| sphere_array_fractions(n, radius))?;
+    array_cell(scheme, Dims::new(n, n, n)?, (mask, walls), 2.0 * radius, g)
 }
 
 register!("808" => case_808);
@@ -274,8 +280,9 @@ pub fn case_808(ctx: &CaseContext) -> Result<Vec<Row>> {
         let (tau_ref, tau) = (t.f64(i, "tau_ref")?, t.f64(i, "tau")?);
         let (g_ref, g) = (t.f64(i, "g_ref")?, t.f64(i, "g")?);
         let at = |tau: f64| -> Result<_> { Ok((lat, CollisionModel::new(coll, Tau::new(tau)?))) };
-        let (k_ref, _, re_ref) = sphere_array_k(at(tau_ref)?, n, phi, g_ref)?;
-        let (k, _, re) = sphere_array_k(at(tau)?, n, phi, g)?;
+        let stairs = WallRule::Staircase;
+        let (k_ref, _, re_ref) = sphere_array_k(at(tau_ref)?, n, phi, (g_ref, stairs))?;
+        let (k, _, re) = sphere_array_k(at(tau)?, n, phi, (g, stairs))?;
         let label = format!(
             "{} {} {} phi={phi} n={n} tau {tau_ref}->{tau} g {g_ref:e}->{g:e}",
             t.str(i, "kind")?,
@@ -301,24 +308,56 @@ struct StudyRow {
     phi: f64,
     /// The literature value.
     want: f64,
+    walls: WallRule,
 }
 
+/// Whether row `i` is checked ("check") or only printed beside the checked rows ("report");
+/// `kind` column, "check" where absent.
+fn checked(t: &Table, i: usize) -> Result<bool> {
+    if t.col("kind").is_err() {
+        return Ok(true);
+    }
+    match t.str(i, "kind")? {
+        "check" => Ok(true),
+        "report" => Ok(false),
+        k => Err(Error::Validation(format!(
+            "{} line {}: kind = \"{k}\": must be \"check\" or \"report\"",
+            t.path().display(),
+            t.line(i)
+        ))),
+    }
+}
+
+/// The wall rule of row `i` (`walls` column; "staircase" where absent).
+fn walls_of(t: &Table, i: usize) -> Result<WallRule> {
+    if t.col("walls").is_err() {
+        return Ok(WallRule::Staircase);
+    }
+    WallRule::parse(t.str(i, "walls")?, "walls")
+}
+
+/// The observable of one array flow: `(row, n, table, line) -> value` at n cells.
+type Measure<'a> = dyn FnMut(&StudyRow, usize, &Table, usize) -> Result<f64> + 'a;
+
 /// A resolution study over the rows of expected.csv: `measure(row, n, table, i)` gives the
-/// observable on the n_coarse and the n_fine lattice; the fine value is checked against the
-/// literature column `want_col` (plus the rows `extra(row, label, fine)` adds), and the RMS
-/// error over the table must fall from coarse to fine. `check(row)` names a problem with the
-/// literature input itself (an input check, not the code under test).
+/// observable on the n_coarse and the n_fine lattice; the fine value of a checked row is
+/// checked against the literature column `want_col` (plus the rows `extra(row, label, fine)`
+/// adds), and the RMS error over the checked rows must fall from coarse to fine ("report"
+/// rows, the staircase comparison, are printed only). `check(row)` names a problem with the
+/// literature input itself (an input check, not the code under test). Then the rows of
+/// tau.csv and order.csv ([`tau_rows`], [`order_rows`]) where the case has them.
 fn resolution_study(
     ctx: &CaseContext,
     want_col: &str,
     check: impl Fn(&StudyRow) -> Option<String>,
-    mut measure: impl FnMut(&StudyRow, usize, &Table, usize) -> Result<f64>,
+    measure: &mut Measure,
     extra: impl Fn(&StudyRow, &str, f64) -> Vec<Row>,
 ) -> Result<Vec<Row>> {
     let t = ctx.expected_table()?;
     let mut rows = Vec::new();
     let mut problems = Vec::new();
-    let mut sq = [0.0; 2];
+    let mut sq = [[0.0; 2]; 2];
+    let mut count = [0; 2];
     for i in 0..t.len() {
         let (lat, coll) = scheme(&t, i)?;
         let r = StudyRow {
@@ -326,34 +365,143 @@ fn resolution_study(
             coll,
             phi: t.f64(i, "phi")?,
             want: t.f64(i, want_col)?,
+            walls: walls_of(&t, i)?,
         };
+        let is_checked = checked(&t, i)?;
         problems.extend(check(&r));
+        let group = is_checked as usize;
+        count[group] += 1;
         for (j, col) in ["n_coarse", "n_fine"].into_iter().enumerate() {
-            let n = t.f64(i, col)?;
-            if !(n.is_finite() && n >= 8.0) {
-                return Err(Error::Validation(format!(
-                    "{} line {}: {col} = {n}: must be a whole number >= 8",
-                    t.path().display(),
-                    t.line(i)
-                )));
-            }
-            let n = n as usize;
+            let n = whole_n(&t, i, col)?;
             let got = measure(&r, n, &t, i)?;
-            sq[j] += (got / r.want - 1.0).powi(2);
-            if j == 1 {
-                let label = format!("{} {} phi={} n={n}", lat.name(), coll.name(), r.phi);
+            sq[group][j] += (got / r.want - 1.0).powi(2);
+            if j == 1 && is_checked {
+                let label = format!(
+                    "{} {} {} walls phi={} n={n}",
+                    lat.name(),
+                    coll.name(),
+                    r.walls.name(),
+                    r.phi
+                );
                 rows.extend(extra(&r, &label, got));
                 rows.push(Row::new(label, got, r.want, r.want));
             }
         }
     }
+    if count[0] > 0 {
+        let rms = |s: f64| (s / count[0] as f64).sqrt();
+        eprintln!(
+            "{}: report rows (not checked): RMS relative error {:.3e} (coarse) -> {:.3e} (fine)",
+            ctx.id,
+            rms(sq[0][0]),
+            rms(sq[0][1])
+        );
+    }
     // the staircase error of one particle is not monotone in n; its RMS over the table must fall
-    rms_must_fall(&ctx.id, sq, t.len(), problems)?;
+    rms_must_fall(&ctx.id, sq[1], count[1], problems)?;
+    rows.extend(tau_rows(ctx, want_col, measure)?);
+    rows.extend(order_rows(ctx, want_col, measure)?);
+    Ok(rows)
+}
+
+/// Column `col` of row `i` as a lattice size: a whole number >= 8.
+fn whole_n(t: &Table, i: usize, col: &str) -> Result<usize> {
+    let n = t.f64(i, col)?;
+    if !(n.is_finite() && n >= 8.0 && n.fract() == 0.0) {
+        return Err(Error::Validation(format!(
+            "{} line {}: {col} = {n}: must be a whole number >= 8",
+            t.path().display(),
+            t.line(i)
+        )));
+    }
+    Ok(n as usize)
+}
+
+/// The inputs of a row of tau.csv or order.csv at relaxation time `tau`.
+fn side_row(t: &Table, i: usize, want_col: &str, tau: f64) -> Result<StudyRow> {
+    let (lat, kind) = kinds(t, i)?;
+    Ok(StudyRow {
+        lat,
+        coll: CollisionModel::new(kind, Tau::new(tau)?),
+        phi: t.f64(i, "phi")?,
+        want: t.f64(i, want_col)?,
+        walls: walls_of(t, i)?,
+    })
+}
+
+/// Rows of the case's tau.csv, if any: the observable at `tau` relative to it at `tau_ref`
+/// (same lattice n, walls and force) against 1, the tolerance rtol x `scale` (TRT with
+/// Lambda = 3/16 and walls whose place does not depend on tau: the steady flow does not).
+fn tau_rows(ctx: &CaseContext, want_col: &str, measure: &mut Measure) -> Result<Vec<Row>> {
+    if !ctx.case_dir.join("tau.csv").exists() {
+        return Ok(Vec::new());
+    }
+    let t = ctx.table("tau.csv")?;
+    let mut rows = Vec::new();
+    for i in 0..t.len() {
+        let n = whole_n(&t, i, "n")?;
+        let (tau_ref, tau) = (t.f64(i, "tau_ref")?, t.f64(i, "tau")?);
+        let a = side_row(&t, i, want_col, tau_ref)?;
+        let b = side_row(&t, i, want_col, tau)?;
+        let (va, vb) = (measure(&a, n, &t, i)?, measure(&b, n, &t, i)?);
+        let label = format!(
+            "{} {} {} walls phi={} n={n} tau {tau_ref}->{tau}",
+            a.lat.name(),
+            a.coll.name(),
+            a.walls.name(),
+            a.phi
+        );
+        eprintln!("{} {label}: ratio {:.6}", ctx.id, vb / va);
+        rows.push(Row::new(label, vb / va, 1.0, t.f64(i, "scale")?));
+    }
+    Ok(rows)
+}
+
+/// Rows of the case's order.csv, if any: the order p for which the observable on three lattices
+/// n1 < n2 < n3 lies on v_inf + c n^-p ([`observed_order`], no literature value involved)
+/// against `expected_order`, the tolerance rtol x `scale`.
+fn order_rows(ctx: &CaseContext, want_col: &str, measure: &mut Measure) -> Result<Vec<Row>> {
+    if !ctx.case_dir.join("order.csv").exists() {
+        return Ok(Vec::new());
+    }
+    let t = ctx.table("order.csv")?;
+    let mut rows = Vec::new();
+    for i in 0..t.len() {
+        let r = side_row(&t, i, want_col, t.f64(i, "tau")?)?;
+        let n = [
+            whole_n(&t, i, "n1")?,
+            whole_n(&t, i, "n2")?,
+            whole_n(&t, i, "n3")?,
+        ];
+        let mut v = [0.0; 3];
+        for k in 0..3 {
+            v[k] = measure(&r, n[k], &t, i)?;
+        }
+        let label = format!(
+            "{} {} {} walls phi={} n={}/{}/{} observed order",
+            r.lat.name(),
+            r.coll.name(),
+            r.walls.name(),
+            r.phi,
+            n[0],
+            n[1],
+            n[2]
+        );
+        // no monotone approach: no order (NaN fails the row)
+        let p = observed_order(n, v).unwrap_or(f64::NAN);
+        eprintln!("{} {label}: {p:.3} (values {v:?})", ctx.id);
+        rows.push(Row::new(
+            label,
+            p,
+            t.f64(i, "expected_order")?,
+            t.f64(i, "scale")?,
+        ));
+    }
     Ok(rows)
 }
 
 register!("806", "807" => case_806_807);
-/// Cases 806 (slow, the whole table) and 807 (fast, one row): simple cubic sphere arrays, drag
+/// Cases 806 (slow, the whole table) and 807 (fast, a subset): simple cubic sphere arrays, drag
 /// coefficient K = 2a^2/(9 phi k) against Zick & Homsy (1982) Table 2; the error must fall from
 /// the coarse to the fine resolution.
 pub fn case_806_807(ctx: &CaseContext) -> Result<Vec<Row>> {
@@ -370,16 +518,18 @@ pub fn case_806_807(ctx: &CaseContext) -> Result<Vec<Row>> {
                 )
             })
         },
-        |r, n, t, i| {
+        &mut |r, n, t, i| {
             let radius = n as f64 * (3.0 * r.phi / (4.0 * std::f64::consts::PI)).cbrt();
             let g16 = t.f64(i, "g16_lattice")?;
-            let (k, _, re) = sphere_array_k((r.lat, r.coll), n, r.phi, g16)?;
+            let (k, _, re) = sphere_array_k((r.lat, r.coll), n, r.phi, (g16, r.walls))?;
             // K from the nominal radius and solid fraction (the staircase is the error measured)
             let kd = drag_coefficient(k, radius, r.phi);
             eprintln!(
-                "806 {} {} phi={} n={n}: K {kd:.4} vs {} ({:+.2}%), Re {re:.2e}",
+                "806 {} {} tau={} {} phi={} n={n}: K {kd:.4} vs {} ({:+.2}%), Re {re:.2e}",
                 r.lat.name(),
                 r.coll.name(),
+                r.coll.tau.get(),
+                r.walls.name(),
                 r.phi,
                 r.want,
                 100.0 * (kd / r.want - 1.0)
@@ -398,13 +548,15 @@ fn cylinder_array_drag(
     scheme: (LatticeKind, CollisionModel),
     n: usize,
     phi: f64,
-    g32: f64,
+    (g32, walls): (f64, WallRule),
 ) -> Result<(f64, f64, f64)> {
     // phi = pi a^2 / L^2
     let radius = n as f64 * (phi / std::f64::consts::PI).sqrt();
     let mask = cylinder_array_mask(n, 1, radius);
+    let walls = walls.walls(|| cylinder_array_fractions(n, 1, radius))?;
     let g = g32 * (32.0 / n as f64).powi(3);
-    let (k, phi_voxels, re) = array_cell(scheme, Dims::new(n, n, 1)?, mask, 2.0 * radius, g)?;
+    let dims = Dims::new(n, n, 1)?;
+    let (k, phi_voxels, re) = array_cell(scheme, dims, (mask, walls), 2.0 * radius, g)?;
     // a force g per unit mass on the fluid is the mean pressure gradient of Darcy's law, so
     // F = g L^2 per unit length and F/(mu U) = L^2 / k with k = nu <u> / g
     Ok(((n * n) as f64 / k, phi_voxels, re))
@@ -432,16 +584,18 @@ pub fn case_818_819(ctx: &CaseContext) -> Result<Vec<Row>> {
                 )
             })
         },
-        |r, n, t, i| {
+        &mut |r, n, t, i| {
             let g32 = t.f64(i, "g32_lattice")?;
-            let (f, phi_vox, re) = cylinder_array_drag((r.lat, r.coll), n, r.phi, g32)?;
+            let (f, phi_vox, re) = cylinder_array_drag((r.lat, r.coll), n, r.phi, (g32, r.walls))?;
             let dt = drummond_tahir_square_drag(r.phi);
             eprintln!(
-                "{} {} {} phi={} n={n}: F/(mu U) {f:.4} vs {} ({:+.2}%), Drummond-Tahir \
-                 {dt:.3} ({:+.2}%), voxel phi {phi_vox:.4}, Re {re:.2e}",
+                "{} {} {} tau={} {} phi={} n={n}: F/(mu U) {f:.4} vs {} ({:+.2}%), \
+                 Drummond-Tahir {dt:.3} ({:+.2}%), voxel phi {phi_vox:.4}, Re {re:.2e}",
                 ctx.id,
                 r.lat.name(),
                 r.coll.name(),
+                r.coll.tau.get(),
+                r.walls.name(),
                 r.phi,
                 r.want,
                 100.0 * (f / r.want - 1.0),
