@@ -16,6 +16,7 @@ pub mod dem;
 pub mod deposition;
 pub mod driver;
 pub mod error;
+pub mod filter;
 pub mod hydro;
 pub mod io;
 pub mod lbm;

@@ -112,6 +112,9 @@ enum BenchWhat {
     /// Coupled LBM-DEM: seconds per simulated second of the built-in scenes and the shares of
     /// LBM, DEM and the coupling, both porosity variants, one and two threads.
     Coupled(porelab::bench::coupled::BenchArgs),
+    /// Filter: particle-steps per second per core of the fibre-bed field, fast (near exact +
+    /// far grid) against the exact superposition, with the force error of each.
+    Filter(porelab::bench::filter::BenchArgs),
 }
 
 fn main() -> ExitCode {
@@ -180,6 +183,9 @@ fn main() -> ExitCode {
             BenchWhat::Sweep(args) => porelab::bench::sweep::run(&args).map(|_| ExitCode::SUCCESS),
             BenchWhat::Coupled(args) => {
                 porelab::bench::coupled::run(&args).map(|_| ExitCode::SUCCESS)
+            }
+            BenchWhat::Filter(args) => {
+                porelab::bench::filter::run(&args).map(|_| ExitCode::SUCCESS)
             }
         },
     };

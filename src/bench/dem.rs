@@ -101,7 +101,7 @@ fn bed(n: usize) -> Result<Setup> {
 /// CPU seconds of the calling thread (Linux `/proc/thread-self/schedstat`; NaN elsewhere).
 /// On a shared machine the CPU time of a one-thread run measures its cost per core where the
 /// wall time also counts the time other processes held the core.
-fn thread_cpu_seconds() -> f64 {
+pub(super) fn thread_cpu_seconds() -> f64 {
     std::fs::read_to_string("/proc/thread-self/schedstat")
         .ok()
         .and_then(|s| s.split_whitespace().next()?.parse::<f64>().ok())

@@ -7,6 +7,7 @@ pub mod coupled;
 pub mod dem;
 pub mod deposition;
 pub mod field;
+pub mod filter;
 pub mod lbm;
 pub mod packing;
 pub mod sweep;

@@ -5,7 +5,9 @@
 //! (centre, axis) with a magnetization given in world coordinates; an [`Assembly`] sums magnets.
 //! H is the field of the magnetization alone (no external field); B = mu0 (H + M inside).
 
+pub mod assembly_fast;
 pub mod cylinder;
+pub mod cylinder_table;
 pub mod kernel;
 pub mod magnet;
 
