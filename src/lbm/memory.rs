@@ -4,7 +4,7 @@
 //! each other's cache sets, the layout of the population arrays ([`Layout`]) and the check
 //! that a lattice fits into the memory available before anything is allocated.
 
-use super::geometry::Dims;
+use super::dims::Dims;
 use crate::error::{invalid, Result};
 
 /// The stride (values of 8 bytes) at which to lay out arrays of `values` values one after

@@ -19,6 +19,7 @@
 pub mod boundary;
 pub mod choice;
 pub mod collision;
+pub mod dims;
 pub mod driver;
 pub mod engine;
 pub mod flows;

@@ -260,6 +260,9 @@ fn cli_channel_tau_independent_and_close_to_poiseuille() {
         let (u1, nu1) = run(q, 1.0);
         let (u2, nu2) = run(q, 2.0);
         let width = h as f64 - 1.0 + 2.0 * q;
+        // the error in units of the peak velocity, as the channel scene reports it (a node q
+        // = 0.2 from the wall has a small velocity; its own relative error says little)
+        let peak = poiseuille(0.5 * width, width, g, nu1);
         let mut err: f64 = 0.0;
         for i in 0..h {
             // k-like: u nu is what does not depend on tau
@@ -267,9 +270,9 @@ fn cli_channel_tau_independent_and_close_to_poiseuille() {
             assert!((a / b - 1.0).abs() < 1e-8, "q {q} y {}: {a} {b}", i + 1);
             let y = i as f64 + 1.5 - (1.5 - q);
             let want = poiseuille(y, width, g, nu1);
-            err = err.max((u1[i] / want - 1.0).abs());
+            err = err.max((u1[i] - want).abs() / peak);
         }
         assert!(err < 0.02, "q {q}: {err}");
-        eprintln!("CLI channel q {q}: largest relative error {err:.3e}");
+        eprintln!("CLI channel q {q}: largest error {err:.3e} of the peak");
     }
 }
