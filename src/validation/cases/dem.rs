@@ -6,8 +6,9 @@
 //! restitution, by an independent fine-step RK4 of the contact ODE), never by the engine.
 
 use crate::dem::{
-    setup::auto_time_step, ContactModel, DampingModel, Dem, Drag, ImpactSpeed, Material,
-    NormalModel, PairMaterial, Particles, Rest, Setup, Start, StopRule, TangentialModel, TimeStep,
+    setup::auto_time_step, ContactModel, CoulombLimit, DampingModel, Dem, Drag, ImpactSpeed,
+    Material, NormalModel, PairMaterial, Particles, Rest, Setup, Start, StopRule, TangentialModel,
+    TimeStep,
 };
 use crate::validation::{CaseContext, Row};
 use crate::{Error, Result};
@@ -72,8 +73,37 @@ pub(super) fn impact(
     dt: f64,
     on_wall: bool,
 ) -> Result<(f64, f64)> {
+    impact_from_gap(model, mat, wall, r, v, dt, on_wall, 0.1 * r)
+}
+
+/// [`impact`] of two equal spheres from a gap chosen so that the contact starts at the
+/// fraction `phase` of a step: gap = v dt (floor(0.1 r / (v dt)) + phase). Impacts at the same
+/// dt / t_c and phase are the same discrete problem in reduced units when the law is
+/// self-similar in v.
+pub(super) fn pair_impact_at_phase(
+    model: ContactModel,
+    mat: Material,
+    r: f64,
+    v: f64,
+    dt: f64,
+    phase: f64,
+) -> Result<(f64, f64)> {
+    let gap = v * dt * ((0.1 * r / (v * dt)).floor() + phase);
+    impact_from_gap(model, mat, mat, r, v, dt, false, gap)
+}
+
+#[allow(clippy::too_many_arguments)]
+fn impact_from_gap(
+    model: ContactModel,
+    mat: Material,
+    wall: Material,
+    r: f64,
+    v: f64,
+    dt: f64,
+    on_wall: bool,
+    gap: f64,
+) -> Result<(f64, f64)> {
     let l = 100.0 * r;
-    let gap = 0.1 * r;
     let (p, t0) = if on_wall {
         let mut p = Particles::at_rest(vec![Vector3::new(0.5 * l, 0.5 * l, r + gap)], vec![r], RHO);
         p.vel[0] = Vector3::new(0.0, 0.0, -v);
@@ -123,7 +153,8 @@ pub(super) fn impact(
     Err(Error::Validation("impact: the contact did not end".into()))
 }
 
-/// Restitution of the contact ODE m* x'' = -F_el(x) - eta(x) x' from x = 0, x' = v, by RK4
+/// Restitution of the contact ODE m* x'' = -F_el(x) - eta(x) x' (at most 0 under
+/// [`CoulombLimit::NoTension`]) from x = 0, x' = v, by RK4
 /// with `n` steps per estimated contact time (an oracle independent of the engine's
 /// integrator; used for the damped Hertz law, which has no closed form).
 pub(super) fn restitution_rk4(
@@ -141,6 +172,7 @@ pub(super) fn restitution_rk4(
         DampingModel::None => (0.0, 0.0),
         DampingModel::Zhou { c_n } => (0.0, c_n),
     };
+    let no_tension = model.limit() == CoulombLimit::NoTension;
     let accel = |x: f64, u: f64| -> f64 {
         if x <= 0.0 {
             return 0.0;
@@ -158,7 +190,13 @@ pub(super) fn restitution_rk4(
             1.0
         };
         let eta = 2.0 * neg_beta * (c * s * m_eff).sqrt() + zhou_c_n * (6.0 * m_eff * s).sqrt();
-        (-f - eta * u) / m_eff
+        let push = f + eta * u;
+        // without tension the dashpot never pulls: the force is max(F_el + eta x', 0)
+        if no_tension && push < 0.0 {
+            0.0
+        } else {
+            -push / m_eff
+        }
     };
     let h = tc / n as f64;
     let (mut x, mut u) = (0.0, v);
@@ -227,10 +265,7 @@ fn collisions(ctx: &CaseContext, on_wall: bool) -> Result<Vec<Row>> {
         let e_req = t.f64(i, "restitution")?;
         let (tc, e_exp) = match model.normal() {
             NormalModel::Linear { k_n_n_per_m } => {
-                let w0 = (k_n_n_per_m / m_eff).sqrt();
-                let l = e_req.ln();
-                let zeta = -l / (l * l + PI * PI).sqrt();
-                (PI / (w0 * (1.0 - zeta * zeta).sqrt()), e_req)
+                linear_dashpot_impact((k_n_n_per_m / m_eff).sqrt(), e_req, model.limit())
             }
             NormalModel::Hertz => {
                 let tc = hertz_constant()
@@ -267,6 +302,28 @@ fn collisions(ctx: &CaseContext, on_wall: bool) -> Result<Vec<Row>> {
         }
     }
     Ok(rows)
+}
+
+/// (contact time, restitution) of the linear spring–dashpot of natural frequency `w0` whose
+/// dashpot is built for the restitution `e_req` (zeta = -ln e / sqrt(ln^2 e + pi^2)). With
+/// tension allowed: pi / omega_d and e_req. Without (the force ends where k x + eta x' = 0;
+/// Schwager & Pöschel, Granular Matter 9, 465, 2007): with beta = zeta w0 and
+/// w = w0 sqrt(1 - zeta^2) the overlap is x = (v/w) e^(-beta t) sin(w t) and the force vanishes
+/// at w t* = pi - atan2(2 beta w, w^2 - beta^2), where x' = -v e^(-beta t*): e = e^(-beta t*);
+/// the sphere then leaves at constant speed from x(t*) = 2 beta v e / w0^2, so the overlap
+/// returns to zero at t* + 2 beta / w0^2.
+fn linear_dashpot_impact(w0: f64, e_req: f64, limit: CoulombLimit) -> (f64, f64) {
+    let l = e_req.ln();
+    let zeta = -l / (l * l + PI * PI).sqrt();
+    let w = w0 * (1.0 - zeta * zeta).sqrt();
+    match limit {
+        CoulombLimit::DashpotInLimit => (PI / w, e_req),
+        CoulombLimit::NoTension => {
+            let beta = zeta * w0;
+            let t_star = (PI - (2.0 * beta * w).atan2(w * w - beta * beta)) / w;
+            (t_star + 2.0 * beta / (w0 * w0), (-beta * t_star).exp())
+        }
+    }
 }
 
 register!("702" => case_702);
