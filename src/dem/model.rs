@@ -754,6 +754,55 @@ mod tests {
     }
 
     #[test]
+    fn no_tension_limit_caps_spring_alone() {
+        // a damped sliding contact in its rebound (v_n < 0 pulls): the default law gives no
+        // tension and no tangential force; while sliding in compression the force is exactly
+        // mu F_n, carried by the spring; the LAMMPS law keeps the tension and the dashpot
+        let linear = |limit| {
+            ContactModel::new(
+                NormalModel::Linear {
+                    k_n_n_per_m: 1000.0,
+                },
+                DampingModel::restitution(0.5).unwrap(),
+                TangentialModel::Linear {
+                    kt_over_kn: 1.0,
+                    mu: 0.5,
+                    damp_ratio: 1.0,
+                },
+            )
+            .unwrap()
+            .with_limit(limit)
+        };
+        let mat = PairMaterial::new(
+            &Material::new(1e7, 0.3).unwrap(),
+            &Material::new(1e7, 0.3).unwrap(),
+        );
+        let state = |vn: f64| ContactState {
+            delta: 1e-6,
+            n: Vector3::z(),
+            v_half: Vector3::new(1.0, 0.0, vn),
+            v_full: Vector3::new(1.0, 0.0, vn),
+            r_eff: 1e-3,
+            m_eff: 1e-3,
+            dt: 1e-3,
+        };
+        let mut xi = Vector3::zeros();
+        let (f, ft) = linear(CoulombLimit::NoTension).force(&state(10.0), &mat, &mut xi);
+        assert_eq!((f.z, ft.norm(), xi.norm()), (0.0, 0.0, 0.0));
+        let mut xi = Vector3::zeros();
+        let (f, _) = linear(CoulombLimit::DashpotInLimit).force(&state(10.0), &mat, &mut xi);
+        assert!(f.z < 0.0, "{f:?}");
+        let mut xi = Vector3::zeros();
+        let (f, ft) = linear(CoulombLimit::NoTension).force(&state(-1e-3), &mat, &mut xi);
+        assert!(f.z > 0.0);
+        assert!((ft.norm() - 0.5 * f.z).abs() <= 1e-15 * f.z, "{ft:?} {f:?}");
+        assert!(
+            (xi * 1000.0 + ft).norm() <= 1e-15 * ft.norm(),
+            "{xi:?} {ft:?}"
+        );
+    }
+
+    #[test]
     fn zhou_slip_displacement_equal_materials() {
         // Mindlin & Deresiewicz: xi_max = mu delta (2 - nu) / (2 (1 - nu))
         for nu in [0.0, 0.25, 0.3, 0.45] {

@@ -44,7 +44,13 @@ fn model_from_row(t: &crate::validation::Table, i: usize) -> Result<ContactModel
         },
         other => return Err(Error::Validation(format!("unknown normal model `{other}`"))),
     };
-    ContactModel::new(normal, DampingModel::restitution(e)?, TangentialModel::None)
+    // the closed forms and the RK4 of cases 701-703 are those of the law whose dashpot may
+    // pull at the end of a contact (smooth in time, so the errors fall as dt^2); the default
+    // no-tension law is checked by case 714
+    Ok(
+        ContactModel::new(normal, DampingModel::restitution(e)?, TangentialModel::None)?
+            .with_limit(CoulombLimit::DashpotInLimit),
+    )
 }
 
 /// Sphere mass (kg).
@@ -265,7 +271,10 @@ fn collisions(ctx: &CaseContext, on_wall: bool) -> Result<Vec<Row>> {
         let e_req = t.f64(i, "restitution")?;
         let (tc, e_exp) = match model.normal() {
             NormalModel::Linear { k_n_n_per_m } => {
-                linear_dashpot_impact((k_n_n_per_m / m_eff).sqrt(), e_req, model.limit())
+                let w0 = (k_n_n_per_m / m_eff).sqrt();
+                let l = e_req.ln();
+                let zeta = -l / (l * l + PI * PI).sqrt();
+                (PI / (w0 * (1.0 - zeta * zeta).sqrt()), e_req)
             }
             NormalModel::Hertz => {
                 let tc = hertz_constant()
@@ -302,28 +311,6 @@ fn collisions(ctx: &CaseContext, on_wall: bool) -> Result<Vec<Row>> {
         }
     }
     Ok(rows)
-}
-
-/// (contact time, restitution) of the linear spring–dashpot of natural frequency `w0` whose
-/// dashpot is built for the restitution `e_req` (zeta = -ln e / sqrt(ln^2 e + pi^2)). With
-/// tension allowed: pi / omega_d and e_req. Without (the force ends where k x + eta x' = 0;
-/// Schwager & Pöschel, Granular Matter 9, 465, 2007): with beta = zeta w0 and
-/// w = w0 sqrt(1 - zeta^2) the overlap is x = (v/w) e^(-beta t) sin(w t) and the force vanishes
-/// at w t* = pi - atan2(2 beta w, w^2 - beta^2), where x' = -v e^(-beta t*): e = e^(-beta t*);
-/// the sphere then leaves at constant speed from x(t*) = 2 beta v e / w0^2, so the overlap
-/// returns to zero at t* + 2 beta / w0^2.
-fn linear_dashpot_impact(w0: f64, e_req: f64, limit: CoulombLimit) -> (f64, f64) {
-    let l = e_req.ln();
-    let zeta = -l / (l * l + PI * PI).sqrt();
-    let w = w0 * (1.0 - zeta * zeta).sqrt();
-    match limit {
-        CoulombLimit::DashpotInLimit => (PI / w, e_req),
-        CoulombLimit::NoTension => {
-            let beta = zeta * w0;
-            let t_star = (PI - (2.0 * beta * w).atan2(w * w - beta * beta)) / w;
-            (t_star + 2.0 * beta / (w0 * w0), (-beta * t_star).exp())
-        }
-    }
 }
 
 register!("702" => case_702);
