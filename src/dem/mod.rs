@@ -41,6 +41,8 @@ mod team;
 
 pub use driver::{run_to_rest, settle, Check, Progress, Rest, Stop, StopRule};
 pub use engine::{ActiveTerms, Dem, WallLedger};
-pub use model::{ContactModel, DampingModel, Material, NormalModel, PairMaterial, TangentialModel};
+pub use model::{
+    ContactModel, CoulombLimit, DampingModel, Material, NormalModel, PairMaterial, TangentialModel,
+};
 pub use particles::Particles;
 pub use setup::{Drag, ImpactSpeed, Setup, Start, TimeStep, TopWall};

@@ -357,6 +357,40 @@ pub struct ContactModel {
     pub(super) normal: NormalModel,
     pub(super) damping: DampingModel,
     pub(super) tangential: TangentialModel,
+    pub(super) limit: CoulombLimit,
+}
+
+/// How the normal dashpot and the Coulomb limit meet: at the end of a damped contact, where
+/// the dashpot outgrows the elastic force, and while the contact slides.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum CoulombLimit {
+    /// The normal force never pulls: F_n = max(F_el + F_damp, 0) (LAMMPS `pair granular`
+    /// keyword `limit_damping`, src/GRANULAR/granular_model.cpp; LIGGGHTS `limitForce on`,
+    /// doc/gran_model_hertz.html), and the Coulomb limit is mu F_n. When the trial force
+    /// -k_t xi - eta_t v_t exceeds it the contact slides: F_t = mu F_n along the trial force,
+    /// carried by the spring alone (xi truncated to -F_t / k_t) and the tangential dashpot adds
+    /// nothing, as in LIGGGHTS (src/tangential_model_history.h), which however tests the spring
+    /// alone against the limit and adds the dashpot below it; here |F_t| never exceeds mu F_n.
+    /// A sliding contact then carries exactly mu F_n at every step, so a contact that slides
+    /// throughout has J_t = mu J_n (case 712).
+    #[default]
+    NoTension,
+    /// LAMMPS `pair granular` without `limit_damping` (src/GRANULAR/gran_sub_mod_tangential.cpp):
+    /// the normal dashpot may pull at the end of a contact, the limit is mu |F_n|, and a sliding
+    /// contact's spring is reset to xi = -(F_t + eta_t v_t) / k_t, the dashpot counted inside the
+    /// limit (the spring then works against the dashpot, and the force falls below the limit as
+    /// eta_t falls). porelab's law before 2026-12.
+    DashpotInLimit,
+}
+
+impl CoulombLimit {
+    /// The scene-file name (`[contact] coulomb_limit`).
+    pub fn name(self) -> &'static str {
+        match self {
+            CoulombLimit::NoTension => "no-tension",
+            CoulombLimit::DashpotInLimit => "dashpot-in-limit",
+        }
+    }
 }
 
 /// The state of one contact for [`ContactModel::force`].
@@ -415,7 +449,17 @@ impl ContactModel {
             normal,
             damping,
             tangential,
+            limit: CoulombLimit::default(),
         })
+    }
+
+    /// The same model with the Coulomb limit `limit` (default [`CoulombLimit::NoTension`]).
+    pub fn with_limit(self, limit: CoulombLimit) -> ContactModel {
+        ContactModel { limit, ..self }
+    }
+
+    pub fn limit(&self) -> CoulombLimit {
+        self.limit
     }
 
     pub fn normal(&self) -> NormalModel {
@@ -490,7 +534,8 @@ impl ContactModel {
     ///
     /// The tangential displacement xi is first turned onto the current tangent plane with its
     /// length kept (LAMMPS), then xi += v_t(half step) dt; when the Coulomb limit binds, xi is
-    /// reset to the spring length that gives the limited force.
+    /// reset to the spring length that gives the limited force (with or without the dashpot,
+    /// [`CoulombLimit`]).
     #[inline(always)]
     pub fn force_lanes<T: Lane>(
         &self,
@@ -502,6 +547,11 @@ impl ContactModel {
         let eta_n = self.damping.eta_lanes(&self.normal, s_n, c.m_eff);
         let vn_full = c.v_full.dot(&c.n);
         let f_n = f_el - eta_n * vn_full;
+        let zero = T::splat(0.0);
+        let f_n = match self.limit {
+            CoulombLimit::NoTension => T::select(f_n.lt(zero), zero, f_n),
+            CoulombLimit::DashpotInLimit => f_n,
+        };
         let f = c.n.scale(f_n);
         if self.tangential.is_none() {
             return (f, V3::zeros());
@@ -515,7 +565,6 @@ impl ContactModel {
             mat.e_star_pa,
             mat.g_star_pa,
         );
-        let zero = T::splat(0.0);
         // history onto the tangent plane, length kept
         let len0 = xi.norm_squared();
         let turned = xi.sub(&c.n.scale(xi.dot(&c.n)));
@@ -556,7 +605,10 @@ impl ContactModel {
             return (f.add(&f_t), f_t);
         }
         let f_t_limited = f_t.scale(limit / ft2.sqrt());
-        let xi_limited = f_t_limited.add(&vt_full.scale(eta_t)).neg().div(k_t);
+        let xi_limited = match self.limit {
+            CoulombLimit::NoTension => f_t_limited.neg().div(k_t),
+            CoulombLimit::DashpotInLimit => f_t_limited.add(&vt_full.scale(eta_t)).neg().div(k_t),
+        };
         *xi = V3::select(slides & k_t.gt(zero), &xi_limited, xi);
         let f_t = V3::select(slides, &f_t_limited, &f_t);
         (f.add(&f_t), f_t)
@@ -679,6 +731,7 @@ mod tests {
                 mu: 0.5,
                 damp_ratio: 0.0,
             },
+            limit: CoulombLimit::default(),
         };
         let mat = PairMaterial::new(
             &Material::new(1e7, 0.3).unwrap(),
@@ -698,6 +751,55 @@ mod tests {
         assert!((f.z - 1.0).abs() < 1e-12);
         assert!((ft.x + 0.5).abs() < 1e-12, "{ft:?}");
         assert!((xi.x - 0.5e-3).abs() < 1e-15);
+    }
+
+    #[test]
+    fn no_tension_limit_caps_spring_alone() {
+        // a damped sliding contact in its rebound (v_n < 0 pulls): the default law gives no
+        // tension and no tangential force; while sliding in compression the force is exactly
+        // mu F_n, carried by the spring; the LAMMPS law keeps the tension and the dashpot
+        let linear = |limit| {
+            ContactModel::new(
+                NormalModel::Linear {
+                    k_n_n_per_m: 1000.0,
+                },
+                DampingModel::restitution(0.5).unwrap(),
+                TangentialModel::Linear {
+                    kt_over_kn: 1.0,
+                    mu: 0.5,
+                    damp_ratio: 1.0,
+                },
+            )
+            .unwrap()
+            .with_limit(limit)
+        };
+        let mat = PairMaterial::new(
+            &Material::new(1e7, 0.3).unwrap(),
+            &Material::new(1e7, 0.3).unwrap(),
+        );
+        let state = |vn: f64| ContactState {
+            delta: 1e-6,
+            n: Vector3::z(),
+            v_half: Vector3::new(1.0, 0.0, vn),
+            v_full: Vector3::new(1.0, 0.0, vn),
+            r_eff: 1e-3,
+            m_eff: 1e-3,
+            dt: 1e-3,
+        };
+        let mut xi = Vector3::zeros();
+        let (f, ft) = linear(CoulombLimit::NoTension).force(&state(10.0), &mat, &mut xi);
+        assert_eq!((f.z, ft.norm(), xi.norm()), (0.0, 0.0, 0.0));
+        let mut xi = Vector3::zeros();
+        let (f, _) = linear(CoulombLimit::DashpotInLimit).force(&state(10.0), &mat, &mut xi);
+        assert!(f.z < 0.0, "{f:?}");
+        let mut xi = Vector3::zeros();
+        let (f, ft) = linear(CoulombLimit::NoTension).force(&state(-1e-3), &mat, &mut xi);
+        assert!(f.z > 0.0);
+        assert!((ft.norm() - 0.5 * f.z).abs() <= 1e-15 * f.z, "{ft:?} {f:?}");
+        assert!(
+            (xi * 1000.0 + ft).norm() <= 1e-15 * ft.norm(),
+            "{xi:?} {ft:?}"
+        );
     }
 
     #[test]

@@ -99,6 +99,7 @@ mod tests {
             fraction: 1e-300,
             window: 50,
             max_sweeps: 50,
+            supported: None,
         };
         let rng = ChaCha8Rng::seed_from_u64(1);
         let mut d = Deposition::from_layer(layer, Moves::table_b1(), stop, rng).unwrap();

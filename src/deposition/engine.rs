@@ -8,7 +8,8 @@
 //! rule compares the mean over the last `stop.window` sweeps (default 10) with the first
 //! sweep's: with a few hundred particles and a few per cent accepted, a single sweep can move
 //! nothing by chance while the layer is still settling, and the seed's rule read on one sweep
-//! would stop there.
+//! would stop there. The at-rest rule (`stop.supported`) instead stops when a given fraction of
+//! the spheres is supported by its contacts (support.rs), read every `stop.window` sweeps.
 
 use super::cells::{wrap_xy, Cells};
 use super::energy::accept;
@@ -16,7 +17,7 @@ use super::grain::GrainPose;
 use super::moves;
 use super::overlap::PrefilterCounts;
 use super::setup::{Moves, Setup, StopRule};
-use super::{film, Layer};
+use super::{film, support, Layer};
 use crate::error::{invalid, Result};
 use nalgebra::Vector3;
 use rand::Rng;
@@ -43,7 +44,8 @@ pub struct DepositionOutcome {
     pub accepted: u64,
     /// The stop rule was met (false: `max_sweeps` reached).
     pub converged: bool,
-    /// Mean displacement of the first sweep, m (the stop rule's reference).
+    /// Mean displacement of the first sweep that moved a particle, m (the stop rule's
+    /// reference).
     pub first_displacement_m: f64,
     pub prefilters: PrefilterCounts,
     pub history: Vec<SweepRecord>,
@@ -64,6 +66,8 @@ pub struct Deposition {
     window_sum: f64,
     /// Their mean after the last sweep, m.
     recent_m: f64,
+    /// The first sweep that moved a particle (0: none yet): the stop rule's reference.
+    reference_sweep: u64,
     outcome: DepositionOutcome,
 }
 
@@ -90,6 +94,12 @@ impl Deposition {
         stop.check()?;
         if layer.grains.is_empty() {
             return invalid("the layer holds no particles");
+        }
+        if stop.supported.is_some() && layer.grains.iter().any(|g| !g.is_sphere) {
+            return invalid(
+                "stop_supported_fraction: the at-rest stop rule reads the support of spheres; \
+                 this deposit holds non-spherical particles",
+            );
         }
         if moves.energy.gravity {
             if let Some((i, g)) = layer
@@ -119,6 +129,7 @@ impl Deposition {
             v: 0.0,
             window_sum: 0.0,
             recent_m: 0.0,
+            reference_sweep: 0,
             outcome: DepositionOutcome {
                 sweeps: 0,
                 moves: 0,
@@ -162,8 +173,8 @@ impl Deposition {
     }
 
     /// One sweep: a trial move of every particle in index order, accepted iff it lowers the
-    /// energy (eq. A2, A11; Metropolis at T > 0) and creates no overlap. A first sweep that
-    /// moves nothing is an error (the start is jammed).
+    /// energy (eq. A2, A11; Metropolis at T > 0) and creates no overlap. No move in the whole
+    /// first stop window is an error (the start is jammed).
     pub fn step(&mut self) -> Result<SweepRecord> {
         if self.is_done() {
             return invalid(format!(
@@ -232,13 +243,18 @@ impl Deposition {
             drainage_speed_m_s: v,
         };
         out.history.push(record);
-        if sweep == 1 {
-            out.first_displacement_m = mean;
-            if mean == 0.0 {
-                return invalid(
-                    "no particle could move in the first sweep: the start is jammed or no \
-                     energy term can be lowered",
-                );
+        // The reference is the first sweep that moves a particle: with a few particles a
+        // first sweep can move none by chance (a free sphere at T = 0 accepts about half of its
+        // trials). No move over the whole first window is an error (the start is jammed).
+        if self.reference_sweep == 0 {
+            if mean > 0.0 {
+                self.reference_sweep = sweep;
+                out.first_displacement_m = mean;
+            } else if sweep >= self.stop.window {
+                return invalid(format!(
+                    "no particle could move in the first {sweep} sweeps (the stop window): the \
+                     start is jammed or no energy term can be lowered"
+                ));
             }
         }
         let stop = self.stop.fraction * out.first_displacement_m;
@@ -256,7 +272,19 @@ impl Deposition {
                 .sum::<f64>();
         }
         self.recent_m = self.window_sum / w as f64;
-        if sweep >= window.max(2) && self.recent_m < stop {
+        // the window holds only sweeps from the reference on
+        let since_reference = (sweep + 1).saturating_sub(self.reference_sweep.max(1));
+        let at_rest = match self.stop.supported {
+            None => {
+                self.reference_sweep > 0 && since_reference >= window.max(2) && self.recent_m < stop
+            }
+            // the at-rest rule: the supported fraction, read every window sweeps
+            Some(target) => {
+                sweep.is_multiple_of(window)
+                    && support::supported_fraction(&self.layer).is_some_and(|s| s >= target)
+            }
+        };
+        if at_rest {
             out.converged = true;
         } else {
             self.v = mean / self.moves.time_unit_s;

@@ -1,6 +1,7 @@
 //! The observables of a finished deposit, through `analysis`: porosity of the layer and of its
 //! core, the porosity profile, the RMS roughness of the top surface, the orientation order of
-//! each species and the first-layer coverage of the substrate.
+//! each species, the first-layer coverage of the substrate and the supported fraction of a
+//! sphere deposit.
 
 use super::Layer;
 use crate::analysis::height_map::{height_map, order_against_z};
@@ -50,6 +51,9 @@ pub struct DepositMeasures {
     pub count_by_species: Vec<usize>,
     /// Fraction of the substrate under particles that touch it.
     pub first_layer_coverage: f64,
+    /// Fraction of the spheres at rest on their contacts (support.rs; None unless all grains
+    /// are spheres).
+    pub supported_fraction: Option<f64>,
     #[serde(skip)]
     pub profile: Vec<ProfileBin>,
 }
@@ -139,6 +143,7 @@ pub fn measure(layer: &Layer, n_species: usize, opts: &MeasureOptions) -> Result
         order_by_species,
         count_by_species,
         first_layer_coverage: hm.first_layer_coverage(),
+        supported_fraction: super::support::supported_fraction(layer),
         profile,
     })
 }

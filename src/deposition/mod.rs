@@ -29,6 +29,7 @@ pub mod measure;
 pub mod moves;
 pub mod overlap;
 mod setup;
+pub mod support;
 
 pub use engine::{Deposition, DepositionOutcome, SweepRecord};
 pub use setup::{run_seed, Moves, Setup, SizeLaw, Species, StopRule};

@@ -70,6 +70,10 @@ pub struct StopRule {
     pub window: u64,
     /// Guard: stop after this many sweeps (reported as not converged).
     pub max_sweeps: u64,
+    /// The at-rest rule instead of the seed's: stop when at least this fraction of the spheres
+    /// is supported (support.rs), checked every `window` sweeps (spheres only). None: the
+    /// seed's displacement rule.
+    pub supported: Option<f64>,
 }
 
 impl StopRule {
@@ -79,6 +83,7 @@ impl StopRule {
             fraction: 1e-3,
             window: 10,
             max_sweeps,
+            supported: None,
         }
     }
 
@@ -98,6 +103,11 @@ impl StopRule {
         }
         if self.max_sweeps == 0 {
             return invalid("max_sweeps = 0: must be at least 1");
+        }
+        if let Some(s) = self.supported {
+            if !(s > 0.0 && s <= 1.0) {
+                return invalid(format!("stop_supported_fraction = {s}: must be in (0, 1]"));
+            }
         }
         Ok(())
     }

@@ -6,8 +6,8 @@
 
 use super::super::keys::parse_renamed;
 use crate::dem::{
-    ContactModel, DampingModel, Drag, Material, NormalModel, Rest, Setup, Start, StopRule,
-    TangentialModel, TimeStep, TopWall,
+    ContactModel, CoulombLimit, DampingModel, Drag, Material, NormalModel, Rest, Setup, Start,
+    StopRule, TangentialModel, TimeStep, TopWall,
 };
 use crate::error::{invalid, Error};
 use crate::Result;
@@ -114,6 +114,15 @@ struct ContactSpec {
     normal: Option<NormalSpec>,
     damping: Option<DampingSpec>,
     tangential: Option<TangentialSpec>,
+    coulomb_limit: Option<CoulombLimitSpec>,
+}
+
+/// `[contact] coulomb_limit`: see [`CoulombLimit`].
+#[derive(Debug, Clone, Copy, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+enum CoulombLimitSpec {
+    NoTension,
+    DashpotInLimit,
 }
 
 /// The contact presets: each names a normal, a damping and a tangential sub-model
@@ -777,11 +786,17 @@ impl ContactSpec {
                 ))
             }
         };
+        let limit = match self.coulomb_limit {
+            None => CoulombLimit::default(),
+            Some(CoulombLimitSpec::NoTension) => CoulombLimit::NoTension,
+            Some(CoulombLimitSpec::DashpotInLimit) => CoulombLimit::DashpotInLimit,
+        };
         let model = keyed(
             ContactModel::new(normal, damping, tangential),
             origin,
             "contact",
-        )?;
+        )?
+        .with_limit(limit);
         let (particle, wall) = self.materials(origin, &model)?;
         Ok((model, particle, wall))
     }

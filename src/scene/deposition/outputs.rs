@@ -65,6 +65,7 @@ fn scalars(r: &RunResult) -> Vec<(String, Option<f64>)> {
             "first_layer_coverage".to_string(),
             Some(m.first_layer_coverage),
         ),
+        ("supported_fraction".to_string(), m.supported_fraction),
         ("sweeps".to_string(), Some(o.sweeps as f64)),
         (
             "acceptance".to_string(),

@@ -261,6 +261,7 @@ struct MovesSpec {
     temperature_k: f64,
     stop_fraction: f64,
     stop_window: u64,
+    stop_supported_fraction: Option<f64>,
     max_sweeps: u64,
     gravity: bool,
     drag: bool,
@@ -275,6 +276,7 @@ impl Default for MovesSpec {
             temperature_k: 0.0,
             stop_fraction: 1e-3,
             stop_window: 10,
+            stop_supported_fraction: None,
             max_sweeps: 200_000,
             gravity: true,
             drag: true,
@@ -561,6 +563,7 @@ impl MovesSpec {
             fraction: self.stop_fraction,
             window: self.stop_window,
             max_sweeps: self.max_sweeps,
+            supported: self.stop_supported_fraction,
         };
         moves
             .check()

@@ -399,7 +399,15 @@ pub fn case_605(ctx: &CaseContext) -> Result<Vec<Row>> {
 
 register!("606" => case_606);
 /// Case 606: a periodic square column of side L, d < L < sqrt(2) d: one sphere per layer,
-/// each ends in the hollow of the one below, z_k = r + (k - 1) sqrt(d^2 - L^2/2).
+/// each ends in the hollow of the one below, z_k - z_(k-1) = sqrt(d^2 - L^2/2) (z_1 = r).
+/// The spheres are released one at a time, each 1 d above the top of the settled stack, and
+/// each stage runs twice from the same start and random stream: to the row's stop fraction f
+/// and to f / 100. The second run continues the first's trajectory exactly (the stop rule
+/// draws no random number), so the two show how far the rest height still falls once the
+/// stop rule is tightened. Row per layer: the remaining gap e = (z_k - z_(k-1)) - dz at f / 100
+/// against 0, within |e(f) - e(f / 100)|: a gap that vanishes with the stop value like
+/// f^(1/p) for p <= 6.6 (at least halving over the factor 100) passes; a sphere locked above
+/// its hollow (a gap that does not fall with f) fails.
 pub fn case_606(ctx: &CaseContext) -> Result<Vec<Row>> {
     let t = ctx.expected_table()?;
     let seed = required_seed(ctx, "case 606 needs a seed")?;
@@ -410,45 +418,61 @@ pub fn case_606(ctx: &CaseContext) -> Result<Vec<Row>> {
         let l = t.f64(i, "side_over_diameter")? * d;
         let n = t.f64(i, "spheres")? as usize;
         let k = t.f64(i, "k_max_m2")?;
+        let fraction = t.f64(i, "stop_fraction")?;
+        let window = t.f64(i, "stop_window")? as u64;
         let g = Grain::new([r; 3], 0, 2500.0, 1000.0, 9.8)?;
-        let mut rng = ChaCha8Rng::seed_from_u64(seed + i as u64);
-        let poses: Vec<GrainPose> = (0..n)
-            .map(|j| GrainPose {
+        let dz = (d * d - l * l / 2.0).sqrt();
+        let mut poses: Vec<GrainPose> = Vec::new();
+        for j in 0..n {
+            let mut rng = ChaCha8Rng::seed_from_u64(seed + i as u64);
+            rng.set_stream(j as u64 + 1);
+            let top = poses.iter().map(|p| p.position.z).fold(0.0, f64::max);
+            poses.push(GrainPose {
                 position: Vector3::new(
                     rng.gen::<f64>() * l,
                     rng.gen::<f64>() * l,
-                    r + 2.5 * d * j as f64 + 0.5 * d,
+                    if j == 0 { r + 0.5 * d } else { top + 2.0 * d },
                 ),
                 orientation: UnitQuaternion::identity(),
-            })
-            .collect();
-        let layer = layer_of(vec![g; n], poses, l);
-        // A few spheres on saddles find the rare downhill move slowly: the stop window is long.
-        let (moves, mut stop) = params(k, 2_000_000, t.f64(i, "stop_fraction")?);
-        stop.window = t.f64(i, "stop_window")? as u64;
-        let (layer, out) = run_layer(layer, moves, stop, rng, &mut NoHooks)?;
-        if !out.converged {
-            return Err(Error::Validation(format!(
-                "case 606: no convergence in {} sweeps",
-                out.sweeps
-            )));
-        }
-        let mut z: Vec<f64> = layer.poses.iter().map(|p| p.position.z).collect();
-        z.sort_by(|a, b| a.partial_cmp(b).unwrap());
-        let dz = (d * d - l * l / 2.0).sqrt();
-        for (kk, zk) in z.iter().enumerate() {
-            let want = r + kk as f64 * dz;
+            });
+            let gap = |layer: &Layer| {
+                let mut z: Vec<f64> = layer.poses.iter().map(|p| p.position.z).collect();
+                z.sort_by(f64::total_cmp);
+                if j == 0 {
+                    z[0] - r
+                } else {
+                    z[j] - z[j - 1] - dz
+                }
+            };
+            let stage = |f: f64| -> Result<(Layer, u64)> {
+                let (moves, mut stop) = params(k, 20_000_000, f);
+                stop.window = window;
+                let layer = layer_of(vec![g; j + 1], poses.clone(), l);
+                let (layer, out) = run_layer(layer, moves, stop, rng.clone(), &mut NoHooks)?;
+                if !out.converged {
+                    return Err(Error::Validation(format!(
+                        "case 606: no convergence in {} sweeps (L = {:.3} d, sphere {})",
+                        out.sweeps,
+                        l / d,
+                        j + 1
+                    )));
+                }
+                Ok((layer, out.sweeps))
+            };
+            let (coarse, sweeps_coarse) = stage(fraction)?;
+            let (fine, sweeps_fine) = stage(fraction / 100.0)?;
+            let (e_coarse, e_fine) = (gap(&coarse), gap(&fine));
             rows.push(Row::new(
                 format!(
-                    "L = {:.3} d, layer {} (sweeps {})",
+                    "L = {:.3} d, layer {}: gap at f/100 (m; at f {e_coarse:.3e}; sweeps {sweeps_coarse} / {sweeps_fine})",
                     l / d,
-                    kk + 1,
-                    out.sweeps
+                    j + 1,
                 ),
-                *zk,
-                want,
-                d,
+                e_fine,
+                0.0,
+                (e_coarse - e_fine).abs(),
             ));
+            poses = fine.poses;
         }
     }
     Ok(rows)
@@ -500,21 +524,30 @@ pub fn case_607(ctx: &CaseContext) -> Result<Vec<Row>> {
 }
 
 /// The measures of every run of the monodisperse sphere deposit of row `i` of a 608/609
-/// table (columns radius_m, particles, box_side_m, solids_percent, runs), in parallel.
+/// table (columns radius_m, particles, box_side_m, solids_percent, runs, and the stop rule:
+/// stop_supported_fraction, 0 for the seed's displacement rule, and max_sweeps), in parallel.
+/// A run that ends at max_sweeps fails the case.
 fn sphere_deposit_runs(
     t: &crate::validation::Table,
     i: usize,
     seed: u64,
     id: &str,
 ) -> Result<Vec<crate::deposition::measure::DepositMeasures>> {
+    let supported = t.f64(i, "stop_supported_fraction")?;
+    let rest_rule = if supported > 0.0 {
+        format!("stop_supported_fraction = {supported}\n")
+    } else {
+        String::new()
+    };
     let text = format!(
         "kind = \"deposition\"\nseed = {seed}\nruns = {}\n[film]\nparticles = {}\n\
          box_side_m = {}\nsolids_percent = {}\n[[species]]\nname = \"sphere\"\n\
-         semi_axes_m = [{r}, {r}, {r}]\n",
+         semi_axes_m = [{r}, {r}, {r}]\n[deposition]\nmax_sweeps = {}\n{rest_rule}",
         t.f64(i, "runs")? as usize,
         t.f64(i, "particles")? as usize,
         t.f64(i, "box_side_m")?,
         t.f64(i, "solids_percent")?,
+        t.f64(i, "max_sweeps")? as u64,
         r = t.f64(i, "radius_m")?,
     );
     let scene = crate::scene::deposition::parse_scene(&text, id)?;
@@ -523,7 +556,19 @@ fn sphere_deposit_runs(
         .into_par_iter()
         .map(|k| {
             let d = crate::deposition::driver::run_one(&scene.setup, k, &mut NoHooks)?;
-            measure(&d.layer, scene.setup.species.len(), &scene.measure)
+            if !d.outcome.converged {
+                return Err(Error::Validation(format!(
+                    "{id}: run {k} reached max_sweeps = {} before its stop rule",
+                    d.outcome.sweeps
+                )));
+            }
+            let m = measure(&d.layer, scene.setup.species.len(), &scene.measure)?;
+            eprintln!(
+                "{id} run {k}: {} sweeps, supported fraction {:?}, first-layer coverage {:.4}, \
+                 core porosity {:?}",
+                d.outcome.sweeps, m.supported_fraction, m.first_layer_coverage, m.core_porosity
+            );
+            Ok(m)
         })
         .collect()
 }
