@@ -114,17 +114,8 @@ fn particle_steps_per_s(
     field: Box<dyn FieldSource>,
 ) -> Result<f64> {
     let edge = model.cell().lengths_m[0];
-    let centres: Vec<_> = (0..model.len()).map(|i| model.centre(i)).collect();
-    let axes: Vec<_> = (0..model.len()).map(|i| model.axis(i)).collect();
     let setup = Setup {
-        bed: FibreBed::new(
-            [edge; 3],
-            FIBRE_R_M,
-            FIBRE_HALF_LENGTH_M,
-            &centres,
-            &axes,
-            PARTICLE_R_M,
-        )?,
+        bed: solid_bed(model)?,
         flow: VelocityLattice::from_fn([8; 3], edge / 8.0, |_| Vector3::new(0.0, 0.0, 1e-3))?,
         field: Some(field),
         moment: LangevinMoment::fixed(1e-17)?,
@@ -148,6 +139,21 @@ fn particle_steps_per_s(
     Ok(particle_steps as f64 / (super::dem::thread_cpu_seconds() - cpu0))
 }
 
+/// The fibres of `model` as the filter engine's contact bed (particles of PARTICLE_R_M).
+fn solid_bed(model: &FibreAssembly) -> Result<FibreBed> {
+    let edge = model.cell().lengths_m[0];
+    let centres: Vec<_> = (0..model.len()).map(|i| model.centre(i)).collect();
+    let axes: Vec<_> = (0..model.len()).map(|i| model.axis(i)).collect();
+    FibreBed::new(
+        [edge; 3],
+        FIBRE_R_M,
+        FIBRE_HALF_LENGTH_M,
+        &centres,
+        &axes,
+        PARTICLE_R_M,
+    )
+}
+
 pub fn run(args: &BenchArgs) -> Result<()> {
     if args.fibres == 0 || args.points == 0 || args.particles == 0 || args.steps == 0 {
         return invalid("bench filter: --fibres, --points, --particles and --steps must be >= 1");
@@ -160,16 +166,7 @@ pub fn run(args: &BenchArgs) -> Result<()> {
     }
     let model = bed(args)?;
     let edge = model.cell().lengths_m[0];
-    let centres: Vec<_> = (0..model.len()).map(|i| model.centre(i)).collect();
-    let axes: Vec<_> = (0..model.len()).map(|i| model.axis(i)).collect();
-    let solid = FibreBed::new(
-        [edge; 3],
-        FIBRE_R_M,
-        FIBRE_HALF_LENGTH_M,
-        &centres,
-        &axes,
-        PARTICLE_R_M,
-    )?;
+    let solid = solid_bed(&model)?;
     let pts = fluid_points(&model, &solid, args.points);
     let exact: Vec<Vector3<f64>> = {
         use rayon::prelude::*;
