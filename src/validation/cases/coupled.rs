@@ -659,6 +659,12 @@ pub fn case_817(ctx: &CaseContext) -> Result<Vec<Row>> {
             1,
             true,
         )?;
+        let collision = match t.str(i, "collision")? {
+            "bgk" => CollisionKind::Bgk,
+            "trt" => CollisionKind::Trt,
+            other => return invalid(format!("case 817 row {i}: collision {other:?}")),
+        };
+        cs.collision = CollisionModel::new(collision, Tau::new(t.f64(i, "tau")?)?);
         let h = ns as f64 * dx;
         cs.basesheet = Some(Basesheet {
             thickness_m: h,
@@ -702,7 +708,8 @@ pub fn case_817(ctx: &CaseContext) -> Result<Vec<Row>> {
                 .collect::<Vec<_>>()
         );
         let label = format!(
-            "K={k:e} m^2 h={ns}dx grad_p={gp} Pa/m (K/dx^2={:.2e}, U={:.3e} m/s, {steps} steps)",
+            "{} K={k:e} m^2 h={ns}dx grad_p={gp} Pa/m (K/dx^2={:.2e}, U={:.3e} m/s, {steps} steps)",
+            t.str(i, "collision")?.to_uppercase(),
             k / (dx * dx),
             u.abs()
         );
