@@ -952,7 +952,8 @@ pub fn case_711(ctx: &CaseContext) -> Result<Vec<Row>> {
         let theta = (over * 3.5 * mu * (1.0 + e)).atan();
         let (jn, jt, rw, _) = oblique_impact(model, r, v, theta, 200.0)?;
         let m = mass(r);
-        let label = format!("mu={mu} e={e:.4} tan(theta)={over} x threshold");
+        let label =
+            format!("mu={mu} e={e:.4} eta_t/eta_n={damp_ratio} tan(theta)={over} x threshold");
         let tol = t.f64(i, "impulse_rel_tol")?;
         // the soft contact's own J_t / (mu J_n), or the rigid body's 1
         let want = match &ode {
