@@ -628,6 +628,25 @@ pub fn case_816(ctx: &CaseContext) -> Result<Vec<Row>> {
     Ok(rows)
 }
 
+/// The collision of row `i`: its `collision` column ("bgk" or "trt", TRT with Lambda = 3/16)
+/// at its `tau`; BGK, the seed's, where the table has no such column.
+fn collision_of(t: &crate::validation::Table, i: usize) -> Result<CollisionModel> {
+    let kind = match t.col("collision").map(|_| t.str(i, "collision")) {
+        Err(_) => CollisionKind::Bgk,
+        Ok(name) => match name? {
+            "bgk" => CollisionKind::Bgk,
+            "trt" => CollisionKind::Trt,
+            other => {
+                return invalid(format!(
+                    "{} row {i}: collision {other:?} (bgk or trt)",
+                    t.path().display()
+                ))
+            }
+        },
+    };
+    Ok(CollisionModel::new(kind, Tau::new(t.f64(i, "tau")?)?))
+}
+
 register!("817" => case_817);
 /// Case 817: the basesheet alone (no particles) under a mean pressure gradient in a periodic
 /// column: the pressure drop across it from the fluid's own pressure field equals Darcy's
@@ -659,12 +678,7 @@ pub fn case_817(ctx: &CaseContext) -> Result<Vec<Row>> {
             1,
             true,
         )?;
-        let collision = match t.str(i, "collision")? {
-            "bgk" => CollisionKind::Bgk,
-            "trt" => CollisionKind::Trt,
-            other => return invalid(format!("case 817 row {i}: collision {other:?}")),
-        };
-        cs.collision = CollisionModel::new(collision, Tau::new(t.f64(i, "tau")?)?);
+        cs.collision = collision_of(&t, i)?;
         let h = ns as f64 * dx;
         cs.basesheet = Some(Basesheet {
             thickness_m: h,
@@ -854,7 +868,7 @@ pub fn case_840(ctx: &CaseContext) -> Result<Vec<Row>> {
         let gp = ergun_gradient(eps_b, d, mu, rho, u_target);
         let p = Particles::at_rest(pos.clone(), vec![r; n], 2500.0);
         let dem = dem_setup(l, 2500.0, 0.0, rho, p, 0.1)?;
-        let cs = coupled_setup(
+        let mut cs = coupled_setup(
             dem,
             dx,
             tau,
@@ -865,6 +879,7 @@ pub fn case_840(ctx: &CaseContext) -> Result<Vec<Row>> {
             1,
             true,
         )?;
+        cs.collision = collision_of(&t, i)?;
         let mut c = Coupled::new(cs)?;
         let steady = driver::run_to_steady(&mut c, 400_000, 1e-10, |c| -mean_uz(c))?;
         let u = steady.value;
@@ -935,10 +950,16 @@ pub fn case_840(ctx: &CaseContext) -> Result<Vec<Row>> {
             .map(|q| (c.eps[q] - eps_c[q]).abs() / amb[q].max(f64::MIN_POSITIVE))
             .fold(0.0, f64::max);
         eprintln!(
-            "840 {file} Re_p {re:.3}: eps_b {eps_b:.4}, lattice {nx}x{ny}x{nz}, U {u:.4e} m/s, \
+            "840 {file} Re_p {re:.3} tau {tau}: eps_b {eps_b:.4}, lattice {nx}x{ny}x{nz}, U {u:.4e} m/s, \
              R {ratio:.4} in [{r_lo:.4}, {r_hi:.4}]"
         );
-        let label = format!("{file} eps_b={eps_b:.3} Re_p={re:.2}");
+        let label = format!(
+            "{file} eps_b={eps_b:.3} Re_p={re:.2}{}",
+            match t.col("collision") {
+                Ok(_) => format!(" {} tau={tau}", t.str(i, "collision")?.to_uppercase()),
+                Err(_) => String::new(),
+            }
+        );
         rows.push(Row::new(
             format!("{label}: grad p / Ergun(eps_b, U) in [{r_lo:.3}, {r_hi:.3}]"),
             ratio,
