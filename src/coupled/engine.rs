@@ -753,6 +753,7 @@ impl Coupled {
             self.dem.wall_ledger = Some(WallLedger {
                 impulse_ns: j_walls,
                 magnitude_ns: wall_scale,
+                ..WallLedger::default()
             });
             let ran = self.dem.run(self.setup.dem_steps);
             let ledger = self.dem.wall_ledger.take().expect("set above");
