@@ -326,6 +326,11 @@ impl Plan {
     pub fn dims(&self) -> Dims {
         self.dims
     }
+
+    /// The lattice time step (s).
+    pub fn dt_lbm_s(&self) -> f64 {
+        self.units.dt
+    }
 }
 
 impl Coupled {

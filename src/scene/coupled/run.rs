@@ -16,6 +16,7 @@ use std::time::Instant;
 
 /// The coupled system of a parsed scene (the DEM's random dispersion in the lattice).
 pub fn build(scene: &CoupledScene) -> Result<Coupled> {
+    super::check_size(scene)?;
     Coupled::new(scene.setup.clone())
 }
 
