@@ -30,7 +30,8 @@ pub enum Rest {
 }
 
 /// Force balance, the second half of "at rest": the walls' mean force over each check
-/// against the load they carry at rest ([`Dem::rest_load_n`]), |F_walls - L| / max(|F|, |L|)
+/// against the load they carry at rest ([`Dem::rest_load_n`]), |F_walls - L| / max(|F|, |L|,
+/// F_floor) (under a pressure wall: floor against top, over the floor's force)
 /// (for a bed under gravity alone, the floor force F against the buoyant weight W: |F/W - 1|
 /// to first order), below `tol` at every check of the last `window_s` seconds. A mean over a
 /// check is the momentum change over it divided by its length, so a bed that still bounces
@@ -146,7 +147,7 @@ pub struct Progress {
     pub checks: u64,
     /// Checks in a row, up to the last, whose force balance held.
     pub balanced_checks: u64,
-    /// The last check's force imbalance |F_walls - L| / max(|F|, |L|) (see [`Balance`]).
+    /// The last check's force imbalance |F_walls - L| / max(|F|, |L|, F_floor) (see [`Balance`]).
     pub imbalance: f64,
     /// The last check's mean z force of the floor on the particles (N).
     pub floor_force_mean_n: f64,
@@ -181,7 +182,12 @@ fn wall_balance(
     load_n: nalgebra::Vector3<f64>,
 ) -> (f64, f64) {
     let mean = ledger.impulse_ns / duration_s;
-    let scale = (ledger.magnitude_ns / duration_s).max(load_n.norm());
+    // the scale of the forces the walls carry: under a pressure wall the floor and the top
+    // wall each carry the wall's force while their sum (and the load) is near zero
+    let floor_mean = (ledger.floor_impulse_ns / duration_s).abs();
+    let scale = (ledger.magnitude_ns / duration_s)
+        .max(load_n.norm())
+        .max(floor_mean);
     let imbalance = if scale > 0.0 {
         (mean - load_n).norm() / scale
     } else {
