@@ -168,6 +168,88 @@ fn scene_files_with_bad_numbers_are_refused_naming_file_and_key() {
     assert!(failures.is_empty(), "{}", failures.join("\n"));
 }
 
+/// Runs too large for memory or for any reasonable time, and an output folder that cannot be
+/// written, are refused before any work (a run that started would hang the 120 s judge).
+#[test]
+fn oversized_runs_and_unwritable_outputs_are_refused_before_work() {
+    let dir = scratch("sizes");
+    let show = |name: &str| {
+        let o = porelab().args(["run", "--show", name]).output().unwrap();
+        String::from_utf8(o.stdout).unwrap()
+    };
+    let (dem, coupled, lbm) = (
+        show("dem-small"),
+        show("coupled-quick"),
+        show("lbm-channel"),
+    );
+    let scenes = [
+        // allocations of 1e9 and 1e10 spheres aborted the run
+        (
+            "dem-1e9.toml",
+            dem.replace("n = 300", "n = 1000000000"),
+            vec!["particles.n", "1000000000"],
+        ),
+        (
+            "dem-1e10.toml",
+            dem.replace("n = 300", "n = 10000000000"),
+            vec!["particles.n", "10000000000"],
+        ),
+        // 300 spheres for 1e4 s: 3.3e12 particle-steps
+        (
+            "dem-long.toml",
+            dem.replace("max_time_s = 1.0", "max_time_s = 1e4"),
+            vec!["max_particle_steps", "max_time_s"],
+        ),
+        // dx_m = 1e-5: a 150 x 150 x 1800 lattice grew to 4 GB before a word
+        (
+            "coupled-fine.toml",
+            coupled.replace("dx_m = 5e-4", "dx_m = 1e-5"),
+            vec!["fluid.dx_m", "max_cell_updates"],
+        ),
+        // a channel 100000 cells across would run for days and end unconverged
+        (
+            "lbm-wide.toml",
+            lbm.replace("cells = 32", "cells = 100000"),
+            vec!["cells = 100000", "max_steps"],
+        ),
+    ];
+    let mut failures = Vec::new();
+    for (name, text, needles) in &scenes {
+        assert!(text.contains("kind"), "{name}: the built-in was not shown");
+        std::fs::write(dir.join(name), text).unwrap();
+        for check in [true, false] {
+            let mut cmd = porelab();
+            cmd.args(["run", name, "--quiet", "--out", "out"]);
+            if check {
+                cmd.arg("--check");
+            }
+            let mut want = needles.clone();
+            want.push(name);
+            if let Some(why) = judge(cmd, &dir, &want) {
+                failures.push(format!("{name} (check {check}): {why}"));
+            }
+        }
+    }
+    // --out a file, or under one: refused before the run (dem-seed-gravity runs for minutes)
+    std::fs::write(dir.join("a-file"), "").unwrap();
+    for out in ["a-file", "a-file/sub"] {
+        let mut cmd = porelab();
+        cmd.args([
+            "run",
+            "--builtin",
+            "dem-seed-gravity",
+            "--quiet",
+            "--out",
+            out,
+        ]);
+        if let Some(why) = judge(cmd, &dir, &["--out", "a-file"]) {
+            failures.push(format!("--out {out}: {why}"));
+        }
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+    assert!(failures.is_empty(), "{}", failures.join("\n"));
+}
+
 #[test]
 fn command_lines_with_bad_values_are_refused_naming_the_option() {
     let dir = scratch("options");

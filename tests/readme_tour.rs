@@ -11,15 +11,20 @@
 //!   `s` (`in 2.1 s`), matches any number: it depends on the machine.
 //!
 //! So a change of a printed figure fails this test until the README shows the new figure.
+//!
+//! A code block whose first line is `# file: NAME` is an input the tour uses: its text is
+//! written to NAME in the scratch folder, in README order, before the commands that follow.
 
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
-/// One `$ ` command of the README with the output lines shown under it.
+/// One `$ ` command of the README with the output lines shown under it, or a file the tour
+/// writes (`# file: NAME` blocks: `file` holds the name, `expected` the lines).
 struct Example {
     line_no: usize,
     command: String,
     expected: Vec<String>,
+    file: Option<String>,
 }
 
 /// The `$ ` commands of the README's fenced code blocks, with the lines that follow each.
@@ -28,20 +33,35 @@ fn examples(readme: &str) -> Vec<Example> {
     let mut in_block = false;
     // the example whose output the block's next lines show (none before a block's first `$ `)
     let mut current: Option<usize> = None;
+    // a `# file: NAME` block being read (its example's index)
+    let mut file: Option<usize> = None;
+    let mut block_start = false;
     for (k, line) in readme.lines().enumerate() {
         if line.trim_start().starts_with("```") {
             in_block = !in_block;
-            current = None;
+            (current, file, block_start) = (None, None, in_block);
             continue;
         }
         if !in_block {
             continue;
         }
-        if let Some(cmd) = line.strip_prefix("$ ") {
+        let first = std::mem::replace(&mut block_start, false);
+        if let Some(i) = file {
+            out[i].expected.push(line.to_string());
+        } else if let Some(name) = line.strip_prefix("# file: ").filter(|_| first) {
+            out.push(Example {
+                line_no: k + 1,
+                command: String::new(),
+                expected: vec![line.to_string()],
+                file: Some(name.trim().to_string()),
+            });
+            file = Some(out.len() - 1);
+        } else if let Some(cmd) = line.strip_prefix("$ ") {
             out.push(Example {
                 line_no: k + 1,
                 command: cmd.to_string(),
                 expected: Vec::new(),
+                file: None,
             });
             current = Some(out.len() - 1);
         } else if let Some(i) = current {
@@ -234,9 +254,23 @@ fn quick_tour_prints_what_the_readme_shows() {
         "the README's quick tour should have its commands in code blocks: found {}",
         examples.len()
     );
+    // the sweep example is executed: its file is written and planned, run and collected
+    assert!(
+        examples
+            .iter()
+            .any(|e| e.file.as_deref() == Some("sweep.toml"))
+            && examples
+                .iter()
+                .any(|e| e.command.starts_with("porelab sweep plan sweep.toml")),
+        "the README's sweep example should be a `# file: sweep.toml` block and its commands"
+    );
     let dir = scratch();
     let mut failures = Vec::new();
     for ex in &examples {
+        if let Some(name) = &ex.file {
+            std::fs::write(dir.join(name), ex.expected.join("\n") + "\n").unwrap();
+            continue;
+        }
         let (ok, stdout, stderr) = run(&dir, &ex.command);
         if !ok {
             failures.push(format!(

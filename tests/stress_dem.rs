@@ -120,10 +120,7 @@ fn same_result_at_any_thread_count() {
             .unwrap();
         pool.install(|| {
             let mut dem = Dem::new(s).unwrap();
-            dem.wall_ledger = Some(WallLedger {
-                impulse_ns: Vector3::zeros(),
-                magnitude_ns: 0.0,
-            });
+            dem.wall_ledger = Some(WallLedger::default());
             for _ in 0..pieces {
                 dem.run(2400 / pieces).unwrap();
             }

@@ -326,6 +326,11 @@ impl Plan {
     pub fn dims(&self) -> Dims {
         self.dims
     }
+
+    /// The lattice time step (s).
+    pub fn dt_lbm_s(&self) -> f64 {
+        self.units.dt
+    }
 }
 
 impl Coupled {
@@ -753,6 +758,7 @@ impl Coupled {
             self.dem.wall_ledger = Some(WallLedger {
                 impulse_ns: j_walls,
                 magnitude_ns: wall_scale,
+                ..WallLedger::default()
             });
             let ran = self.dem.run(self.setup.dem_steps);
             let ledger = self.dem.wall_ledger.take().expect("set above");

@@ -4,7 +4,7 @@
 //! ([`crate::driver::Hooks`]) see the check (progress, checkpoints, stop requests). Scenes,
 //! validation runners and benchmarks run a bed to rest through [`run_to_rest`] or [`settle`].
 
-use super::engine::Dem;
+use super::engine::{Dem, WallLedger};
 use super::observe;
 use crate::driver::{Hooks, NoHooks};
 use crate::error::{invalid, require_positive};
@@ -29,13 +29,36 @@ pub enum Rest {
     Absolute { below_j: f64, after_s: f64 },
 }
 
-/// The stop rule: checks every `check_every_s` of simulated time, until the bed is at rest or
-/// the time reaches `max_time_s`.
+/// Force balance, the second half of "at rest": the walls' mean force over each check
+/// against the load they carry at rest ([`Dem::rest_load_n`]), |F_walls - L| / max(|F|, |L|,
+/// F_floor) (under a pressure wall: floor against top, over the floor's force)
+/// (for a bed under gravity alone, the floor force F against the buoyant weight W: |F/W - 1|
+/// to first order), below `tol` at every check of the last `window_s` seconds. A mean over a
+/// check is the momentum change over it divided by its length, so a bed that still bounces
+/// on its contacts (the floor force swinging about W) fails it even at a kinetic-energy minimum.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Balance {
+    pub tol: f64,
+    pub window_s: f64,
+}
+
+impl Balance {
+    /// The default: within 1 % over 0.1 s (longer than the ~0.09 s bounce period of the
+    /// built-in 400 um beds).
+    pub const DEFAULT: Balance = Balance {
+        tol: 0.01,
+        window_s: 0.1,
+    };
+}
+
+/// The stop rule: checks every `check_every_s` of simulated time, until the bed is at rest
+/// (the rest rule and the force balance) or the time reaches `max_time_s`.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct StopRule {
     check_every_s: f64,
     max_time_s: f64,
     rest: Rest,
+    balance: Balance,
 }
 
 /// `v` when positive and finite, else an error naming `name` and the value.
@@ -45,7 +68,8 @@ fn positive(name: &str, v: f64) -> Result<f64> {
 
 impl StopRule {
     /// A rule with a positive check interval and time limit and positive thresholds (a
-    /// non-negative start time of an absolute rule); errors name the value by its field.
+    /// non-negative start time of an absolute rule), and the default force balance
+    /// ([`Balance::DEFAULT`]); errors name the value by its field.
     pub fn new(check_every_s: f64, max_time_s: f64, rest: Rest) -> Result<StopRule> {
         positive("check_every_s", check_every_s)?;
         positive("max_time_s", max_time_s)?;
@@ -68,7 +92,30 @@ impl StopRule {
             check_every_s,
             max_time_s,
             rest,
+            balance: Balance::DEFAULT,
         })
+    }
+
+    /// The same rule with the force balance `balance` (positive tolerance, window >= 0 s; a
+    /// window shorter than a check asks for the balance at the stopping check only).
+    pub fn with_balance(self, balance: Balance) -> Result<StopRule> {
+        positive("balance_tol", balance.tol)?;
+        if !(balance.window_s.is_finite() && balance.window_s >= 0.0) {
+            return invalid(format!(
+                "balance_window_s = {}: must be >= 0 and finite",
+                balance.window_s
+            ));
+        }
+        Ok(StopRule { balance, ..self })
+    }
+
+    pub fn balance(&self) -> Balance {
+        self.balance
+    }
+
+    /// Checks in a row the balance must hold for (at least 1).
+    fn balance_checks(&self) -> u64 {
+        ((self.balance.window_s / self.check_every_s).round() as u64).max(1)
     }
 
     pub fn check_every_s(&self) -> f64 {
@@ -85,7 +132,7 @@ impl StopRule {
 
     /// The same rule with the time limit `max_time_s` (s, positive).
     pub fn with_max_time_s(self, max_time_s: f64) -> Result<StopRule> {
-        StopRule::new(self.check_every_s, max_time_s, self.rest)
+        StopRule::new(self.check_every_s, max_time_s, self.rest)?.with_balance(self.balance)
     }
 }
 
@@ -98,6 +145,12 @@ pub struct Progress {
     pub top_prev_m: f64,
     /// Checks done since the start.
     pub checks: u64,
+    /// Checks in a row, up to the last, whose force balance held.
+    pub balanced_checks: u64,
+    /// The last check's force imbalance |F_walls - L| / max(|F|, |L|, F_floor) (see [`Balance`]).
+    pub imbalance: f64,
+    /// The last check's mean z force of the floor on the particles (N).
+    pub floor_force_mean_n: f64,
 }
 
 /// Highest sphere top of the bed (m).
@@ -113,8 +166,34 @@ impl Progress {
             ke_peak_j: 0.0,
             top_prev_m: bed_top(dem),
             checks: 0,
+            balanced_checks: 0,
+            imbalance: f64::INFINITY,
+            floor_force_mean_n: 0.0,
         }
     }
+}
+
+/// The walls' mean force over a check (their impulse in `ledger` over `duration_s`) against
+/// the load `load_n` they carry at rest: (imbalance, mean floor z force in N). Nothing to carry
+/// and nothing carried is in balance.
+fn wall_balance(
+    ledger: &WallLedger,
+    duration_s: f64,
+    load_n: nalgebra::Vector3<f64>,
+) -> (f64, f64) {
+    let mean = ledger.impulse_ns / duration_s;
+    // the scale of the forces the walls carry: under a pressure wall the floor and the top
+    // wall each carry the wall's force while their sum (and the load) is near zero
+    let floor_mean = (ledger.floor_impulse_ns / duration_s).abs();
+    let scale = (ledger.magnitude_ns / duration_s)
+        .max(load_n.norm())
+        .max(floor_mean);
+    let imbalance = if scale > 0.0 {
+        (mean - load_n).norm() / scale
+    } else {
+        0.0
+    };
+    (imbalance, ledger.floor_impulse_ns / duration_s)
 }
 
 /// Why a run stopped.
@@ -129,12 +208,14 @@ pub enum Stop {
 impl Stop {
     /// The stop in words (a scene's summary prints it).
     pub fn reason(&self, rule: &StopRule) -> String {
+        let Balance { tol, window_s } = rule.balance;
+        let balance = format!("walls carry the load within {tol} over {window_s} s");
         match (self, rule.rest) {
             (Stop::AtRest, Rest::PeakFraction { ke_fraction, .. }) => {
-                format!("settled: KE < {ke_fraction} of its peak and bed top steady")
+                format!("settled: KE < {ke_fraction} of its peak, bed top steady, {balance}")
             }
             (Stop::AtRest, Rest::Absolute { below_j, after_s }) => {
-                format!("settled: KE < {below_j} J after t = {after_s} s")
+                format!("settled: KE < {below_j} J after t = {after_s} s, {balance}")
             }
             (Stop::TimeLimit, _) => {
                 format!("time limit {} s reached before settling", rule.max_time_s)
@@ -169,8 +250,27 @@ where
 {
     let steps_per_check = ((rule.check_every_s / dem.dt_s()).round() as u64).max(1);
     let d_mean = dem.setup().start.mean_diameter_m();
+    let load_n = dem.rest_load_n();
     loop {
-        dem.run(steps_per_check)?;
+        // the walls' impulse over the check gives their mean force (the caller's ledger, if
+        // any, is put back with the check's impulse added)
+        let outer = dem.wall_ledger.replace(WallLedger::default());
+        let t0 = dem.time_s;
+        let ran = dem.run(steps_per_check);
+        let ledger = std::mem::replace(&mut dem.wall_ledger, outer).unwrap_or_default();
+        ran?;
+        if let Some(o) = &mut dem.wall_ledger {
+            o.impulse_ns += ledger.impulse_ns;
+            o.magnitude_ns += ledger.magnitude_ns;
+            o.floor_impulse_ns += ledger.floor_impulse_ns;
+        }
+        (progress.imbalance, progress.floor_force_mean_n) =
+            wall_balance(&ledger, dem.time_s - t0, load_n);
+        progress.balanced_checks = if progress.imbalance < rule.balance.tol {
+            progress.balanced_checks + 1
+        } else {
+            0
+        };
         progress.checks += 1;
         let ke = dem.kinetic_energy();
         // the peak rule's energy leaves out the free spin of spheres touching nothing
@@ -192,7 +292,7 @@ where
                         && (top - progress.top_prev_m).abs() < height_tol_over_d * d_mean
                 }
                 Rest::Absolute { below_j, after_s } => dem.time_s > after_s && ke < below_j,
-            };
+            } && progress.balanced_checks >= rule.balance_checks();
             progress.top_prev_m = top;
             if at_rest {
                 Some(Stop::AtRest)
@@ -209,8 +309,8 @@ where
             max_overlap_ratio: ratio,
         };
         let status = format!(
-            "step {} t = {:.4} s KE = {ke:.2e} J overlap/d = {ratio:.2e}",
-            dem.steps, dem.time_s
+            "step {} t = {:.4} s KE = {ke:.2e} J overlap/d = {ratio:.2e} imbalance = {:.2e}",
+            dem.steps, dem.time_s, progress.imbalance
         );
         hooks.progress(&check, Some(dem.time_s / rule.max_time_s), &status);
         hooks.checkpoint(&check)?;
@@ -258,6 +358,51 @@ mod tests {
         };
         let e = StopRule::new(0.01, 1.0, bad).unwrap_err().to_string();
         assert!(e.contains("ke_fraction = NaN"), "{e}");
+        let rule = StopRule::new(0.01, 1.0, rest).unwrap();
+        let e = rule
+            .with_balance(Balance {
+                tol: 0.0,
+                window_s: 0.1,
+            })
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("balance_tol = 0"), "{e}");
+        let e = rule
+            .with_balance(Balance {
+                tol: 0.01,
+                window_s: -1.0,
+            })
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("balance_window_s = -1"), "{e}");
+    }
+
+    /// At rest means force balance: after the stop the floor's force, averaged step by step
+    /// over a further 0.05 s, is the buoyant weight N m g (closed form) within the rule's 1 %,
+    /// and the stop came only after the balance held over the whole window.
+    #[test]
+    fn a_bed_at_rest_carries_its_weight() {
+        let rest = Rest::PeakFraction {
+            ke_fraction: 1e-4,
+            height_tol_over_d: 1e-2,
+        };
+        let rule = StopRule::new(0.01, 2.0, rest).unwrap();
+        let mut dem = Dem::new(small_bed(60, 0.75)).unwrap();
+        let mut progress = Progress::start(&dem);
+        let stop = run_to_rest(&mut dem, &rule, &mut progress, &mut NoHooks).unwrap();
+        assert_eq!(stop, Some(Stop::AtRest), "t = {}", dem.time_s);
+        assert!(progress.balanced_checks >= 10 && progress.imbalance < 0.01);
+        let s = dem.setup();
+        let w: f64 = dem.p.mass.iter().sum::<f64>() * s.gravity_m_s2.norm();
+        assert!(s.fluid_density_kg_m3 == 0.0 && (dem.buoyant_weight_n() - w).abs() < 1e-12 * w);
+        let steps = (0.05 / dem.dt_s()).round() as u64;
+        let mut sum = 0.0;
+        for _ in 0..steps {
+            dem.step().unwrap();
+            sum += dem.floor_force_n;
+        }
+        let ratio = sum / steps as f64 / w;
+        assert!((ratio - 1.0).abs() < 0.01, "floor force / weight {ratio}");
     }
 
     /// A small bed under gravity comes to rest by the peak rule before its time limit; the

@@ -512,25 +512,39 @@ impl WallTotals {
     pub(super) fn top_stiffness(&self) -> f64 {
         self.top_stiffness_n_per_m
     }
+
+    pub(super) fn floor_force_n(&self) -> f64 {
+        self.floor_force_n
+    }
 }
 
 /// The walls' impulse on the particles over the steps run since it was set, by the trapezoidal
 /// rule on the total wall force at both ends of each step (velocity Verlet kicks with the mean
-/// of the two), and the same sum of the force's magnitude (the scale of a momentum balance).
-#[derive(Debug, Clone, Copy, PartialEq)]
+/// of the two), the same sum of the force's magnitude (the scale of a momentum balance), and
+/// the floor's z impulse alone.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct WallLedger {
     /// N s.
     pub impulse_ns: Vector3<f64>,
     /// N s.
     pub magnitude_ns: f64,
+    /// N s.
+    pub floor_impulse_ns: f64,
 }
 
 impl WallLedger {
-    /// Adds a step of `dt_s` from wall force `before_n` to `after_n`.
-    pub(super) fn add(&mut self, before_n: Vector3<f64>, after_n: Vector3<f64>, dt_s: f64) {
+    /// Adds a step of `dt_s` from wall force `before_n` to `after_n` (both walls) and floor z
+    /// force `floor_before_n` to `floor_after_n`.
+    pub(super) fn add(
+        &mut self,
+        (before_n, floor_before_n): (Vector3<f64>, f64),
+        (after_n, floor_after_n): (Vector3<f64>, f64),
+        dt_s: f64,
+    ) {
         let h = 0.5 * dt_s;
         self.impulse_ns += (before_n + after_n) * h;
         self.magnitude_ns += (before_n.norm() + after_n.norm()) * h;
+        self.floor_impulse_ns += (floor_before_n + floor_after_n) * h;
     }
 }
 
@@ -564,6 +578,15 @@ impl ActiveTerms {
         v
     }
 }
+
+/// Neighbour-list pairs per sphere assumed by [`Dem::estimated_bytes`] (a dense bed has about
+/// 6 contacts per sphere, 3 pairs; the skin roughly triples the candidates).
+const PAIRS_PER_PARTICLE: f64 = 10.0;
+
+/// Bytes per sphere of the per-particle arrays: 13 vectors (position, velocities, spins, force,
+/// torque, full-step velocities, wall springs and forces, external force, pair sums) and 7
+/// scalars (radius, mass, inverses, wall forces).
+const BYTES_PER_PARTICLE: f64 = (13 * 24 + 7 * 8) as f64;
 
 /// A DEM system and its integrator state.
 pub struct Dem {
@@ -869,10 +892,14 @@ impl Dem {
             self.rebuild()?;
         }
         // the forces at the new positions, and the second half kick
-        let wall_before = self.wall_force_n;
+        let wall_before = (self.wall_force_n, self.floor_force_n);
         self.compute_forces(true);
         if let Some(l) = &mut self.wall_ledger {
-            l.add(wall_before, self.wall_force_n, self.dt_s);
+            l.add(
+                wall_before,
+                (self.wall_force_n, self.floor_force_n),
+                self.dt_s,
+            );
         }
         self.top_v_m_s = self.top_speed(self.top_elastic_force_n, self.top_stiffness_n_per_m);
         self.time_s += self.dt_s;
@@ -1227,9 +1254,32 @@ impl Dem {
         &self.force
     }
 
+    /// The memory a bed of `n` spheres takes, estimated before anything is allocated (bytes):
+    /// the per-particle arrays and a neighbour list of about 10 pairs per sphere (with the
+    /// pair forces kept for the threaded gather).
+    pub fn estimated_bytes(n: usize) -> f64 {
+        let pair = (std::mem::size_of::<Pair>() + std::mem::size_of::<PairForce>()) as f64;
+        n as f64 * (BYTES_PER_PARTICLE + PAIRS_PER_PARTICLE * pair)
+    }
+
     /// The buoyant weight of all particles along gravity, sum m' |g| (N).
     pub fn buoyant_weight_n(&self) -> f64 {
         self.p.mass.iter().sum::<f64>() * self.buoyancy * self.setup.gravity_m_s2.norm()
+    }
+
+    /// The force the walls must carry when every particle is at rest: minus the sum of the
+    /// body forces at zero velocity, buoyant weight m' g, Stokes drag 6 pi mu a U_F and the
+    /// external forces (seed 002 eq. 1 with dv/dt = 0 and v = 0; contact forces cancel in pairs).
+    pub fn rest_load_n(&self) -> Vector3<f64> {
+        let mut load = -self.setup.gravity_m_s2 * (self.p.mass.iter().sum::<f64>() * self.buoyancy);
+        if let Some(d) = &self.setup.drag {
+            let radii: f64 = self.p.radius.iter().sum();
+            load -= d.fluid_velocity_m_s * (6.0 * PI * d.viscosity_pa_s * radii);
+        }
+        for e in &self.external {
+            load -= e;
+        }
+        load
     }
 }
 

@@ -39,7 +39,7 @@ pub mod setup;
 pub mod start;
 mod team;
 
-pub use driver::{run_to_rest, settle, Check, Progress, Rest, Stop, StopRule};
+pub use driver::{run_to_rest, settle, Balance, Check, Progress, Rest, Stop, StopRule};
 pub use engine::{ActiveTerms, Dem, WallLedger};
 pub use model::{
     ContactModel, CoulombLimit, DampingModel, Material, NormalModel, PairMaterial, TangentialModel,

@@ -332,7 +332,8 @@ impl Dem {
         };
         let (mut steps, mut time_s) = (0, self.time_s);
         let mut totals: Option<WallTotals> = None;
-        let (mut ledger, mut wall_before) = (self.wall_ledger, self.wall_force_n);
+        let (mut ledger, mut wall_before) =
+            (self.wall_ledger, (self.wall_force_n, self.floor_force_n));
         let outcome = rayon::in_place_scope(|scope| {
             for me in 1..threads {
                 scope.spawn(move |_| helper(me));
@@ -349,10 +350,11 @@ impl Dem {
                 let dem = unsafe { this.get() };
                 let z = f64::from_bits(top_z.load(Ordering::Relaxed));
                 let t = dem.wall_totals(z);
+                let wall_after = (t.wall_force_n, t.floor_force_n());
                 if let Some(l) = &mut ledger {
-                    l.add(wall_before, t.wall_force_n, dt);
+                    l.add(wall_before, wall_after, dt);
                 }
-                wall_before = t.wall_force_n;
+                wall_before = wall_after;
                 let v = dem.top_speed(t.top_elastic_force_n, t.top_stiffness());
                 top_v.store(v.to_bits(), Ordering::Relaxed);
                 totals = Some(t);

@@ -102,24 +102,59 @@ pub fn render_svg(plot: &Plot, size: (u32, u32)) -> Result<String> {
     let (Some((x0, x1)), Some((y0, y1))) = (x_range, y_range) else {
         return invalid(format!("plot '{}' has no finite point to draw", plot.title));
     };
+    let rows = plot.series.iter().filter(|s| !s.label.is_empty()).count();
+    let (y0, y1) = legend_band((y0, y1), plot.log_y, rows, size.1);
+    let spans = (x1 - x0, y1 - y0);
     let mut svg = String::new();
     {
         let backend = SVGBackend::with_string(&mut svg, size);
         let drawn = match (plot.log_x, plot.log_y) {
-            (false, false) => draw(backend, plot, x0..x1, y0..y1),
-            (true, false) => draw(backend, plot, (x0..x1).log_scale(), y0..y1),
-            (false, true) => draw(backend, plot, x0..x1, (y0..y1).log_scale()),
-            (true, true) => draw(backend, plot, (x0..x1).log_scale(), (y0..y1).log_scale()),
+            (false, false) => draw(backend, plot, x0..x1, y0..y1, spans),
+            (true, false) => draw(backend, plot, (x0..x1).log_scale(), y0..y1, spans),
+            (false, true) => draw(backend, plot, x0..x1, (y0..y1).log_scale(), spans),
+            (true, true) => draw(
+                backend,
+                plot,
+                (x0..x1).log_scale(),
+                (y0..y1).log_scale(),
+                spans,
+            ),
         };
         drawn.map_err(|e| Error::InvalidInput(format!("cannot draw the plot: {e}")))?;
     }
     Ok(svg)
 }
 
-/// A tick label: at most four significant digits, exponent form outside 1e-3..1e5.
-fn tick(v: &f64) -> String {
+/// Pixels of one legend row, and of the legend's frame and margin (plotters' default legend
+/// font and spacing).
+const LEGEND_ROW_PX: f64 = 20.0;
+const LEGEND_FRAME_PX: f64 = 24.0;
+/// Pixels of the figure outside the plotting area in height (caption, margins, x labels).
+const OUTSIDE_PLOT_PX: f64 = 100.0;
+
+/// The y range `(y0, y1)` raised at the top by an empty band as high as a legend of `rows`
+/// rows in a figure `height_px` high, so the legend (upper right) covers no point of any
+/// curve; at most 60 % of the axis (log axes: in decades).
+fn legend_band((y0, y1): (f64, f64), log: bool, rows: usize, height_px: u32) -> (f64, f64) {
+    if rows == 0 {
+        return (y0, y1);
+    }
+    let plot_px = (f64::from(height_px) - OUTSIDE_PLOT_PX).max(1.0);
+    let f = ((rows as f64 * LEGEND_ROW_PX + LEGEND_FRAME_PX) / plot_px).min(0.6);
+    // the band takes the fraction f of the new axis: (top - y1) = f (top - y0)
+    if log {
+        let (a, b) = (y0.log10(), y1.log10());
+        (y0, 10f64.powf((b - f * a) / (1.0 - f)))
+    } else {
+        (y0, (y1 - f * y0) / (1.0 - f))
+    }
+}
+
+/// A tick label: at most four significant digits, exponent form outside 1e-3..1e5; a value
+/// within 1e-9 of the axis span `span` of zero is the tick at zero that rounding missed.
+fn tick(v: &f64, span: f64) -> String {
     let v = *v;
-    if v == 0.0 {
+    if v == 0.0 || v.abs() < 1e-9 * span.abs() {
         return "0".into();
     }
     if !v.is_finite() {
@@ -156,6 +191,7 @@ fn draw<'a, X, Y>(
     plot: &'a Plot,
     x: X,
     y: Y,
+    (x_span, y_span): (f64, f64),
 ) -> std::result::Result<(), Box<dyn std::error::Error + 'a>>
 where
     X: AsRangedCoord<Value = f64>,
@@ -175,22 +211,26 @@ where
         .configure_mesh()
         .x_desc(plot.x_label.as_str())
         .y_desc(plot.y_label.as_str())
-        .x_label_formatter(&tick)
-        .y_label_formatter(&tick)
+        .x_label_formatter(&|v| tick(v, x_span))
+        .y_label_formatter(&|v| tick(v, y_span))
         .light_line_style(WHITE.mix(0.0))
         .draw()?;
     for (k, s) in plot.series.iter().enumerate() {
         let colour = PALETTE[k % PALETTE.len()];
+        // the last series (a closed form, where there is one) is drawn narrower on top of the
+        // others, so a result it matches stays visible on both sides of it
+        let width = if k + 1 == plot.series.len() { 2 } else { 4 };
         let finite: Vec<(f64, f64)> = s
             .points
             .iter()
             .copied()
             .filter(|(a, b)| a.is_finite() && b.is_finite())
             .collect();
-        let line = chart.draw_series(LineSeries::new(finite.clone(), colour.stroke_width(2)))?;
+        let line =
+            chart.draw_series(LineSeries::new(finite.clone(), colour.stroke_width(width)))?;
         if !s.label.is_empty() {
             line.label(s.label.as_str()).legend(move |(px, py)| {
-                PathElement::new(vec![(px, py), (px + 20, py)], colour.stroke_width(2))
+                PathElement::new(vec![(px, py), (px + 20, py)], colour.stroke_width(width))
             });
         }
         if finite.len() <= 60 {
@@ -382,11 +422,14 @@ mod tests {
         assert_eq!(p.series[0].points, vec![(0.0, 0.0), (1.0, 0.5)]);
         assert_eq!(p.series[0].y_err, Some(vec![0.0, 0.1]));
         assert_eq!(p.series[1].points.len(), 1, "an empty y is left out");
-        assert_eq!(tick(&9.999999999999998e-9), "1e-8");
-        assert_eq!(tick(&0.00012), "1.2e-4");
-        assert_eq!(tick(&0.0012), "0.0012");
-        assert_eq!(tick(&-0.0), "0");
-        assert_eq!(tick(&250.0), "250");
+        assert_eq!(tick(&9.999999999999998e-9, 1e-8), "1e-8");
+        assert_eq!(tick(&0.00012, 1.0), "1.2e-4");
+        assert_eq!(tick(&0.0012, 1.0), "0.0012");
+        assert_eq!(tick(&-0.0, 1.0), "0");
+        assert_eq!(tick(&250.0, 1.0), "250");
+        // the zero tick of a linear axis, missed by rounding (an LBM profile's -1.355e-20)
+        assert_eq!(tick(&-1.355e-20, 2e-3), "0");
+        assert_eq!(tick(&-1.355e-20, 1e-19), "-1.355e-20");
         let e = CsvPlot {
             y: "g",
             ..spec.clone()
@@ -400,6 +443,21 @@ mod tests {
             .unwrap_err()
             .to_string();
         assert!(e.contains("'time_s' holds 'x'"), "{e}");
+    }
+
+    #[test]
+    fn legend_band_leaves_the_top_free_for_the_legend() {
+        // 2 rows in 460 px: (2 * 20 + 24) / 360 = 0.178 of the new axis above the data
+        let (y0, y1) = legend_band((0.0, 1.0), false, 2, 460);
+        let f = (y1 - 1.0) / (y1 - y0);
+        assert!(y0 == 0.0 && (f - 64.0 / 360.0).abs() < 1e-12, "{f}");
+        let (a, b) = legend_band((1e-6, 1e-2), true, 2, 460);
+        let f = (b.log10() + 2.0) / (b.log10() - a.log10());
+        assert!(a == 1e-6 && (f - 64.0 / 360.0).abs() < 1e-12, "{f}");
+        assert_eq!(legend_band((0.0, 1.0), false, 0, 460), (0.0, 1.0));
+        // many rows take at most 60 % of the axis
+        let (_, y1) = legend_band((0.0, 1.0), false, 40, 460);
+        assert!((1.0 - 1.0 / y1 - 0.6).abs() < 1e-12);
     }
 
     #[test]

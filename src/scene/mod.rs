@@ -144,9 +144,41 @@ pub fn run_text(text: &str, origin: &str, out_stem: &str, opts: &RunOptions) -> 
         .out
         .clone()
         .unwrap_or_else(|| default_out_dir(out_stem));
-    scene_kind(text, origin)?
-        .run(text, origin, &out, opts)
+    let kind = scene_kind(text, origin)?;
+    check_out_writable(&out)?;
+    kind.run(text, origin, &out, opts)
         .map_err(|e| naming_origin(e, origin))
+}
+
+/// Refuses, before any work, an output folder that cannot be written: a file in its place or
+/// in its path, or a nearest existing folder where no file can be made (a probe file is made
+/// there and removed; the folder itself is made by the run).
+pub fn check_out_writable(out: &Path) -> Result<()> {
+    let refuse = |msg: String| Error::File {
+        path: out.display().to_string(),
+        msg: format!("--out: {msg}"),
+    };
+    let mut dir = out;
+    let existing = loop {
+        match std::fs::metadata(dir) {
+            Ok(m) if m.is_dir() => break dir,
+            Ok(_) => {
+                return Err(refuse(format!(
+                    "{} is a file: the outputs need a folder",
+                    dir.display()
+                )))
+            }
+            Err(_) => match dir.parent() {
+                Some(p) if !p.as_os_str().is_empty() => dir = p,
+                _ => break Path::new("."),
+            },
+        }
+    };
+    let probe = existing.join(format!(".porelab-write-probe-{}", std::process::id()));
+    std::fs::write(&probe, b"")
+        .map_err(|e| refuse(format!("cannot write in {}: {e}", existing.display())))?;
+    let _ = std::fs::remove_file(&probe);
+    Ok(())
 }
 
 /// `e` with the scene's file in front when its message does not name it yet (engine checks

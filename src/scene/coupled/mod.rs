@@ -69,6 +69,36 @@ pub fn builtins() -> Vec<Builtin> {
 /// `kind = "coupled"`.
 pub struct Kind;
 
+/// The work a coupled scene may ask for: lattice cells times LBM steps to `output.time_s`.
+pub const MAX_CELL_UPDATES: f64 = 1e12;
+
+/// Everything a run checks before it allocates the lattice ([`crate::coupled::Coupled::plan`]:
+/// the setup and the memory), and the work: cells times LBM steps up to `output.time_s`, at
+/// most `output.max_cell_updates` [[`MAX_CELL_UPDATES`]].
+pub(crate) fn check_size(scene: &CoupledScene) -> Result<()> {
+    let plan = crate::coupled::Coupled::plan(&scene.setup)?;
+    let d = plan.dims();
+    let cells = (d.nx * d.ny * d.nz) as f64;
+    let steps = (scene.time_s / plan.dt_lbm_s()).ceil();
+    let limit = scene.max_cell_updates;
+    if cells * steps > limit {
+        return crate::error::invalid(format!(
+            "a lattice of {} x {} x {} cells (fluid.dx_m = {} m) run for output.time_s = {} s \
+             in {steps:.3e} steps of {:.3e} s is {:.3e} cell-updates, more than \
+             output.max_cell_updates = {limit:e}: use a coarser fluid.dx_m or a shorter run, or \
+             raise output.max_cell_updates to run it anyway",
+            d.nx,
+            d.ny,
+            d.nz,
+            scene.setup.dx_m,
+            scene.time_s,
+            plan.dt_lbm_s(),
+            cells * steps
+        ));
+    }
+    Ok(())
+}
+
 impl super::Scene for Kind {
     fn kind(&self) -> &'static str {
         "coupled"
@@ -81,8 +111,7 @@ impl super::Scene for Kind {
     }
     fn check(&self, text: &str, origin: &str) -> Result<()> {
         // everything a run checks before it allocates the lattice
-        let scene = parse_scene(text, origin)?;
-        crate::coupled::Coupled::plan(&scene.setup).map(|_| ())
+        check_size(&parse_scene(text, origin)?)
     }
     fn run(&self, text: &str, origin: &str, out: &Path, opts: &RunOptions) -> Result<()> {
         run_scene(text, origin, out, opts)

@@ -34,6 +34,39 @@ pub struct CoupledSummary {
     pub mean_fluid_velocity_m_s: [f64; 3],
 }
 
+/// porosity_profile.svg: the porosity of the cell layers against height at the first, middle
+/// and last time of `profile_csv` (porosity_profile.csv: `time_s,z_m,porosity`), one curve
+/// each, showing how the flow consolidated the bed (a failure to draw is a warning).
+pub(super) fn porosity_svg(profile_csv: &str, out: &Path) {
+    let rows: Vec<&str> = profile_csv.lines().skip(1).collect();
+    let time = |row: &str| row.split(',').next().unwrap_or("").to_string();
+    let mut times: Vec<String> = rows.iter().map(|r| time(r)).collect();
+    times.dedup();
+    let picked: Vec<&String> = match times.len() {
+        0 => Vec::new(),
+        n => {
+            let mut p = vec![&times[0], &times[n / 2], &times[n - 1]];
+            p.dedup();
+            p
+        }
+    };
+    let mut text = String::from("time_s,z_m,porosity\n");
+    for r in rows.iter().filter(|r| picked.contains(&&time(r))) {
+        text.push_str(r);
+        text.push('\n');
+    }
+    crate::io::plot::CsvPlot {
+        title: "Porosity of the cell layers against height (coupled LBM-DEM)",
+        x: "z_m",
+        y: "porosity",
+        group_by: &["time_s"],
+        x_label: "height z (m)",
+        y_label: "porosity",
+        ..Default::default()
+    }
+    .write_or_warn(&out.join("porosity_profile.svg"), &text);
+}
+
 /// Writes frame `k`: `frame_k.xyz` (particles) and `fluid_k.vtk` (porosity, velocity, pressure).
 pub(super) fn frame(c: &Coupled, out: &Path, k: usize) -> Result<()> {
     let parts: Vec<xyz::XyzParticle> = (0..c.dem.p.len())

@@ -1,7 +1,7 @@
 //! A coupled run: the system built from its scene, stepped by [`crate::coupled::driver`] with
 //! its outputs written by the hooks, checkpointed and resumed.
 
-use super::outputs::{frame, summarize};
+use super::outputs::{frame, porosity_svg, summarize};
 use super::CoupledScene;
 use crate::coupled::checkpoint::CoupledState;
 use crate::coupled::{driver, Coupled};
@@ -16,6 +16,7 @@ use std::time::Instant;
 
 /// The coupled system of a parsed scene (the DEM's random dispersion in the lattice).
 pub fn build(scene: &CoupledScene) -> Result<Coupled> {
+    super::check_size(scene)?;
     Coupled::new(scene.setup.clone())
 }
 
@@ -173,6 +174,7 @@ pub(crate) fn run_scene_limited(
     } = hooks;
     let seconds = base_seconds + start.elapsed().as_secs_f64();
     write_atomic(&out.join("porosity_profile.csv"), profile.as_bytes())?;
+    porosity_svg(&profile, out);
     let summary = summarize(&scene, &c, seconds, mass0, opts.threads);
     let json =
         serde_json::to_string_pretty(&summary).map_err(|e| Error::InvalidInput(e.to_string()))?;

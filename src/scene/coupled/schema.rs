@@ -91,6 +91,7 @@ struct CouplingSpec {
 #[serde(deny_unknown_fields)]
 struct OutputSpec {
     time_s: f64,
+    max_cell_updates: Option<f64>,
     frames_every_s: Option<f64>,
     profile_every_s: Option<f64>,
 }
@@ -102,6 +103,8 @@ pub struct CoupledScene {
     pub dem: DemScene,
     pub setup: Setup,
     pub time_s: f64,
+    /// The work limit: lattice cells times LBM steps.
+    pub max_cell_updates: f64,
     pub frames_every_s: f64,
     pub profile_every_s: f64,
 }
@@ -189,6 +192,11 @@ pub fn parse_scene(text: &str, origin: &str) -> Result<CoupledScene> {
         dem,
         setup,
         time_s,
+        max_cell_updates: positive(
+            origin,
+            "output.max_cell_updates",
+            f.output.max_cell_updates.unwrap_or(super::MAX_CELL_UPDATES),
+        )?,
         frames_every_s: frames,
         profile_every_s: prof,
     })

@@ -4,7 +4,7 @@
 
 use super::schema::DemScene;
 use crate::analysis::{pore_size, rdf, rdf::Bed};
-use crate::dem::{observe, Check, Dem};
+use crate::dem::{observe, Check, Dem, Progress};
 use crate::error::Error;
 use crate::io::plot::CsvPlot;
 use crate::io::{write_atomic, xyz, CsvTable};
@@ -12,13 +12,15 @@ use crate::Result;
 use std::path::Path;
 
 /// The columns of `history.csv`, one row per check.
-pub(super) const HISTORY_COLUMNS: [&str; 7] = [
+pub(super) const HISTORY_COLUMNS: [&str; 9] = [
     "time_s",
     "kinetic_energy_J",
     "bed_top_m",
     "top_wall_z_m",
     "top_pressure_Pa",
     "floor_force_N",
+    "floor_force_check_mean_N",
+    "force_imbalance",
     "max_overlap_over_diameter",
 ];
 
@@ -48,6 +50,8 @@ pub(super) fn history_row(hist: &mut CsvTable, scene: &DemScene, c: &Check) {
         d.top_z_m,
         d.top_force_n / area(scene),
         d.floor_force_n,
+        c.progress.floor_force_mean_n,
+        c.progress.imbalance,
         c.max_overlap_ratio,
     ]);
 }
@@ -78,7 +82,12 @@ pub struct DemSummary {
     /// Mean sphere–sphere contacts of the spheres with centres in the bulk region.
     pub coordination_bulk: Option<f64>,
     pub max_overlap_over_diameter: f64,
+    /// The mean floor force over the last check / the buoyant weight (a run's summary; `None`
+    /// without gravity).
     pub floor_force_over_weight: Option<f64>,
+    /// The last check's force imbalance of the walls against the load at rest (a run's
+    /// summary; see [`crate::dem::Balance`]).
+    pub force_imbalance: Option<f64>,
     pub top_wall_z_m: f64,
     pub top_pressure_pa: f64,
     pub kinetic_energy_j: f64,
@@ -100,7 +109,8 @@ pub struct PoreSummary {
     pub median_diameter_over_d: f64,
 }
 
-/// The summary of a finished run (without g(r) and pore sizes, which [`write_results`] adds).
+/// The summary of a finished run (without g(r), pore sizes and the last check's force balance,
+/// which [`write_results`] adds).
 pub fn summarize(scene: &DemScene, dem: &Dem, stop: String, seconds: f64) -> DemSummary {
     let z: Vec<f64> = dem.p.pos.iter().map(|p| p.z).collect();
     let r = &dem.p.radius;
@@ -108,7 +118,6 @@ pub fn summarize(scene: &DemScene, dem: &Dem, stop: String, seconds: f64) -> Dem
     let top = observe::bed_top(&z, r);
     let bulk = observe::bulk_region(&z, r, top);
     let counts = dem.contact_counts();
-    let w = dem.buoyant_weight_n();
     DemSummary {
         title: scene.title.clone(),
         n: dem.p.len(),
@@ -128,7 +137,8 @@ pub fn summarize(scene: &DemScene, dem: &Dem, stop: String, seconds: f64) -> Dem
         coordination_bulk: bulk
             .and_then(|(a, b)| rdf::mean_coordination_in(&dem.p.pos, &counts, a, b)),
         max_overlap_over_diameter: dem.max_overlap_ratio(),
-        floor_force_over_weight: (w > 0.0).then(|| dem.floor_force_n / w),
+        floor_force_over_weight: None,
+        force_imbalance: None,
         top_wall_z_m: dem.top_z_m,
         top_pressure_pa: dem.top_force_n / area,
         kinetic_energy_j: dem.kinetic_energy(),
@@ -239,11 +249,15 @@ pub(super) fn write_results(
     out: &Path,
     scene: &DemScene,
     dem: &Dem,
+    progress: &Progress,
     hist: &CsvTable,
     stop: String,
     seconds: f64,
 ) -> Result<DemSummary> {
     let mut summary = summarize(scene, dem, stop, seconds);
+    let w = dem.buoyant_weight_n();
+    summary.floor_force_over_weight = (w > 0.0).then(|| progress.floor_force_mean_n / w);
+    summary.force_imbalance = Some(progress.imbalance);
     hist.write(&out.join("history.csv"))?;
     let z: Vec<f64> = dem.p.pos.iter().map(|p| p.z).collect();
     let mut prof = CsvTable::new(&["z_lo_m", "z_hi_m", "porosity"]);
@@ -338,7 +352,7 @@ pub(super) fn write_results(
 /// The run's result in one line on stdout, and where the outputs are.
 pub(super) fn print_summary(origin: &str, summary: &DemSummary, out: &Path) {
     println!(
-        "{}: {} steps, dt = {:e} s, {:.1} s ({}); porosity below top {:.4}, bulk {}; coordination {:.2} (bulk {}); max overlap/d {:.2e}",
+        "{}: {} steps, dt = {:e} s, {:.1} s ({}); porosity below top {:.4}, bulk {}; coordination {:.2} (bulk {}); max overlap/d {:.2e}; force imbalance {}",
         origin,
         summary.steps,
         summary.dt_s,
@@ -348,7 +362,10 @@ pub(super) fn print_summary(origin: &str, summary: &DemSummary, out: &Path) {
         summary.porosity_bulk.map_or("-".into(), |e| format!("{e:.4}")),
         summary.mean_coordination,
         summary.coordination_bulk.map_or("-".into(), |c| format!("{c:.2}")),
-        summary.max_overlap_over_diameter
+        summary.max_overlap_over_diameter,
+        summary
+            .force_imbalance
+            .map_or("-".into(), |b| format!("{b:.1e}"))
     );
     println!("outputs in {}", out.display());
 }

@@ -32,12 +32,16 @@ struct Checkpoint {
     ke_peak_j: u64,
     top_prev_m: u64,
     checks: u64,
+    balanced_checks: u64,
+    imbalance: u64,
+    floor_force_mean_n: u64,
     history: String,
     state: DemState,
 }
 
-/// Format 2: the neighbour-list pairs keep no forces (those are recomputed every step).
-const CHECKPOINT_FORMAT: u32 = 2;
+/// Format 3: the stop rule's force balance (format 2: the neighbour-list pairs keep no forces,
+/// those are recomputed every step).
+const CHECKPOINT_FORMAT: u32 = 3;
 
 fn write_checkpoint(
     path: &Path,
@@ -54,6 +58,9 @@ fn write_checkpoint(
         ke_peak_j: progress.ke_peak_j.to_bits(),
         top_prev_m: progress.top_prev_m.to_bits(),
         checks: progress.checks,
+        balanced_checks: progress.balanced_checks,
+        imbalance: progress.imbalance.to_bits(),
+        floor_force_mean_n: progress.floor_force_mean_n.to_bits(),
         history: history.as_str().to_string(),
         state: dem.save_state(),
     };
@@ -89,6 +96,9 @@ fn read_checkpoint(
             ke_peak_j: f(c.ke_peak_j),
             top_prev_m: f(c.top_prev_m),
             checks: c.checks,
+            balanced_checks: c.balanced_checks,
+            imbalance: f(c.imbalance),
+            floor_force_mean_n: f(c.floor_force_mean_n),
         },
         history_resumed(&c.history),
         f(c.seconds),
@@ -247,6 +257,7 @@ pub(super) fn run_scene_limited(
         out,
         &scene,
         &dem,
+        &progress,
         &hooks.history,
         stop.reason(&scene.rule),
         seconds,

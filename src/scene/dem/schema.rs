@@ -6,8 +6,8 @@
 
 use super::super::keys::parse_renamed;
 use crate::dem::{
-    ContactModel, CoulombLimit, DampingModel, Drag, Material, NormalModel, Rest, Setup, Start,
-    StopRule, TangentialModel, TimeStep, TopWall,
+    Balance, ContactModel, CoulombLimit, DampingModel, Dem, Drag, Material, NormalModel, Rest,
+    Setup, Start, StopRule, TangentialModel, TimeStep, TopWall,
 };
 use crate::error::{invalid, Error};
 use crate::Result;
@@ -220,6 +220,9 @@ struct RunSpec {
     check_every_s: Option<f64>,
     ke_fraction: Option<f64>,
     height_tol_over_d: Option<f64>,
+    balance_tol: Option<f64>,
+    balance_window_s: Option<f64>,
+    max_particle_steps: Option<f64>,
     profile_bins: Option<usize>,
     trajectory_every_s: Option<f64>,
     rdf_max_over_d: Option<f64>,
@@ -262,6 +265,10 @@ impl DemScene {
         self.setup.start.mean_diameter_m()
     }
 }
+
+/// The work a DEM scene may ask for unless `run.max_particle_steps` says otherwise: spheres
+/// times steps up to the time limit (the built-in dem-seed-gravity asks for 4.7e9).
+pub const DEFAULT_MAX_PARTICLE_STEPS: f64 = 1e11;
 
 /// The stream of the random dispersion: the scene's seed xor this (the sizes draw from the
 /// seed itself).
@@ -348,6 +355,7 @@ impl DemFile {
             .map_err(|e| Error::InvalidInput(format!("{origin}: {e}")))?;
         let rule = f.run.stop_rule(origin)?;
         let outputs = f.run.outputs(origin, rule.check_every_s())?;
+        f.run.check_work(origin, &setup, &rule)?;
         Ok(DemScene {
             title: f.title,
             seed: f.seed,
@@ -468,6 +476,12 @@ impl Sizes {
         if n == 0 {
             return invalid(format!("{origin}: particles.n = 0: must be at least 1"));
         }
+        // refused before the diameters are drawn, which would allocate for every sphere
+        crate::scene::check_memory(
+            origin,
+            &format!("particles.n = {n} (a DEM bed)"),
+            Dem::estimated_bytes(n),
+        )?;
         let rho = positive(origin, "particles.density_kg_m3", density.unwrap_or(2500.0))?;
         let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
         let diameters = match self {
@@ -864,7 +878,7 @@ impl RunSpec {
         Ok(())
     }
 
-    /// The stop rule: settled by the peak rule, or the time limit.
+    /// The stop rule: settled by the peak rule and the force balance, or the time limit.
     fn stop_rule(&self, origin: &str) -> Result<StopRule> {
         StopRule::new(
             self.check_every_s.unwrap_or(0.01),
@@ -874,8 +888,38 @@ impl RunSpec {
                 height_tol_over_d: self.height_tol_over_d.unwrap_or(1e-3),
             },
         )
+        .and_then(|rule| {
+            rule.with_balance(Balance {
+                tol: self.balance_tol.unwrap_or(Balance::DEFAULT.tol),
+                window_s: self.balance_window_s.unwrap_or(Balance::DEFAULT.window_s),
+            })
+        })
         // the rule's messages start with the field, which is the key
         .map_err(|e| Error::InvalidInput(format!("{origin}: run.{e}")))
+    }
+
+    /// Refuses a run whose work, spheres times steps up to the time limit, exceeds
+    /// `max_particle_steps` [`DEFAULT_MAX_PARTICLE_STEPS`], before anything is allocated.
+    fn check_work(&self, origin: &str, setup: &Setup, rule: &StopRule) -> Result<()> {
+        let limit = self
+            .max_particle_steps
+            .map(|x| positive(origin, "run.max_particle_steps", x))
+            .transpose()?
+            .unwrap_or(DEFAULT_MAX_PARTICLE_STEPS);
+        let n = setup.start.radii().len();
+        let dt = setup
+            .time_step_s()
+            .map_err(|e| Error::InvalidInput(format!("{origin}: run.dt_s: {e}")))?;
+        let work = n as f64 * (rule.max_time_s() / dt).ceil();
+        if work > limit {
+            return invalid(format!(
+                "{origin}: particles.n = {n} over run.max_time_s = {} s at dt = {dt:.3e} s is \
+                 {work:.3e} particle-steps, more than run.max_particle_steps = {limit:e}: make \
+                 the run smaller, or raise run.max_particle_steps to run it anyway",
+                rule.max_time_s()
+            ));
+        }
+        Ok(())
     }
 
     /// The output settings, frames at whole numbers of checks of `check_every_s`.

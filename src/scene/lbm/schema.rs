@@ -286,6 +286,27 @@ fn medium(u: &Units, eps: f64, k_si: f64, forchheimer: Option<bool>) -> Result<(
     Ok((eps, k_si / (u.dx * u.dx), forchheimer.unwrap_or(true)))
 }
 
+/// Refuses, before the run, a plain channel (no porous medium, which damps faster) whose
+/// slowest diffusive mode across `h` cells, decaying as exp(-pi^2 nu t / h^2), needs more than
+/// `max_steps` steps to decay once: such a run would step until max_steps and end unconverged
+/// (a channel of 100000 cells at nu = 1/6 needs 6e9 steps).
+fn check_diffusion_steps(problem: &Problem, h: f64, nu: f64, max_steps: u64) -> Result<()> {
+    let plain = match problem {
+        Problem::Channel(ch) => ch.porous.is_none(),
+        Problem::Driven(_) => true,
+        _ => false,
+    };
+    let steps = h * h / (std::f64::consts::PI.powi(2) * nu);
+    if plain && steps > max_steps as f64 {
+        return invalid(format!(
+            "cells = {h}: the flow across {h} cells develops in about h^2 / (pi^2 nu) = \
+             {steps:.3e} steps (nu = {nu:.4} in lattice units), more than max_steps = \
+             {max_steps}: the run would end unconverged; use fewer cells or raise max_steps"
+        ));
+    }
+    Ok(())
+}
+
 fn prepare_flow(
     c: &Common,
     name: String,
@@ -382,6 +403,7 @@ fn prepare_flow(
         Problem::SphereArray { .. } => (Dims::new(cells, cells, cells)?, 0),
     };
     check_memory(dims, c.lattice.q(), SCENE_PER_CELL + porous_fields)?;
+    check_diffusion_steps(&problem, h, nu, ctl.max_steps)?;
     check_mach(u_est, "estimated peak velocity")?;
     Ok(FlowPlan {
         flow: name,
