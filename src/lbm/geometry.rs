@@ -173,6 +173,13 @@ impl Geometry {
     pub fn links(&self, row: usize) -> &[Link] {
         &self.links[self.link_start[row] as usize..self.link_start[row + 1] as usize]
     }
+    /// Bytes of the mask, the runs and the links.
+    pub fn bytes(&self) -> usize {
+        self.solid.len()
+            + 4 * (self.run_start.len() + self.link_start.len())
+            + std::mem::size_of::<(u32, u32)>() * self.runs.len()
+            + std::mem::size_of::<Link>() * self.links.len()
+    }
     pub fn link_count(&self) -> usize {
         self.links.len()
     }
