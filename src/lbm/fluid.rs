@@ -287,6 +287,9 @@ impl<L: Lattice, C: Collision, F: Forcing> FluidSolver<L, C, F> {
             }
         }
         let tables = Tables::new::<L>(&geometry)?;
+        // the links live on in the table and the fixups
+        let mut geometry = geometry;
+        geometry.forget_links();
         let len = L::Q * tables.stride;
         let mut s = FluidSolver {
             geometry,
@@ -358,7 +361,7 @@ impl<L: Lattice, C: Collision, F: Forcing> FluidSolver<L, C, F> {
     /// block at `at`).
     #[allow(clippy::too_many_arguments)]
     #[inline(always)]
-    fn block<R: Real>(
+    fn block<R: Real, const HW: bool>(
         src: &[f64],
         t: &Tables,
         coll: &C,
@@ -375,6 +378,9 @@ impl<L: Lattice, C: Collision, F: Forcing> FluidSolver<L, C, F> {
             let p = &t.pull[q * t.stride + n0..q * t.stride + n0 + LANES];
             f[q] = if bits & (1 << q) != 0 {
                 R::load(&src[p[0] as usize..])
+            } else if HW {
+                // SAFETY: the table's indices lie below Q stride = src.len() (Tables::new)
+                unsafe { R::gather_unchecked(src, p) }
             } else {
                 R::gather(src, p)
             };
@@ -441,7 +447,7 @@ impl<L: Lattice, C: Collision, F: Forcing> FluidSolver<L, C, F> {
         t: &Tables,
         coll: &C,
         force: &F,
-        stream: bool,
+        (stream, hw): (bool, bool),
         task: &mut Task,
         rec: &mut [(f64, [f64; 3], [f64; 3])],
     ) {
@@ -449,7 +455,11 @@ impl<L: Lattice, C: Collision, F: Forcing> FluidSolver<L, C, F> {
         let blocks = task.out[0].len() / LANES;
         for k in 0..blocks {
             let arg = (task.first_block + k, k * LANES, stream);
-            Self::block::<R>(src, t, coll, force, arg, &mut scratch, &mut task.out, rec);
+            if hw {
+                Self::block::<R, true>(src, t, coll, force, arg, &mut scratch, &mut task.out, rec);
+            } else {
+                Self::block::<R, false>(src, t, coll, force, arg, &mut scratch, &mut task.out, rec);
+            }
         }
         if stream {
             R::fence();
@@ -467,11 +477,11 @@ impl<L: Lattice, C: Collision, F: Forcing> FluidSolver<L, C, F> {
         t: &Tables,
         coll: &C,
         force: &F,
-        stream: bool,
+        (stream, hw): (bool, bool),
         task: &mut Task,
         rec: &mut [(f64, [f64; 3], [f64; 3])],
     ) {
-        Self::task_body::<V256x2>(src, t, coll, force, stream, task, rec)
+        Self::task_body::<V256x2>(src, t, coll, force, (stream, hw), task, rec)
     }
 
     /// [`Self::task_body`] compiled for AVX-512.
@@ -485,11 +495,11 @@ impl<L: Lattice, C: Collision, F: Forcing> FluidSolver<L, C, F> {
         t: &Tables,
         coll: &C,
         force: &F,
-        stream: bool,
+        (stream, hw): (bool, bool),
         task: &mut Task,
         rec: &mut [(f64, [f64; 3], [f64; 3])],
     ) {
-        Self::task_body::<V512>(src, t, coll, force, stream, task, rec)
+        Self::task_body::<V512>(src, t, coll, force, (stream, hw), task, rec)
     }
 
     /// One time step: stream, bounce back, collide.
@@ -522,6 +532,7 @@ impl<L: Lattice, C: Collision, F: Forcing> FluidSolver<L, C, F> {
         #[cfg(target_arch = "x86_64")]
         let avx512 = avx2 && is_x86_feature_detected!("avx512f");
         let stream = self.streaming_stores();
+        let hw = std::env::var_os("PORELAB_FK_HWGATHER").is_some();
         let (t, coll, force) = (&self.tables, &self.collision, &self.forcing);
         let src: &[f64] = &self.f;
         let chunk = BLOCKS_PER_TASK * LANES;
@@ -549,16 +560,16 @@ impl<L: Lattice, C: Collision, F: Forcing> FluidSolver<L, C, F> {
                 #[cfg(target_arch = "x86_64")]
                 if avx512 {
                     // SAFETY: avx512f, avx2 and fma were detected above.
-                    unsafe { Self::task_avx512(src, t, coll, force, stream, task, rec) };
+                    unsafe { Self::task_avx512(src, t, coll, force, (stream, hw), task, rec) };
                     return;
                 }
                 #[cfg(target_arch = "x86_64")]
                 if avx2 {
                     // SAFETY: avx2 and fma were detected above.
-                    unsafe { Self::task_avx2(src, t, coll, force, stream, task, rec) };
+                    unsafe { Self::task_avx2(src, t, coll, force, (stream, hw), task, rec) };
                     return;
                 }
-                Self::task_body::<VArr>(src, t, coll, force, stream, task, rec)
+                Self::task_body::<VArr>(src, t, coll, force, (stream, hw), task, rec)
             });
         drop(tasks);
         std::mem::swap(&mut self.f, &mut self.g);
