@@ -236,6 +236,9 @@ impl Tables {
     }
 }
 
+/// What a node's collision used: density, velocity, source acceleration.
+type NodeRecord = (f64, [f64; 3], [f64; 3]);
+
 /// One task's output: the Q population rows of its nodes, and where its first node is.
 struct Task<'a> {
     first_block: usize,
@@ -361,7 +364,7 @@ impl<L: Lattice, C: Collision, F: Forcing> FluidSolver<L, C, F> {
     /// block at `at`).
     #[allow(clippy::too_many_arguments)]
     #[inline(always)]
-    fn block<R: Real, const HW: bool>(
+    fn block<R: Real>(
         src: &[f64],
         t: &Tables,
         coll: &C,
@@ -369,7 +372,7 @@ impl<L: Lattice, C: Collision, F: Forcing> FluidSolver<L, C, F> {
         (b, at, stream): (usize, usize, bool),
         scratch: &mut Block<LANES>,
         out: &mut [&mut [f64]],
-        rec: &mut [(f64, [f64; 3], [f64; 3])],
+        rec: &mut [NodeRecord],
     ) {
         let n0 = b * LANES;
         let bits = t.contiguous[b];
@@ -378,9 +381,6 @@ impl<L: Lattice, C: Collision, F: Forcing> FluidSolver<L, C, F> {
             let p = &t.pull[q * t.stride + n0..q * t.stride + n0 + LANES];
             f[q] = if bits & (1 << q) != 0 {
                 R::load(&src[p[0] as usize..])
-            } else if HW {
-                // SAFETY: the table's indices lie below Q stride = src.len() (Tables::new)
-                unsafe { R::gather_unchecked(src, p) }
             } else {
                 R::gather(src, p)
             };
@@ -447,19 +447,15 @@ impl<L: Lattice, C: Collision, F: Forcing> FluidSolver<L, C, F> {
         t: &Tables,
         coll: &C,
         force: &F,
-        (stream, hw): (bool, bool),
+        stream: bool,
         task: &mut Task,
-        rec: &mut [(f64, [f64; 3], [f64; 3])],
+        rec: &mut [NodeRecord],
     ) {
         let mut scratch: Block<LANES> = [[0.0; LANES]; QMAX];
         let blocks = task.out[0].len() / LANES;
         for k in 0..blocks {
             let arg = (task.first_block + k, k * LANES, stream);
-            if hw {
-                Self::block::<R, true>(src, t, coll, force, arg, &mut scratch, &mut task.out, rec);
-            } else {
-                Self::block::<R, false>(src, t, coll, force, arg, &mut scratch, &mut task.out, rec);
-            }
+            Self::block::<R>(src, t, coll, force, arg, &mut scratch, &mut task.out, rec);
         }
         if stream {
             R::fence();
@@ -477,11 +473,11 @@ impl<L: Lattice, C: Collision, F: Forcing> FluidSolver<L, C, F> {
         t: &Tables,
         coll: &C,
         force: &F,
-        (stream, hw): (bool, bool),
+        stream: bool,
         task: &mut Task,
-        rec: &mut [(f64, [f64; 3], [f64; 3])],
+        rec: &mut [NodeRecord],
     ) {
-        Self::task_body::<V256x2>(src, t, coll, force, (stream, hw), task, rec)
+        Self::task_body::<V256x2>(src, t, coll, force, stream, task, rec)
     }
 
     /// [`Self::task_body`] compiled for AVX-512.
@@ -495,11 +491,11 @@ impl<L: Lattice, C: Collision, F: Forcing> FluidSolver<L, C, F> {
         t: &Tables,
         coll: &C,
         force: &F,
-        (stream, hw): (bool, bool),
+        stream: bool,
         task: &mut Task,
-        rec: &mut [(f64, [f64; 3], [f64; 3])],
+        rec: &mut [NodeRecord],
     ) {
-        Self::task_body::<V512>(src, t, coll, force, (stream, hw), task, rec)
+        Self::task_body::<V512>(src, t, coll, force, stream, task, rec)
     }
 
     /// One time step: stream, bounce back, collide.
@@ -526,13 +522,12 @@ impl<L: Lattice, C: Collision, F: Forcing> FluidSolver<L, C, F> {
         Ok(())
     }
 
-    fn step_inner(&mut self, rec: Option<&mut [(f64, [f64; 3], [f64; 3])]>) {
+    fn step_inner(&mut self, rec: Option<&mut [NodeRecord]>) {
         #[cfg(target_arch = "x86_64")]
         let avx2 = is_x86_feature_detected!("avx2") && is_x86_feature_detected!("fma");
         #[cfg(target_arch = "x86_64")]
         let avx512 = avx2 && is_x86_feature_detected!("avx512f");
         let stream = self.streaming_stores();
-        let hw = std::env::var_os("PORELAB_FK_HWGATHER").is_some();
         let (t, coll, force) = (&self.tables, &self.collision, &self.forcing);
         let src: &[f64] = &self.f;
         let chunk = BLOCKS_PER_TASK * LANES;
@@ -549,7 +544,7 @@ impl<L: Lattice, C: Collision, F: Forcing> FluidSolver<L, C, F> {
                 task.out.push(part);
             }
         }
-        let mut recs: Vec<&mut [(f64, [f64; 3], [f64; 3])]> = match rec {
+        let mut recs: Vec<&mut [NodeRecord]> = match rec {
             Some(r) => r.chunks_mut(chunk).collect(),
             None => (0..ntasks).map(|_| &mut [][..]).collect(),
         };
@@ -560,16 +555,16 @@ impl<L: Lattice, C: Collision, F: Forcing> FluidSolver<L, C, F> {
                 #[cfg(target_arch = "x86_64")]
                 if avx512 {
                     // SAFETY: avx512f, avx2 and fma were detected above.
-                    unsafe { Self::task_avx512(src, t, coll, force, (stream, hw), task, rec) };
+                    unsafe { Self::task_avx512(src, t, coll, force, stream, task, rec) };
                     return;
                 }
                 #[cfg(target_arch = "x86_64")]
                 if avx2 {
                     // SAFETY: avx2 and fma were detected above.
-                    unsafe { Self::task_avx2(src, t, coll, force, (stream, hw), task, rec) };
+                    unsafe { Self::task_avx2(src, t, coll, force, stream, task, rec) };
                     return;
                 }
-                Self::task_body::<VArr>(src, t, coll, force, (stream, hw), task, rec)
+                Self::task_body::<VArr>(src, t, coll, force, stream, task, rec)
             });
         drop(tasks);
         std::mem::swap(&mut self.f, &mut self.g);
@@ -717,7 +712,7 @@ mod tests {
         })
         .unwrap();
         let wall = |c: usize| {
-            if moving && c % 7 == 0 {
+            if moving && c.is_multiple_of(7) {
                 [0.01, -0.02, 0.0]
             } else {
                 [0.0; 3]

@@ -100,15 +100,6 @@ pub trait Real: Arith {
         }
         Self::load(&v)
     }
-    /// [`Real::gather`] without the bounds checks, by the CPU's gather instruction where the
-    /// type has one.
-    ///
-    /// # Safety
-    /// Every `idx[l]` (l < LANES) must be below `s.len()`.
-    #[inline(always)]
-    unsafe fn gather_unchecked(s: &[f64], idx: &[u32]) -> Self {
-        Self::gather(s, idx)
-    }
     /// Lane l: `field[cells.idx[l]]`.
     #[inline(always)]
     fn field(field: &[f64], cells: Cells) -> Self {
@@ -314,16 +305,6 @@ mod x86 {
         fn fence() {
             // SAFETY: sfence has no precondition.
             unsafe { _mm_sfence() }
-        }
-        #[inline(always)]
-        unsafe fn gather_unchecked(s: &[f64], idx: &[u32]) -> V512 {
-            let idx = &idx[..LANES];
-            // SAFETY: eight u32 (the slice above), each below s.len() (the caller's contract)
-            // and below 2^31 (s.len() is, for the kernels' arrays): the gather reads only s.
-            unsafe {
-                let vi = _mm256_loadu_si256(idx.as_ptr().cast());
-                V512(_mm512_i32gather_pd::<8>(vi, s.as_ptr().cast()))
-            }
         }
     }
 
