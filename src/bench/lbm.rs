@@ -2,18 +2,22 @@
 //! each lattice and collision, plain and porous, at one and two threads, against the memory
 //! bandwidth measured by a STREAM-type triad on the same machine in the same run, and against
 //! the peer lbmpy (benches/peer_lbmpy.py) run in the same measurement when python finds it.
-//! The pore-resolving measurement runs the plain kernel on a random solid mask (solid fraction
-//! 0.6) and counts fluid cells only; its "fraction of the limit" uses the same bytes per
-//! update, so it says how much of the bandwidth the sparse fluid gets. The limit counts
+//! The pore-resolving measurements run on a solid mask, the random one (solid fraction 0.6) at
+//! each size and, with `--packing`, a packing voxelised at `--packing-cells`: `pores` with the
+//! box kernel (every cell stored, fluid runs updated), `fluid` with the fluid-list kernel
+//! ([`crate::lbm::fluid`]); both count fluid cells only, and their "fraction of the limit"
+//! uses the same bytes per update, so it says how much of the bandwidth the sparse fluid gets.
+//! Each prints the bytes its kernel holds. The limit counts
 //! 3 x 8 Q bytes per update (the write-allocate read included, as the triad counts it); where
 //! the kernel stores non-temporally it moves 2 x 8 Q, and the run also reports the fraction of
 //! that higher limit.
 
 use crate::error::{invalid, Result};
 use crate::io::CsvTable;
+use crate::lbm::voxels::voxelise;
 use crate::lbm::{
     Accel, CollisionKind, CollisionModel, Dims, Domain, ForcingModel, LatticeKind, Lbm, Medium,
-    Setup, Tau,
+    Setup, Storage, Tau,
 };
 use std::time::Instant;
 
@@ -34,9 +38,16 @@ pub struct BenchArgs {
     /// Collisions to measure (bgk, trt).
     #[arg(long, value_delimiter = ',', default_values_t = vec!["bgk".to_string(), "trt".to_string()])]
     pub collisions: Vec<String>,
-    /// Kernels to measure: plain (Guo body force), porous (Guo-Zhao), pores (solid mask).
-    #[arg(long, value_delimiter = ',', default_values_t = vec!["plain".to_string(), "porous".to_string(), "pores".to_string()])]
+    /// Kernels to measure: plain (Guo body force), porous (Guo-Zhao), pores (solid mask, box
+    /// kernel), fluid (solid mask, fluid-list kernel).
+    #[arg(long, value_delimiter = ',', default_values_t = vec!["plain".to_string(), "porous".to_string(), "pores".to_string(), "fluid".to_string()])]
     pub modes: Vec<String>,
+    /// A packing (XYZ file) whose voxel mask the pores and fluid kernels also run on.
+    #[arg(long)]
+    pub packing: Option<std::path::PathBuf>,
+    /// Cells along the packing box's x edge, one measurement each.
+    #[arg(long, value_delimiter = ',', default_values_t = vec![64, 96])]
+    pub packing_cells: Vec<usize>,
     /// Skip the lbmpy peer.
     #[arg(long)]
     pub no_peer: bool,
@@ -93,31 +104,72 @@ pub fn triad_gb_per_s(threads: usize) -> Result<f64> {
     })
 }
 
-/// What a measurement runs: the plain kernel (Guo body force), the Guo-Zhao porous kernel, or
-/// the pore-resolving kernel on a solid mask with the given solid fraction.
+/// What a measurement runs: the plain kernel (Guo body force) or the Guo-Zhao porous kernel
+/// on the open box, or a pore-resolving kernel on the grid's solid mask: the box kernel
+/// (pores) or the fluid-list kernel (fluid).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum Mode {
     Plain,
     Porous,
-    Pores { solid_fraction: f64 },
+    Pores,
+    Fluid,
 }
 
 impl Mode {
     /// The forcing column of the CSV.
-    fn forcing(self) -> String {
+    fn forcing(self) -> &'static str {
         match self {
-            Mode::Plain => "guo".into(),
-            Mode::Porous => "guo-zhao".into(),
-            Mode::Pores { solid_fraction } => format!("guo-solid-{solid_fraction}"),
+            Mode::Porous => "guo-zhao",
+            _ => "guo",
         }
     }
 
-    fn name(self) -> String {
+    fn name(self) -> &'static str {
         match self {
-            Mode::Plain => "plain".into(),
-            Mode::Porous => "porous".into(),
-            Mode::Pores { solid_fraction } => format!("pores{solid_fraction}"),
+            Mode::Plain => "plain",
+            Mode::Porous => "porous",
+            Mode::Pores => "pores",
+            Mode::Fluid => "fluid",
         }
+    }
+
+    fn on_mask(self) -> bool {
+        matches!(self, Mode::Pores | Mode::Fluid)
+    }
+}
+
+/// A lattice a measurement runs on, and the solid mask of its pore-resolving kernels.
+#[derive(Debug, Clone)]
+pub struct Grid {
+    /// The mask's name in the CSV: `random0.6` or `packing`.
+    pub mask: String,
+    pub dims: Dims,
+    pub solid: Vec<bool>,
+}
+
+impl Grid {
+    /// The n^3 box with the random mask of solid fraction [`PORE_SOLID_FRACTION`].
+    pub fn random(n: usize) -> Result<Grid> {
+        let dims = Dims::new(n, n, n)?;
+        Ok(Grid {
+            mask: format!("random{PORE_SOLID_FRACTION}"),
+            dims,
+            solid: random_mask(dims.cells(), PORE_SOLID_FRACTION),
+        })
+    }
+
+    /// The packing of the XYZ file `path` voxelised at `n` cells along its box's x edge.
+    pub fn packing(path: &std::path::Path, n: usize) -> Result<Grid> {
+        let text = std::fs::read_to_string(path).map_err(|e| {
+            crate::Error::InvalidInput(format!("--packing {}: {e}", path.display()))
+        })?;
+        let (cell, parts) = crate::io::xyz::parse(&text, &path.display().to_string())?;
+        let v = voxelise(&cell, &parts, n)?;
+        Ok(Grid {
+            mask: "packing".into(),
+            dims: v.dims,
+            solid: v.solid,
+        })
     }
 }
 
@@ -140,22 +192,24 @@ fn random_mask(cells: usize, fraction: f64) -> Vec<bool> {
         .collect()
 }
 
-/// MLUPS and whether the kernel stored non-temporally.
-type Timing = (f64, bool);
+/// MLUPS, whether the kernel stored non-temporally, and the bytes the kernel holds.
+type Timing = (f64, bool, usize);
 
-/// The flow a measurement times: on an n^3 lattice at tau = 1 under a body force of 1e-6
+/// The flow a measurement times: on the grid's lattice at tau = 1 under a body force of 1e-6
 /// along x, the open box (plain), a Guo-Zhao medium whose porosity varies from cell to cell
-/// (porous), or the random solid mask (pores).
-fn flow(lat: LatticeKind, coll: CollisionKind, mode: Mode, n: usize) -> Result<Lbm> {
-    let d = Dims::new(n, n, n)?;
+/// (porous), or the grid's solid mask in the box kernel (pores) or the fluid list (fluid).
+fn flow(lat: LatticeKind, coll: CollisionKind, mode: Mode, grid: &Grid) -> Result<Lbm> {
+    let d = grid.dims;
     let g = Accel::new([1e-6, 0.0, 0.0])?;
     let collision = CollisionModel::new(coll, Tau::new(1.0)?);
+    let on_mask = |storage| -> Result<Setup> {
+        let domain = Domain::with_solid(d, grid.solid.clone())?;
+        Ok(Setup::new(lat, collision, domain).with_storage(storage))
+    };
     let setup = match mode {
-        Mode::Pores { solid_fraction } => {
-            let mask = random_mask(d.cells(), solid_fraction);
-            Setup::new(lat, collision, Domain::with_solid(d, mask)?)
-        }
-        _ => Setup::new(lat, collision, Domain::open(d)),
+        Mode::Pores => on_mask(Storage::Box)?,
+        Mode::Fluid => on_mask(Storage::FluidList)?,
+        _ => Setup::new(lat, collision, Domain::open(d)).with_storage(Storage::Box),
     };
     let forcing = match mode {
         Mode::Porous => ForcingModel::Porous(Medium::clear(g, true)),
@@ -185,6 +239,7 @@ fn time_steps(mut s: Lbm, seconds: f64, stores: Option<bool>) -> Result<Timing> 
     Ok((
         s.geometry().fluid_cells() as f64 * steps as f64 / dt / 1e6,
         streaming,
+        s.kernel_bytes(),
     ))
 }
 
@@ -194,7 +249,7 @@ pub fn mlups(
     lat: LatticeKind,
     coll: CollisionKind,
     mode: Mode,
-    (n, threads): (usize, usize),
+    (grid, threads): (&Grid, usize),
     seconds: f64,
     stores: Option<bool>,
 ) -> Result<Timing> {
@@ -202,7 +257,7 @@ pub fn mlups(
         .num_threads(threads)
         .build()
         .map_err(|e| crate::Error::InvalidInput(format!("thread pool: {e}")))?;
-    pool.install(|| time_steps(flow(lat, coll, mode, n)?, seconds, stores))
+    pool.install(|| time_steps(flow(lat, coll, mode, grid)?, seconds, stores))
 }
 
 /// lbmpy's MLUPS for (lattice, collision, n, threads), run by benches/peer_lbmpy.py; None with
@@ -280,10 +335,11 @@ fn choices(args: &BenchArgs) -> Result<Choices> {
         .map(|s| match s.to_ascii_lowercase().as_str() {
             "plain" => Ok(Mode::Plain),
             "porous" => Ok(Mode::Porous),
-            "pores" => Ok(Mode::Pores {
-                solid_fraction: PORE_SOLID_FRACTION,
-            }),
-            _ => invalid(format!("--modes {s}: must be plain, porous or pores")),
+            "pores" => Ok(Mode::Pores),
+            "fluid" => Ok(Mode::Fluid),
+            _ => invalid(format!(
+                "--modes {s}: must be plain, porous, pores or fluid"
+            )),
         })
         .collect::<Result<Vec<_>>>()?;
     let stores = match args.stores.to_ascii_lowercase().as_str() {
@@ -299,10 +355,12 @@ fn choices(args: &BenchArgs) -> Result<Choices> {
 }
 
 /// The columns of the benchmark's CSV.
-const COLUMNS: [&str; 12] = [
+const COLUMNS: [&str; 14] = [
     "lattice",
     "collision",
     "forcing",
+    "mask",
+    "kernel_mib",
     "n",
     "threads",
     "mlups",
@@ -317,44 +375,65 @@ const COLUMNS: [&str; 12] = [
 pub fn run(args: &BenchArgs) -> Result<()> {
     let (lattices, collisions, modes, stores) = choices(args)?;
     let mut csv = CsvTable::new(&COLUMNS);
+    let mut grids = args
+        .sizes
+        .iter()
+        .map(|&n| Grid::random(n))
+        .collect::<Result<Vec<_>>>()?;
+    if let Some(path) = &args.packing {
+        for &n in &args.packing_cells {
+            grids.push(Grid::packing(path, n)?);
+        }
+    }
     for &th in &args.threads {
         let bw = triad_gb_per_s(th)?;
         println!("triad bandwidth, {th} thread(s): {bw:.1} GB/s (4 x 8 bytes per element)");
-        for &n in &args.sizes {
+        for grid in &grids {
+            let n = grid.dims.nx;
+            let fluid = grid.solid.iter().filter(|s| !**s).count();
             for &lat in &lattices {
                 let limit = bw * 1e9 / bytes_per_update(lat.q()) / 1e6;
                 for &coll in &collisions {
                     // lbmpy is compared with the plain kernel only; best of the rounds
                     let mut peer: std::result::Result<f64, String> = if args.no_peer {
                         Err("--no-peer".to_string())
+                    } else if grid.dims != Dims::new(n, n, n)? {
+                        Err("the peer runs cubes only".to_string())
                     } else if !modes.contains(&Mode::Plain) {
                         Err("plain kernel not selected".to_string())
                     } else {
                         Ok(0.0)
                     };
-                    let mut best = vec![(0.0f64, false); modes.len()];
+                    let mut best = vec![(0.0f64, false, 0); modes.len()];
                     for _ in 0..args.rounds {
                         if let Ok(p) = peer {
                             peer = peer_mlups(lat, coll, n, th, args.seconds).map(|q| q.max(p));
                         }
                         for (b, &mode) in best.iter_mut().zip(&modes) {
-                            let t = mlups(lat, coll, mode, (n, th), args.seconds, stores)?;
-                            *b = (b.0.max(t.0), t.1);
+                            let t = mlups(lat, coll, mode, (grid, th), args.seconds, stores)?;
+                            *b = (b.0.max(t.0), t.1, t.2);
                         }
                     }
                     // non-temporal stores skip the write-allocate read: 2 x 8 Q bytes a cell
                     let nt_limit = limit * 1.5;
-                    for (&mode, &(m, nt)) in modes.iter().zip(&best) {
+                    for (&mode, &(m, nt, bytes)) in modes.iter().zip(&best) {
+                        let mib = bytes as f64 / 1048576.0;
+                        let mask = if mode.on_mask() {
+                            grid.mask.as_str()
+                        } else {
+                            "open"
+                        };
                         let plain = mode == Mode::Plain;
                         let (pm, ratio) = match (&peer, plain) {
                             (Ok(p), true) => (format!("{p:.2}"), format!("{:.3}", m / p)),
                             _ => (String::new(), String::new()),
                         };
                         println!(
-                            "{} {} {:<8} {n:>3}^3 {th} thr: {m:7.2} MLUPS, {:5.1} % of the {limit:.1} MLUPS limit{}{}",
+                            "{} {} {:<6} {mask:<10} {n:>3}^3 ({:.3} fluid) {th} thr: {m:7.2} MLUPS, {mib:7.1} MiB, {:5.1} % of the {limit:.1} MLUPS limit{}{}",
                             lat.name(),
                             coll.name(),
                             mode.name(),
+                            if mode.on_mask() { fluid as f64 / grid.dims.cells() as f64 } else { 1.0 },
                             100.0 * m / limit,
                             if nt {
                                 format!(" (non-temporal stores: {:.1} % of their {nt_limit:.1})", 100.0 * m / nt_limit)
@@ -370,7 +449,9 @@ pub fn run(args: &BenchArgs) -> Result<()> {
                         csv.row([
                             lat.name().to_string(),
                             coll.name().to_string(),
-                            mode.forcing(),
+                            mode.forcing().to_string(),
+                            mask.to_string(),
+                            format!("{mib:.2}"),
                             n.to_string(),
                             th.to_string(),
                             format!("{m:.3}"),

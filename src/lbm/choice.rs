@@ -5,12 +5,13 @@
 
 use super::boundary::{connected, Boundaries, Plane};
 use super::collision::{Bgk, Collision, Trt};
+use super::fluid::{FluidSolver, AUTO_FLUID_FRACTION};
 use super::forcing::{BodyForce, Forcing, Porous, Unforced};
 use super::geometry::Geometry;
 use super::lattice::{Lattice, D3Q15, D3Q19};
 use super::setup::{
     CollisionKind, ForcingModel, Initial, LatticeKind, PlaneCondition, PlaneSpec, PlaneVelocity,
-    Setup, Walls,
+    Setup, Storage, Walls,
 };
 use super::solver::{Fields, Record, Solver};
 use crate::error::{invalid, Result};
@@ -33,6 +34,8 @@ pub(super) trait Kernel: Send + Sync {
     fn set_streaming_stores(&mut self, on: Option<bool>);
     /// Whether boundary planes `a` and `b` are joined through fluid along the lattice's links.
     fn planes_connected(&self, a: usize, b: usize) -> bool;
+    /// Bytes of the populations, tables and geometry.
+    fn bytes(&self) -> usize;
 }
 
 impl<L: Lattice, C: Collision + 'static, F: Forcing + 'static> Kernel for Solver<L, C, F> {
@@ -75,12 +78,80 @@ impl<L: Lattice, C: Collision + 'static, F: Forcing + 'static> Kernel for Solver
     fn set_streaming_stores(&mut self, on: Option<bool>) {
         Solver::set_streaming_stores(self, on)
     }
+    fn bytes(&self) -> usize {
+        Solver::bytes(self)
+    }
     fn planes_connected(&self, a: usize, b: usize) -> bool {
         let planes = self.boundaries().planes();
         match (planes.get(a), planes.get(b)) {
             (Some(pa), Some(pb)) => connected::<L>(self.geometry(), pa, pb),
             _ => false,
         }
+    }
+}
+
+impl<L: Lattice, C: Collision + 'static, F: Forcing + 'static> Kernel for FluidSolver<L, C, F> {
+    fn run(&mut self, steps: u64) {
+        FluidSolver::run(self, steps)
+    }
+    fn step_recording(&mut self, rec: &mut Record) -> Result<()> {
+        FluidSolver::step_recording(self, rec)
+    }
+    fn steps(&self) -> u64 {
+        FluidSolver::steps(self)
+    }
+    fn geometry(&self) -> &Geometry {
+        FluidSolver::geometry(self)
+    }
+    fn fields(&self) -> Fields {
+        FluidSolver::fields(self)
+    }
+    fn mass(&self) -> f64 {
+        FluidSolver::mass(self)
+    }
+    fn momentum(&self) -> [f64; 3] {
+        FluidSolver::momentum(self)
+    }
+    fn populations(&self) -> Vec<f64> {
+        FluidSolver::populations(self)
+    }
+    fn restore_populations(&mut self, f: &[f64], steps: u64) -> Result<()> {
+        FluidSolver::restore_populations(self, f, steps)
+    }
+    fn porous(&self) -> Option<&Porous> {
+        (self.forcing() as &dyn Any).downcast_ref::<Porous>()
+    }
+    fn porous_mut(&mut self) -> Option<&mut Porous> {
+        (self.forcing_mut() as &mut dyn Any).downcast_mut::<Porous>()
+    }
+    fn streaming_stores(&self) -> bool {
+        FluidSolver::streaming_stores(self)
+    }
+    fn set_streaming_stores(&mut self, on: Option<bool>) {
+        FluidSolver::set_streaming_stores(self, on)
+    }
+    fn bytes(&self) -> usize {
+        FluidSolver::bytes(self)
+    }
+    /// The fluid list runs without boundary planes.
+    fn planes_connected(&self, _a: usize, _b: usize) -> bool {
+        false
+    }
+}
+
+/// Whether `setup`'s kernel stores the fluid nodes only ([`Storage`]): asked for, or `Auto`
+/// at a fluid fraction of at most [`AUTO_FLUID_FRACTION`]; never with boundary planes.
+fn fluid_list(storage: Storage, planes: bool, geometry: &Geometry) -> Result<bool> {
+    match storage {
+        Storage::Box => Ok(false),
+        Storage::FluidList if planes => invalid(
+            "the fluid-list kernel runs periodic boxes without boundary planes: take the box \
+             kernel",
+        ),
+        Storage::FluidList => Ok(true),
+        Storage::Auto => Ok(!planes
+            && geometry.fluid_cells() > 0
+            && geometry.fluid_cells() as f64 <= AUTO_FLUID_FRACTION * geometry.dims.cells() as f64),
     }
 }
 
@@ -102,6 +173,7 @@ fn with_lattice<L: Lattice>(setup: Setup) -> Result<Box<dyn Kernel>> {
         domain,
         boundaries,
         initial,
+        storage,
         ..
     } = setup;
     initial.check(domain.dims().cells())?;
@@ -120,8 +192,10 @@ fn with_lattice<L: Lattice>(setup: Setup) -> Result<Box<dyn Kernel>> {
         .iter()
         .map(|p| plane(&geometry, p))
         .collect::<Result<Vec<_>>>()?;
+    let fluid_list = fluid_list(storage, !planes.is_empty(), &geometry)?;
     let planes = Boundaries::new(planes)?;
     let parts = Parts {
+        fluid_list,
         geometry,
         planes,
         initial,
@@ -136,6 +210,8 @@ fn with_lattice<L: Lattice>(setup: Setup) -> Result<Box<dyn Kernel>> {
 
 /// What a kernel is built from besides its collision and forcing.
 struct Parts {
+    /// Whether the kernel stores the fluid nodes only.
+    fluid_list: bool,
     geometry: Geometry,
     planes: Boundaries,
     initial: Initial,
@@ -164,6 +240,13 @@ fn finish<L: Lattice, C: Collision + 'static, F: Forcing + 'static>(
     coll: C,
     force: F,
 ) -> Result<Box<dyn Kernel>> {
+    if parts.fluid_list {
+        let mut s = FluidSolver::<L, C, F>::new(parts.geometry, coll, force)?;
+        if let Initial::State { rho, u } = &parts.initial {
+            s.init(|c| (rho[c], u[c]));
+        }
+        return Ok(Box::new(s));
+    }
     let mut s =
         Solver::<L, C, F>::new(parts.geometry, coll, force)?.with_boundaries(parts.planes)?;
     if let Initial::State { rho, u } = &parts.initial {

@@ -128,6 +128,11 @@ impl Lbm {
         self.kernel.set_streaming_stores(on)
     }
 
+    /// Bytes the kernel holds (populations, neighbour tables, geometry).
+    pub fn kernel_bytes(&self) -> usize {
+        self.kernel.bytes()
+    }
+
     /// Whether boundary planes `a` and `b` (in the order of the setup) are joined through
     /// fluid cells along the lattice's links, not wrapping across the planes' axes.
     pub fn planes_connected(&self, a: usize, b: usize) -> bool {

@@ -49,6 +49,10 @@ pub struct Geometry {
     link_start: Vec<u32>,
     links: Vec<Link>,
     fluid_cells: usize,
+    /// Links and interpolated links, counted where they were built (kept by
+    /// [`Geometry::forget_links`]).
+    link_count: usize,
+    interpolated: usize,
 }
 
 impl Geometry {
@@ -149,9 +153,19 @@ impl Geometry {
             run_start,
             runs,
             link_start,
-            links,
             fluid_cells,
+            link_count: links.len(),
+            interpolated: links.iter().filter(|l| l.kappa != 0.0).count(),
+            links,
         })
+    }
+
+    /// Frees the links (32 bytes each, about five per fluid node of a packing) for a kernel
+    /// that has resolved them into its own tables ([`super::fluid`]): [`Geometry::links`] is
+    /// then empty for every row; the counts stay.
+    pub fn forget_links(&mut self) {
+        self.links = Vec::new();
+        self.link_start.iter_mut().for_each(|s| *s = 0);
     }
 
     pub fn is_solid(&self, cell: usize) -> bool {
@@ -173,12 +187,19 @@ impl Geometry {
     pub fn links(&self, row: usize) -> &[Link] {
         &self.links[self.link_start[row] as usize..self.link_start[row + 1] as usize]
     }
+    /// Bytes of the mask, the runs and the links.
+    pub fn bytes(&self) -> usize {
+        self.solid.len()
+            + 4 * (self.run_start.len() + self.link_start.len())
+            + std::mem::size_of::<(u32, u32)>() * self.runs.len()
+            + std::mem::size_of::<Link>() * self.links.len()
+    }
     pub fn link_count(&self) -> usize {
-        self.links.len()
+        self.link_count
     }
     /// Links that interpolate (CLI) rather than bounce back halfway.
     pub fn interpolated_links(&self) -> usize {
-        self.links.iter().filter(|l| l.kappa != 0.0).count()
+        self.interpolated
     }
     /// Whether a fluid cluster joined along the links of lattice `L` wraps round the periodic
     /// box along `axis` ([`percolates`]).

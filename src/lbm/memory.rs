@@ -5,6 +5,7 @@
 //! that a lattice fits into the memory available before anything is allocated.
 
 use super::dims::Dims;
+use super::simd::LANES;
 use crate::error::{invalid, Result};
 
 /// The stride (values of 8 bytes) at which to lay out arrays of `values` values one after
@@ -66,6 +67,43 @@ pub fn vec_on_huge_pages<T: Clone>(n: usize, value: T) -> Vec<T> {
     let _ = bytes;
     v.resize(n, value);
     v
+}
+
+/// One cache line of populations: the unit of [`Populations`]' storage.
+#[derive(Debug, Clone, Copy, Default)]
+#[repr(C, align(64))]
+struct Line([f64; LANES]);
+
+/// A population array that starts on a cache line, so that with nx a multiple of [`LANES`]
+/// every contiguous block of the kernel is one aligned load or store per population.
+pub struct Populations {
+    lines: Vec<Line>,
+    len: usize,
+}
+
+impl Populations {
+    pub fn zeros(len: usize) -> Populations {
+        Populations {
+            lines: vec_on_huge_pages(len.div_ceil(LANES), Line::default()),
+            len,
+        }
+    }
+}
+
+impl std::ops::Deref for Populations {
+    type Target = [f64];
+    fn deref(&self) -> &[f64] {
+        // SAFETY: `Line` is repr(C) around [f64; LANES] (size 8 LANES, no padding), so the
+        // lines are `LANES * lines.len() >= len` contiguous, initialised f64.
+        unsafe { std::slice::from_raw_parts(self.lines.as_ptr().cast::<f64>(), self.len) }
+    }
+}
+
+impl std::ops::DerefMut for Populations {
+    fn deref_mut(&mut self) -> &mut [f64] {
+        // SAFETY: as in `deref`, through the unique borrow of the lines.
+        unsafe { std::slice::from_raw_parts_mut(self.lines.as_mut_ptr().cast::<f64>(), self.len) }
+    }
 }
 
 /// Where population q of cell (x, y, z) lives in the population arrays:

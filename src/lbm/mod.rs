@@ -23,6 +23,7 @@ pub mod dims;
 pub mod driver;
 pub mod engine;
 pub mod flows;
+pub mod fluid;
 pub mod forcing;
 pub mod geometry;
 pub mod ladder;
@@ -47,6 +48,6 @@ pub use geometry::{Dims, Geometry};
 pub use lattice::{Lattice, D3Q15, D3Q19};
 pub use setup::{
     Accel, CollisionKind, CollisionModel, Domain, ForcingModel, Initial, LatticeKind, Medium,
-    PlaneCondition, PlaneSpec, PlaneVelocity, Setup, Tau, WallRule, Walls,
+    PlaneCondition, PlaneSpec, PlaneVelocity, Setup, Storage, Tau, WallRule, Walls,
 };
 pub use solver::{Fields, Record, Solver};

@@ -444,8 +444,38 @@ impl Initial {
     }
 }
 
-/// One lattice-Boltzmann run: lattice, collision, forcing, domain, boundary planes and
-/// initial state.
+/// Which cells the kernel stores: every cell of the box (the box kernel, [`super::solver`]),
+/// or the fluid nodes only (the fluid-list kernel, [`super::fluid`]; periodic runs without
+/// boundary planes). Both give the same bits; `Auto` takes the fluid list where the fluid
+/// fraction is at most [`super::fluid::AUTO_FLUID_FRACTION`] and there are no planes.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum Storage {
+    #[default]
+    Auto,
+    Box,
+    FluidList,
+}
+
+impl Storage {
+    pub fn parse(s: &str, key: &str) -> Result<Storage> {
+        match s.to_ascii_lowercase().as_str() {
+            "auto" => Ok(Storage::Auto),
+            "box" => Ok(Storage::Box),
+            "fluid" | "fluid-list" => Ok(Storage::FluidList),
+            _ => invalid(format!("{key} = {s}: must be auto, box or fluid")),
+        }
+    }
+    pub fn name(self) -> &'static str {
+        match self {
+            Storage::Auto => "auto",
+            Storage::Box => "box",
+            Storage::FluidList => "fluid",
+        }
+    }
+}
+
+/// One lattice-Boltzmann run: lattice, collision, forcing, domain, boundary planes, initial
+/// state and the kernel's storage.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Setup {
     pub lattice: LatticeKind,
@@ -454,6 +484,7 @@ pub struct Setup {
     pub domain: Domain,
     pub boundaries: Vec<PlaneSpec>,
     pub initial: Initial,
+    pub storage: Storage,
 }
 
 impl Setup {
@@ -466,6 +497,7 @@ impl Setup {
             domain,
             boundaries: Vec::new(),
             initial: Initial::Rest,
+            storage: Storage::Auto,
         }
     }
     pub fn with_forcing(self, forcing: ForcingModel) -> Setup {
@@ -476,6 +508,9 @@ impl Setup {
     }
     pub fn with_initial(self, initial: Initial) -> Setup {
         Setup { initial, ..self }
+    }
+    pub fn with_storage(self, storage: Storage) -> Setup {
+        Setup { storage, ..self }
     }
 }
 

@@ -91,6 +91,15 @@ pub trait Real: Arith {
     /// Orders the non-temporal stores before any later store.
     #[inline(always)]
     fn fence() {}
+    /// Lane l: `s[idx[l]]` (indices below `s.len()`, bounds-checked).
+    #[inline(always)]
+    fn gather(s: &[f64], idx: &[u32]) -> Self {
+        let mut v = [0.0; LANES];
+        for (vl, &i) in v.iter_mut().zip(&idx[..Self::LANES]) {
+            *vl = s[i as usize];
+        }
+        Self::load(&v)
+    }
     /// Lane l: `field[cells.idx[l]]`.
     #[inline(always)]
     fn field(field: &[f64], cells: Cells) -> Self {

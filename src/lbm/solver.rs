@@ -19,7 +19,7 @@ use super::collision::{equilibrium, relax, Block, Collision, Pairs};
 use super::forcing::Forcing;
 use super::geometry::{Dims, Geometry, Link};
 use super::lattice::{density_momentum, each_q, opposite, Lattice, QMAX};
-use super::memory::{check_memory, last_level_cache_bytes, vec_on_huge_pages, Layout};
+use super::memory::{check_memory, last_level_cache_bytes, Layout, Populations};
 use super::simd::{Cells, Real, VArr, LANES};
 #[cfg(target_arch = "x86_64")]
 use super::simd::{V256x2, V512};
@@ -73,43 +73,6 @@ type RowArgs<'a, C, F> = (&'a [f64], &'a Dims, &'a C, &'a F, &'a RowCtx, &'a [Li
 
 /// One z-plane of a [`Record`].
 type PlaneRecord<'a> = (&'a mut [f64], &'a mut [[f64; 3]], &'a mut [[f64; 3]]);
-
-/// One cache line of populations: the unit of [`Populations`]' storage.
-#[derive(Debug, Clone, Copy, Default)]
-#[repr(C, align(64))]
-struct Line([f64; LANES]);
-
-/// A population array that starts on a cache line, so that with nx a multiple of [`LANES`]
-/// every contiguous block of the kernel is one aligned load or store per population.
-struct Populations {
-    lines: Vec<Line>,
-    len: usize,
-}
-
-impl Populations {
-    fn zeros(len: usize) -> Populations {
-        Populations {
-            lines: vec_on_huge_pages(len.div_ceil(LANES), Line::default()),
-            len,
-        }
-    }
-}
-
-impl std::ops::Deref for Populations {
-    type Target = [f64];
-    fn deref(&self) -> &[f64] {
-        // SAFETY: `Line` is repr(C) around [f64; LANES] (size 8 LANES, no padding), so the
-        // lines are `LANES * lines.len() >= len` contiguous, initialised f64.
-        unsafe { std::slice::from_raw_parts(self.lines.as_ptr().cast::<f64>(), self.len) }
-    }
-}
-
-impl std::ops::DerefMut for Populations {
-    fn deref_mut(&mut self) -> &mut [f64] {
-        // SAFETY: as in `deref`, through the unique borrow of the lines.
-        unsafe { std::slice::from_raw_parts_mut(self.lines.as_mut_ptr().cast::<f64>(), self.len) }
-    }
-}
 
 /// Lattice-Boltzmann solver for lattice `L`, collision `C`, forcing `F` (lattice units).
 pub struct Solver<L: Lattice, C: Collision, F: Forcing> {
@@ -176,6 +139,11 @@ impl<L: Lattice, C: Collision, F: Forcing> Solver<L, C, F> {
 
     pub fn geometry(&self) -> &Geometry {
         &self.geometry
+    }
+
+    /// Bytes held: the two population arrays and the geometry's mask and links.
+    pub fn bytes(&self) -> usize {
+        2 * 8 * self.f.len() + self.geometry.bytes()
     }
 
     pub fn forcing(&self) -> &F {
