@@ -308,6 +308,18 @@ pub(crate) fn read_checkpoint_file<T: serde::de::DeserializeOwned>(
     Ok(Some(c))
 }
 
+/// Removes the checkpoint at `path` of a run whose outputs are complete (none there: nothing
+/// to do).
+pub(crate) fn remove_checkpoint(path: &Path) -> Result<()> {
+    match std::fs::remove_file(path) {
+        Err(e) if e.kind() != std::io::ErrorKind::NotFound => Err(Error::File {
+            path: path.display().to_string(),
+            msg: format!("cannot remove the finished run's checkpoint: {e}"),
+        }),
+        _ => Ok(()),
+    }
+}
+
 /// Refuses a `--threads` of 0 or above [`MAX_THREADS_PER_CORE`] per available core.
 pub fn check_threads(threads: Option<usize>) -> Result<()> {
     let Some(t) = threads else { return Ok(()) };

@@ -8,7 +8,7 @@
 use crate::deposition::checkpoint::DepositionState;
 use crate::error::Error;
 use crate::io::{fnv1a64, write_atomic};
-use crate::scene::read_checkpoint_file;
+use crate::scene::{read_checkpoint_file, remove_checkpoint};
 use crate::Result;
 use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
@@ -107,12 +107,6 @@ impl Checkpoints {
 
     /// Removes the file (the outputs are complete).
     pub fn remove(&self) -> Result<()> {
-        match std::fs::remove_file(&self.path) {
-            Err(e) if e.kind() != std::io::ErrorKind::NotFound => Err(Error::File {
-                path: self.path.display().to_string(),
-                msg: format!("cannot remove the finished run's checkpoint: {e}"),
-            }),
-            _ => Ok(()),
-        }
+        remove_checkpoint(&self.path)
     }
 }

@@ -20,10 +20,10 @@ fn short_scene() -> String {
         .replace("seed = 601", "seed = 1")
 }
 
-/// The output files of a deposition scene with `runs` runs, without the wall times (the
-/// `seconds` column of runs.csv, row of ensemble.csv and keys of the runs' summaries).
+/// The files of every run of a deposition scene with `runs` runs, without the wall times
+/// (the `seconds` and `start_seconds` keys of the summaries).
 fn outputs(d: &Path, runs: usize) -> Vec<(String, String)> {
-    let mut names = vec!["runs.csv".to_string(), "ensemble.csv".into()];
+    let mut v = Vec::new();
     for k in 0..runs {
         for f in [
             "final.xyz",
@@ -31,32 +31,13 @@ fn outputs(d: &Path, runs: usize) -> Vec<(String, String)> {
             "porosity_profile.csv",
             "summary.json",
         ] {
-            names.push(format!("run-{k:03}/{f}"));
+            let f = format!("run-{k:03}/{f}");
+            let text = std::fs::read_to_string(d.join(&f)).unwrap();
+            let kept: Vec<&str> = text.lines().filter(|l| !l.contains("seconds\"")).collect();
+            v.push((f, kept.join("\n")));
         }
     }
-    names
-        .into_iter()
-        .map(|f| {
-            let text = std::fs::read_to_string(d.join(&f)).unwrap();
-            let col = text
-                .lines()
-                .next()
-                .and_then(|h| h.split(',').position(|c| c == "seconds"));
-            let kept: Vec<String> = text
-                .lines()
-                .filter(|l| !l.contains("seconds\"") && !l.starts_with("seconds,"))
-                .map(|l| match (f.as_str(), col) {
-                    ("runs.csv", Some(c)) => {
-                        let mut cells: Vec<&str> = l.split(',').collect();
-                        cells.remove(c);
-                        cells.join(",")
-                    }
-                    _ => l.to_string(),
-                })
-                .collect();
-            (f, kept.join("\n"))
-        })
-        .collect()
+    v
 }
 
 /// A run stopped after 25 sweeps of every run and resumed from its checkpoint writes bitwise

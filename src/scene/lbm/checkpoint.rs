@@ -10,7 +10,7 @@ use crate::error::Error;
 use crate::io::{fnv1a64, write_atomic};
 use crate::lbm::checkpoint::LbmState;
 use crate::lbm::{Lbm, SteadyBar};
-use crate::scene::{read_checkpoint_file, RunOptions};
+use crate::scene::{read_checkpoint_file, remove_checkpoint, RunOptions};
 use crate::Result;
 use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
@@ -31,7 +31,8 @@ pub(super) struct Resumable {
     path: PathBuf,
     scene: String,
     saved: Option<LbmState>,
-    bar: SteadyBar,
+    /// The progress bar, removed when the run returns.
+    bar: Option<SteadyBar>,
     every_s: Option<f64>,
     last: Instant,
     /// Tests: stop after this many checks.
@@ -60,7 +61,7 @@ impl Resumable {
             path,
             scene,
             saved: saved.map(|f| f.state),
-            bar: SteadyBar::new(opts.quiet),
+            bar: Some(SteadyBar::new(opts.quiet)),
             every_s: opts.checkpoint_every_seconds,
             last: Instant::now(),
             max_checks,
@@ -94,29 +95,27 @@ impl Resumable {
         Ok(())
     }
 
-    /// After the run: the error of the stop's checkpoint, if any; else whether it was stopped.
+    /// After the run (its progress bar is removed): the error of the stop's checkpoint, if
+    /// any; else whether it was stopped.
     pub fn was_stopped(&mut self) -> Result<bool> {
+        self.bar = None;
         match self.failed.take() {
             Some(e) => Err(e),
             None => Ok(self.stopped),
         }
     }
 
-    /// Removes the checkpoint (the outputs are complete).
+    /// Removes the file (the outputs are complete).
     pub fn remove(&self) -> Result<()> {
-        match std::fs::remove_file(&self.path) {
-            Err(e) if e.kind() != std::io::ErrorKind::NotFound => Err(Error::File {
-                path: self.path.display().to_string(),
-                msg: format!("cannot remove the finished run's checkpoint: {e}"),
-            }),
-            _ => Ok(()),
-        }
+        remove_checkpoint(&self.path)
     }
 }
 
 impl Hooks<Lbm> for Resumable {
     fn progress(&mut self, lbm: &Lbm, done: Option<f64>, status: &str) {
-        self.bar.progress(lbm, done, status);
+        if let Some(b) = &mut self.bar {
+            b.progress(lbm, done, status);
+        }
     }
 
     fn checkpoint(&mut self, lbm: &Lbm) -> Result<()> {
