@@ -116,9 +116,9 @@ fn files(dir: &Path) -> Vec<PathBuf> {
     v
 }
 
-/// The text of `file` without wall times: JSON keys `seconds` and `start_seconds`, the
-/// `seconds` column of a CSV table and its `seconds` row (deposition's runs.csv and
-/// ensemble.csv).
+/// The text of `file` without wall times: JSON keys `seconds` and `start_seconds` and array
+/// entries of quantity `seconds`, the `seconds` column of a CSV table and its `seconds` row
+/// (deposition's runs.csv and ensemble.csv).
 fn without_wall_times(file: &Path, bytes: Vec<u8>) -> Vec<u8> {
     let name = file.file_name().unwrap().to_string_lossy();
     if name.ends_with(".json") {
@@ -130,7 +130,10 @@ fn without_wall_times(file: &Path, bytes: Vec<u8>) -> Vec<u8> {
                     m.remove("start_seconds");
                     m.values_mut().for_each(strip);
                 }
-                serde_json::Value::Array(a) => a.iter_mut().for_each(strip),
+                serde_json::Value::Array(a) => {
+                    a.retain(|e| e.get("quantity").is_none_or(|q| q != "seconds"));
+                    a.iter_mut().for_each(strip)
+                }
                 _ => {}
             }
         }
