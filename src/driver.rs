@@ -33,6 +33,13 @@ pub trait Hooks<E: ?Sized> {
         Ok(())
     }
 
+    /// Called once before the first step by a driver that resumes runs (the LBM's steady run):
+    /// a caller holding a checkpoint of this run restores `engine` from it; an error stops the
+    /// run.
+    fn restore(&mut self, _engine: &mut E) -> Result<()> {
+        Ok(())
+    }
+
     /// Asked after each check: true stops the run there, as a kill would (tests of resume).
     fn stop_requested(&mut self, _engine: &E) -> bool {
         false

@@ -59,8 +59,8 @@ enum Command {
         /// No progress bar.
         #[arg(long)]
         quiet: bool,
-        /// Packing, DEM and coupled runs: seconds between checkpoints (0: after every
-        /// compression step, DEM check or coupled porosity row). A packing checkpoint is also written after every halving of Delta V
+        /// Packing, deposition, DEM, LBM and coupled runs: seconds between checkpoints (0: after
+        /// every compression step, deposition sweep, DEM or LBM check or coupled porosity row). A packing checkpoint is also written after every halving of Delta V
         /// and at the end.
         #[arg(long, default_value_t = 10.0)]
         checkpoint_every: f64,

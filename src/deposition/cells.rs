@@ -57,6 +57,55 @@ impl Cells {
         c
     }
 
+    /// The part of the list that depends on the run's history, for a checkpoint: the z
+    /// layering fixed when the list was built (from the top then) and every cell's members in
+    /// their order (moves reorder them, and the order decides which pair test settles a
+    /// trial first, hence the prefilter counts).
+    pub fn history(&self) -> (usize, f64, &[Vec<u32>]) {
+        (self.n_z, self.cell_z_m, &self.members)
+    }
+
+    /// Replaces the history of a list built for the same box, reach and particles by a saved
+    /// one ([`Cells::history`]); refuses members that are not each particle once, in the cell
+    /// of its position.
+    pub fn restore_history(
+        &mut self,
+        n_z: usize,
+        cell_z_m: f64,
+        members: Vec<Vec<u32>>,
+        positions: &[Vector3<f64>],
+    ) -> Result<(), String> {
+        if n_z == 0 || members.len() != self.n_xy * self.n_xy * n_z || !(cell_z_m > 0.0) {
+            return Err(format!(
+                "{} cells in {n_z} layers of {cell_z_m} m do not fit a box of {} x {} columns",
+                members.len(),
+                self.n_xy,
+                self.n_xy
+            ));
+        }
+        self.n_z = n_z;
+        self.cell_z_m = cell_z_m;
+        let n = positions.len();
+        let mut seen = vec![false; n];
+        for (k, list) in members.iter().enumerate() {
+            for &i in list {
+                let i = i as usize;
+                if i >= n || seen[i] || self.cell_index(&positions[i]) != k {
+                    return Err(format!(
+                        "particle {i} is not once in the cell of its position"
+                    ));
+                }
+                seen[i] = true;
+                self.cell_of[i] = k as u32;
+            }
+        }
+        if let Some(i) = seen.iter().position(|s| !s) {
+            return Err(format!("particle {i} is in no cell"));
+        }
+        self.members = members;
+        Ok(())
+    }
+
     fn cell_index(&self, p: &Vector3<f64>) -> usize {
         let ix = ((p.x / self.cell_xy_m) as usize).min(self.n_xy - 1);
         let iy = ((p.y / self.cell_xy_m) as usize).min(self.n_xy - 1);

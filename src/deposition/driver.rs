@@ -11,7 +11,8 @@ use rand_chacha::ChaCha8Rng;
 use std::time::Instant;
 
 /// Sweeps `d` until it is done (or the hooks ask to stop). After each sweep the progress hook
-/// hears the sweep, the mean displacement over the stop rule's window and the stop value.
+/// hears the sweep, the mean displacement over the stop rule's window and the stop value, and
+/// the checkpoint hook may save the state.
 pub fn run(d: &mut Deposition, hooks: &mut impl Hooks<Deposition>) -> Result<()> {
     while !d.is_done() {
         let r = d.step()?;
@@ -25,6 +26,7 @@ pub fn run(d: &mut Deposition, hooks: &mut impl Hooks<Deposition>) -> Result<()>
                 d.stop_displacement_m()
             ),
         );
+        hooks.checkpoint(d)?;
         if hooks.stop_requested(d) {
             break;
         }

@@ -54,21 +54,21 @@ pub struct DepositionOutcome {
 /// A deposit in progress: the layer, how its grains move, when it stops, its random stream,
 /// and what the sweeps so far did.
 pub struct Deposition {
-    layer: Layer,
-    moves: Moves,
-    stop: StopRule,
-    rng: ChaCha8Rng,
-    cells: Cells,
-    positions: Vec<Vector3<f64>>,
+    pub(super) layer: Layer,
+    pub(super) moves: Moves,
+    pub(super) stop: StopRule,
+    pub(super) rng: ChaCha8Rng,
+    pub(super) cells: Cells,
+    pub(super) positions: Vec<Vector3<f64>>,
     /// Drainage speed V of the next sweep, m/s.
-    v: f64,
+    pub(super) v: f64,
     /// Sum of the mean displacements of the last `stop.window` sweeps, m.
-    window_sum: f64,
+    pub(super) window_sum: f64,
     /// Their mean after the last sweep, m.
-    recent_m: f64,
+    pub(super) recent_m: f64,
     /// The first sweep that moved a particle (0: none yet): the stop rule's reference.
-    reference_sweep: u64,
-    outcome: DepositionOutcome,
+    pub(super) reference_sweep: u64,
+    pub(super) outcome: DepositionOutcome,
 }
 
 impl Deposition {

@@ -17,9 +17,11 @@
 //!
 //! The door: a [`Setup`] (`setup.rs`) describes the runs; [`Deposition::new`] builds run k's
 //! start; [`Deposition::step`] is one sweep; [`driver::run`] sweeps to the end with progress
-//! and stop hooks ([`crate::driver::Hooks`]) and [`driver::run_one`] does a whole run.
+//! and stop hooks ([`crate::driver::Hooks`]) and [`driver::run_one`] does a whole run;
+//! [`checkpoint`] saves a run's state and [`Deposition::restore`] continues it bitwise.
 
 pub mod cells;
+pub mod checkpoint;
 pub mod driver;
 pub mod energy;
 pub mod engine;

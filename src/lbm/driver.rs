@@ -41,9 +41,23 @@ fn norm(v: [f64; 3]) -> f64 {
     (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt()
 }
 
+/// What the steady run's convergence test carries from one check to the next: the step the
+/// run started at (`max_steps` counts from it), the superficial mean velocity at the last
+/// check, and the first residual (the progress scale). Kept on the engine at each check, so
+/// that a checkpoint of the engine ([`super::checkpoint`]) is one of the run: the mean cannot
+/// be read again from restored populations where boundary planes report the state they were
+/// last rebuilt with.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Monitor {
+    pub start_steps: u64,
+    pub mean_u: [f64; 3],
+    pub first_residual: Option<f64>,
+}
+
 /// Runs `lbm` until steady (or `max_steps`, or a stop request of `hooks`: then not converged).
-/// After each check `hooks` gets the progress (the fraction of [`LogProgress`], and the step
-/// and residual as text) and may write a checkpoint.
+/// First `hooks` may restore the engine from a checkpoint (the run then continues from the
+/// saved check). After each check `hooks` gets the progress (the fraction of [`LogProgress`],
+/// and the step and residual as text) and, unless the run ends there, may write a checkpoint.
 pub fn run_steady(lbm: &mut Lbm, ctl: SteadyControl, hooks: &mut dyn Hooks<Lbm>) -> Result<Steady> {
     if ctl.check_every == 0 || ctl.tol.is_nan() || ctl.tol <= 0.0 {
         return invalid(format!(
@@ -51,9 +65,15 @@ pub fn run_steady(lbm: &mut Lbm, ctl: SteadyControl, hooks: &mut dyn Hooks<Lbm>)
             ctl.check_every, ctl.tol
         ));
     }
-    let mut prev = superficial_mean(&lbm.fields());
-    let start = lbm.steps();
+    hooks.restore(lbm)?;
     let mut done = LogProgress::new(ctl.tol);
+    let (start, mut prev) = match lbm.resumed.take() {
+        Some(m) => {
+            done.first = m.first_residual;
+            (m.start_steps, m.mean_u)
+        }
+        None => (lbm.steps(), superficial_mean(&lbm.fields())),
+    };
     loop {
         lbm.run(ctl.check_every)?;
         let fields = lbm.fields();
@@ -89,10 +109,18 @@ pub fn run_steady(lbm: &mut Lbm, ctl: SteadyControl, hooks: &mut dyn Hooks<Lbm>)
             ctl.tol
         );
         hooks.progress(lbm, done.at(residual), &status);
-        hooks.checkpoint(lbm)?;
         prev = mean;
         let converged = residual < ctl.tol;
-        if converged || steps - start >= ctl.max_steps || hooks.stop_requested(lbm) {
+        let ends = converged || steps - start >= ctl.max_steps;
+        lbm.monitor = Some(Monitor {
+            start_steps: start,
+            mean_u: mean,
+            first_residual: done.first,
+        });
+        if !ends {
+            hooks.checkpoint(lbm)?;
+        }
+        if ends || hooks.stop_requested(lbm) {
             if u_max < U_RESOLVED {
                 return invalid(format!(
                     "the flow's largest velocity after {steps} steps is {u_max:.3e} (lattice \

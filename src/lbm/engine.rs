@@ -2,6 +2,7 @@
 //! and [`Lbm::step`] advances it; [`super::driver`] runs it to its steady state.
 
 use super::choice::{build, Kernel};
+use super::driver::Monitor;
 use super::forcing::Porous;
 use super::geometry::{Dims, Geometry};
 use super::setup::{CollisionModel, LatticeKind, Setup};
@@ -14,6 +15,10 @@ pub struct Lbm {
     lattice: LatticeKind,
     collision: CollisionModel,
     forcing: &'static str,
+    /// The steady run's convergence monitor at its last check (a checkpoint saves it).
+    pub(super) monitor: Option<Monitor>,
+    /// A monitor restored from a checkpoint, which the next steady run continues from.
+    pub(super) resumed: Option<Monitor>,
 }
 
 impl Lbm {
@@ -28,6 +33,8 @@ impl Lbm {
             lattice,
             collision,
             forcing,
+            monitor: None,
+            resumed: None,
         })
     }
 

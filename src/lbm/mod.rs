@@ -5,7 +5,8 @@
 //! ([`engine`]), which builds the kernel the setup chooses ([`choice`], the one place the
 //! choice is matched); [`Lbm::step`] advances it and [`driver`] runs it to its steady state.
 //! [`problems`] holds the standard flows written once for any lattice and collision, [`pore`]
-//! the permeability of a configuration voxelised by [`voxels`].
+//! the permeability of a configuration voxelised by [`voxels`]; [`checkpoint`] saves a steady
+//! run's state for a bitwise resume.
 //!
 //! The kernel's pieces (after lbmpy/waLBerla): the velocity set ([`lattice`]: D3Q15, D3Q19),
 //! the collision ([`collision`]: BGK, TRT), the forcing ([`forcing`]: none, Guo body force,
@@ -17,6 +18,7 @@
 //! only conversions between tau and the viscosity.
 
 pub mod boundary;
+pub mod checkpoint;
 pub mod choice;
 pub mod collision;
 pub mod dims;

@@ -311,6 +311,47 @@ pub(crate) fn parse_checkpoint<T: serde::de::DeserializeOwned>(
     serde_json::from_slice(bytes).map_err(malformed)
 }
 
+/// The checkpoint at `path`, if there is one, read with [`parse_checkpoint`]; refused, naming
+/// the file, when `scene_of` it is not `scene` (the hash of the scene text that runs now).
+pub(crate) fn read_checkpoint_file<T: serde::de::DeserializeOwned>(
+    path: &Path,
+    format: u32,
+    kind: &str,
+    scene: &str,
+    scene_of: impl Fn(&T) -> &str,
+) -> Result<Option<T>> {
+    let file_err = |msg: String| Error::File {
+        path: path.display().to_string(),
+        msg,
+    };
+    let bytes = match std::fs::read(path) {
+        Ok(b) => b,
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(None),
+        Err(e) => return Err(file_err(format!("cannot read the checkpoint: {e}"))),
+    };
+    let c: T = parse_checkpoint(&bytes, format, kind).map_err(file_err)?;
+    if scene_of(&c) != scene {
+        return Err(file_err(
+            "written by a different scene (its text differs): delete it to start afresh, or \
+             choose another output folder with --out"
+                .into(),
+        ));
+    }
+    Ok(Some(c))
+}
+
+/// Removes the checkpoint at `path` of a run whose outputs are complete (none there: nothing
+/// to do).
+pub(crate) fn remove_checkpoint(path: &Path) -> Result<()> {
+    match std::fs::remove_file(path) {
+        Err(e) if e.kind() != std::io::ErrorKind::NotFound => Err(Error::File {
+            path: path.display().to_string(),
+            msg: format!("cannot remove the finished run's checkpoint: {e}"),
+        }),
+        _ => Ok(()),
+    }
+}
+
 /// Refuses a `--threads` of 0 or above [`MAX_THREADS_PER_CORE`] per available core.
 pub fn check_threads(threads: Option<usize>) -> Result<()> {
     let Some(t) = threads else { return Ok(()) };

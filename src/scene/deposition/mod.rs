@@ -5,9 +5,12 @@
 //! options; `run.rs` runs the independent runs through the engine's driver, in parallel;
 //! `outputs.rs` writes the files.
 
+mod checkpoint;
 mod outputs;
 mod run;
 mod schema;
+#[cfg(test)]
+mod tests;
 
 pub use outputs::RunResult;
 pub use run::{run_one, run_scene};

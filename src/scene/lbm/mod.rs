@@ -61,6 +61,7 @@
 //! resolution), `summary.json`, `fields.vtk` (lattice units; spacing in m with unit_m) and
 //! `configuration.xyz` (the configuration it read).
 
+mod checkpoint;
 mod outputs;
 mod run;
 mod schema;

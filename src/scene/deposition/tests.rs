@@ -1,0 +1,68 @@
+//! Tests of the deposition scene's checkpoint: a run interrupted and resumed writes the
+//! uninterrupted run's outputs; a checkpoint of another scene is refused, naming the file.
+
+use super::run::{run_scene, run_scene_limited};
+use crate::scene::RunOptions;
+use std::path::Path;
+
+fn quiet() -> RunOptions {
+    RunOptions {
+        quiet: true,
+        ..RunOptions::default()
+    }
+}
+
+/// The built-in platelets, 80 of them in 3 runs.
+fn short_scene() -> String {
+    include_str!("../builtin/deposition-platelets.toml")
+        .replace("particles = 600", "particles = 80")
+        .replace("runs = 4", "runs = 3")
+        .replace("seed = 601", "seed = 1")
+}
+
+/// The files of every run of a deposition scene with `runs` runs, without the wall times
+/// (the `seconds` and `start_seconds` keys of the summaries).
+fn outputs(d: &Path, runs: usize) -> Vec<(String, String)> {
+    let mut v = Vec::new();
+    for k in 0..runs {
+        for f in [
+            "final.xyz",
+            "history.csv",
+            "porosity_profile.csv",
+            "summary.json",
+        ] {
+            let f = format!("run-{k:03}/{f}");
+            let text = std::fs::read_to_string(d.join(&f)).unwrap();
+            let kept: Vec<&str> = text.lines().filter(|l| !l.contains("seconds\"")).collect();
+            v.push((f, kept.join("\n")));
+        }
+    }
+    v
+}
+
+/// A run stopped after 25 sweeps of every run and resumed from its checkpoint writes bitwise
+/// the outputs of the uninterrupted run (all but the wall times).
+#[test]
+fn interrupted_run_resumes_to_the_same_result() {
+    let base = std::env::temp_dir().join(format!("porelab-dep-resume-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&base);
+    let (whole, killed) = (base.join("whole"), base.join("killed"));
+    let text = short_scene();
+    run_scene(&text, "test", &whole, &quiet()).unwrap();
+    run_scene_limited(&text, "test", &killed, &quiet(), Some(25)).unwrap();
+    assert!(killed.join("checkpoint.json").exists());
+    assert!(!killed.join("summary.json").exists());
+    run_scene(&text, "test", &killed, &quiet()).unwrap();
+    assert!(!killed.join("checkpoint.json").exists());
+    let (a, b) = (outputs(&whole, 3), outputs(&killed, 3));
+    for ((f, x), (_, y)) in a.iter().zip(&b) {
+        assert!(x == y, "{f} differs");
+    }
+    // the resume had work to do: every run went past the stop
+    let history = std::fs::read_to_string(whole.join("run-000/history.csv")).unwrap();
+    assert!(history.lines().count() > 27, "{history}");
+    // a checkpoint of another scene is refused, naming the file
+    run_scene_limited(&text, "test", &killed, &quiet(), Some(5)).unwrap();
+    crate::scene::assert_other_scene_refused(|t| run_scene(t, "test", &killed, &quiet()), &text);
+    let _ = std::fs::remove_dir_all(&base);
+}
