@@ -141,15 +141,23 @@ impl FibreBed {
     /// The first fibre (in bed order of the bin list) whose image the particle at `p` (any
     /// position; wrapped here) touches, or None.
     pub fn touching(&self, p: &Vector3<f64>) -> Option<usize> {
+        self.within(p, self.particle_radius_m)
+    }
+
+    /// Whether `p` (any position) lies inside a fibre (some periodic image).
+    pub fn inside(&self, p: &Vector3<f64>) -> bool {
+        self.within(p, 0.0).is_some()
+    }
+
+    /// The first fibre whose image is within `reach` (at most the particle radius) of `p`.
+    fn within(&self, p: &Vector3<f64>, reach: f64) -> Option<usize> {
         let q = self.wrap(p);
         let idx: [usize; 3] =
             std::array::from_fn(|k| ((q[k] / self.bin_size_m[k]) as usize).min(self.bins_n[k] - 1));
         let b = (idx[2] * self.bins_n[1] + idx[1]) * self.bins_n[0] + idx[0];
         self.images[self.start[b] as usize..self.start[b + 1] as usize]
             .iter()
-            .find(|(i, shift)| {
-                self.fibres[*i as usize].touches(&(q - shift), self.particle_radius_m)
-            })
+            .find(|(i, shift)| self.fibres[*i as usize].touches(&(q - shift), reach))
             .map(|(i, _)| *i as usize)
     }
 }

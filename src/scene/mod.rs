@@ -1,7 +1,7 @@
 //! Scene files: `porelab run SCENE.toml` and the built-in scenes.
 //!
 //! A scene is a TOML file whose top-level `kind` key names the engine (one of [`KINDS`]:
-//! `"brownian"`, `"packing"`, `"deposition"`, `"dem"`, `"lbm"`, `"coupled"`); the rest of the
+//! `"brownian"`, `"packing"`, `"deposition"`, `"dem"`, `"lbm"`, `"coupled"`, `"filter"`); the rest of the
 //! file is that engine's schema (README, "Scene files"). Every
 //! table is parsed with `deny_unknown_fields`, so a misspelt key is rejected by name. A scene
 //! builds only the terms it needs and prints them before the run.
@@ -14,6 +14,7 @@ pub mod brownian;
 pub mod coupled;
 pub mod dem;
 pub mod deposition;
+pub mod filter;
 pub mod keys;
 pub mod lbm;
 pub mod packing;
@@ -54,6 +55,7 @@ pub const KINDS: &[&dyn Scene] = &[
     &dem::Kind,
     &lbm::Kind,
     &coupled::Kind,
+    &filter::Kind,
 ];
 
 /// The kind of scene that `kind = "{name}"` selects.
