@@ -162,6 +162,35 @@ impl FibreBed {
     }
 }
 
+/// `n` fibres of radius `radius_m` across the flow at random (seed `seed`): axes in the x-y
+/// plane at uniform angles, centres uniform in the cell `lengths_m` with 2R < z < L_z - 2R, so
+/// that the inlet plane touches none. (centres, axes) for [`FibreBed::new`].
+pub fn random_transverse_fibres(
+    n: usize,
+    lengths_m: [f64; 3],
+    radius_m: f64,
+    seed: u64,
+) -> (Vec<Vector3<f64>>, Vec<Vector3<f64>>) {
+    use rand::{Rng, SeedableRng};
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
+    let centres = (0..n)
+        .map(|_| {
+            Vector3::new(
+                rng.gen_range(0.0..lengths_m[0]),
+                rng.gen_range(0.0..lengths_m[1]),
+                rng.gen_range(2.0 * radius_m..lengths_m[2] - 2.0 * radius_m),
+            )
+        })
+        .collect();
+    let axes = (0..n)
+        .map(|_| {
+            let phi: f64 = rng.gen_range(0.0..std::f64::consts::PI);
+            Vector3::new(phi.cos(), phi.sin(), 0.0)
+        })
+        .collect();
+    (centres, axes)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -218,6 +218,42 @@ fn refuse_non_finite(table: &toml::Table, text: &str, origin: &str) -> Result<()
     ))
 }
 
+/// (where, text) of the configuration a scene names in its key `key` (value `xyz`): a path
+/// relative to the scene file's folder (`origin`'s), or absolute; `builtin:NAME` is one of
+/// `builtins` (name, text), wherever the scene is (a built-in scene, its sweep jobs, or a file
+/// started from `--show`). `hint` ends the message of a file that cannot be read.
+pub(crate) fn read_configuration(
+    xyz: &str,
+    key: &str,
+    origin: &str,
+    builtins: &[(&str, &str)],
+    hint: &str,
+) -> Result<(String, String)> {
+    if let Some(wanted) = xyz.strip_prefix("builtin:") {
+        return builtins
+            .iter()
+            .find(|(name, _)| *name == wanted)
+            .map(|(_, text)| (xyz.to_string(), text.to_string()))
+            .ok_or_else(|| {
+                let known: Vec<_> = builtins.iter().map(|(n, _)| *n).collect();
+                Error::InvalidInput(format!(
+                    "{key} = \"{xyz}\": no built-in configuration of that name (known: {})",
+                    known.join(", ")
+                ))
+            });
+    }
+    let path = Path::new(xyz);
+    let full = match Path::new(origin).parent() {
+        Some(dir) if path.is_relative() => dir.join(path),
+        _ => path.to_path_buf(),
+    };
+    let text = std::fs::read_to_string(&full).map_err(|e| Error::File {
+        path: full.display().to_string(),
+        msg: format!("{key} = \"{xyz}\" (relative to the scene file's folder): {e}{hint}"),
+    })?;
+    Ok((full.display().to_string(), text))
+}
+
 /// Parses and checks the scene in `text` as [`run_text`] does before it runs, without running
 /// it (each engine's own parse and validation; `porelab sweep plan` checks every job so).
 pub fn check_text(text: &str, origin: &str) -> Result<()> {

@@ -16,9 +16,9 @@ use crate::lbm::{CollisionKind, LatticeKind, Tau};
 use crate::magnetics::assembly_fast::{Cell, Cutoff, FibreAssembly};
 use crate::magnetics::Cylinder;
 use crate::scene::keys::parse_renamed;
+use crate::scene::read_configuration;
 use nalgebra::Vector3;
 use serde::Deserialize;
-use std::path::Path;
 
 #[derive(Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -497,31 +497,10 @@ const BUILTIN_XYZ: [(&str, &str); 1] = [(
     include_str!("../builtin/filter-rods.xyz"),
 )];
 
-/// (where, text) of the configuration `xyz` names: a path relative to the scene file's folder,
-/// or absolute; `builtin:NAME` is one of [`BUILTIN_XYZ`].
+/// (where, text) of the configuration `bed.xyz` names ([`read_configuration`]).
 fn read_xyz(xyz: &str, origin: &str) -> Result<(String, String)> {
-    if let Some(wanted) = xyz.strip_prefix("builtin:") {
-        return BUILTIN_XYZ
-            .iter()
-            .find(|(name, _)| *name == wanted)
-            .map(|(_, text)| (xyz.to_string(), text.to_string()))
-            .ok_or_else(|| {
-                let known: Vec<_> = BUILTIN_XYZ.iter().map(|(n, _)| *n).collect();
-                Error::InvalidInput(format!(
-                    "{origin}: bed.xyz = \"{xyz}\": no built-in configuration of that name \
-                     (known: {})",
-                    known.join(", ")
-                ))
-            });
-    }
-    let path = Path::new(xyz);
-    let full = match Path::new(origin).parent() {
-        Some(dir) if path.is_relative() => dir.join(path),
-        _ => path.to_path_buf(),
-    };
-    let text = std::fs::read_to_string(&full).map_err(|e| Error::File {
-        path: full.display().to_string(),
-        msg: format!("bed.xyz = \"{xyz}\" (relative to the scene file's folder): {e}"),
-    })?;
-    Ok((full.display().to_string(), text))
+    read_configuration(xyz, "bed.xyz", origin, &BUILTIN_XYZ, "").map_err(|e| match e {
+        Error::InvalidInput(m) => Error::InvalidInput(format!("{origin}: {m}")),
+        e => e,
+    })
 }
