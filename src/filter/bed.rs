@@ -141,17 +141,54 @@ impl FibreBed {
     /// The first fibre (in bed order of the bin list) whose image the particle at `p` (any
     /// position; wrapped here) touches, or None.
     pub fn touching(&self, p: &Vector3<f64>) -> Option<usize> {
+        self.within(p, self.particle_radius_m)
+    }
+
+    /// Whether `p` (any position) lies inside a fibre (some periodic image).
+    pub fn inside(&self, p: &Vector3<f64>) -> bool {
+        self.within(p, 0.0).is_some()
+    }
+
+    /// The first fibre whose image is within `reach` (at most the particle radius) of `p`.
+    fn within(&self, p: &Vector3<f64>, reach: f64) -> Option<usize> {
         let q = self.wrap(p);
         let idx: [usize; 3] =
             std::array::from_fn(|k| ((q[k] / self.bin_size_m[k]) as usize).min(self.bins_n[k] - 1));
         let b = (idx[2] * self.bins_n[1] + idx[1]) * self.bins_n[0] + idx[0];
         self.images[self.start[b] as usize..self.start[b + 1] as usize]
             .iter()
-            .find(|(i, shift)| {
-                self.fibres[*i as usize].touches(&(q - shift), self.particle_radius_m)
-            })
+            .find(|(i, shift)| self.fibres[*i as usize].touches(&(q - shift), reach))
             .map(|(i, _)| *i as usize)
     }
+}
+
+/// `n` fibres of radius `radius_m` across the flow at random (seed `seed`): axes in the x-y
+/// plane at uniform angles, centres uniform in the cell `lengths_m` with 2R < z < L_z - 2R, so
+/// that the inlet plane touches none. (centres, axes) for [`FibreBed::new`].
+pub fn random_transverse_fibres(
+    n: usize,
+    lengths_m: [f64; 3],
+    radius_m: f64,
+    seed: u64,
+) -> (Vec<Vector3<f64>>, Vec<Vector3<f64>>) {
+    use rand::{Rng, SeedableRng};
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
+    let centres = (0..n)
+        .map(|_| {
+            Vector3::new(
+                rng.gen_range(0.0..lengths_m[0]),
+                rng.gen_range(0.0..lengths_m[1]),
+                rng.gen_range(2.0 * radius_m..lengths_m[2] - 2.0 * radius_m),
+            )
+        })
+        .collect();
+    let axes = (0..n)
+        .map(|_| {
+            let phi: f64 = rng.gen_range(0.0..std::f64::consts::PI);
+            Vector3::new(phi.cos(), phi.sin(), 0.0)
+        })
+        .collect();
+    (centres, axes)
 }
 
 #[cfg(test)]

@@ -26,7 +26,7 @@ mod field;
 mod flow;
 mod setup;
 
-pub use bed::FibreBed;
+pub use bed::{random_transverse_fibres, FibreBed};
 pub use engine::{Counts, Fate, Filter, FilterCoefficient, Tracer};
 pub use flow::VelocityLattice;
 pub use setup::Setup;

@@ -1,7 +1,7 @@
 //! Scene files: `porelab run SCENE.toml` and the built-in scenes.
 //!
 //! A scene is a TOML file whose top-level `kind` key names the engine (one of [`KINDS`]:
-//! `"brownian"`, `"packing"`, `"deposition"`, `"dem"`, `"lbm"`, `"coupled"`); the rest of the
+//! `"brownian"`, `"packing"`, `"deposition"`, `"dem"`, `"lbm"`, `"coupled"`, `"filter"`); the rest of the
 //! file is that engine's schema (README, "Scene files"). Every
 //! table is parsed with `deny_unknown_fields`, so a misspelt key is rejected by name. A scene
 //! builds only the terms it needs and prints them before the run.
@@ -14,6 +14,7 @@ pub mod brownian;
 pub mod coupled;
 pub mod dem;
 pub mod deposition;
+pub mod filter;
 pub mod keys;
 pub mod lbm;
 pub mod packing;
@@ -54,6 +55,7 @@ pub const KINDS: &[&dyn Scene] = &[
     &dem::Kind,
     &lbm::Kind,
     &coupled::Kind,
+    &filter::Kind,
 ];
 
 /// The kind of scene that `kind = "{name}"` selects.
@@ -246,6 +248,42 @@ fn refuse_non_finite(table: &toml::Table, text: &str, origin: &str) -> Result<()
         "{origin}{at}: key `{path}` = {x}: a scene's numbers must be finite (leave the key out \
          for its default, or write a finite value)"
     ))
+}
+
+/// (where, text) of the configuration a scene names in its key `key` (value `xyz`): a path
+/// relative to the scene file's folder (`origin`'s), or absolute; `builtin:NAME` is one of
+/// `builtins` (name, text), wherever the scene is (a built-in scene, its sweep jobs, or a file
+/// started from `--show`). `hint` ends the message of a file that cannot be read.
+pub(crate) fn read_configuration(
+    xyz: &str,
+    key: &str,
+    origin: &str,
+    builtins: &[(&str, &str)],
+    hint: &str,
+) -> Result<(String, String)> {
+    if let Some(wanted) = xyz.strip_prefix("builtin:") {
+        return builtins
+            .iter()
+            .find(|(name, _)| *name == wanted)
+            .map(|(_, text)| (xyz.to_string(), text.to_string()))
+            .ok_or_else(|| {
+                let known: Vec<_> = builtins.iter().map(|(n, _)| *n).collect();
+                Error::InvalidInput(format!(
+                    "{key} = \"{xyz}\": no built-in configuration of that name (known: {})",
+                    known.join(", ")
+                ))
+            });
+    }
+    let path = Path::new(xyz);
+    let full = match Path::new(origin).parent() {
+        Some(dir) if path.is_relative() => dir.join(path),
+        _ => path.to_path_buf(),
+    };
+    let text = std::fs::read_to_string(&full).map_err(|e| Error::File {
+        path: full.display().to_string(),
+        msg: format!("{key} = \"{xyz}\" (relative to the scene file's folder): {e}{hint}"),
+    })?;
+    Ok((full.display().to_string(), text))
 }
 
 /// Parses and checks the scene in `text` as [`run_text`] does before it runs, without running

@@ -20,8 +20,8 @@ use crate::lbm::units::{check_mach, Units};
 use crate::lbm::voxels::voxel_dims;
 use crate::lbm::{CollisionKind, CollisionModel, Dims, LatticeKind, Tau, WallRule};
 use crate::scene::keys::{collision_kind, lattice_kind, rename_old_keys};
+use crate::scene::read_configuration;
 use serde::Deserialize;
-use std::path::Path;
 
 /// The keys every flow has: the fields of [`Common`].
 const COMMON_KEYS: [&str; 12] = [
@@ -479,36 +479,15 @@ const BUILTIN_XYZ: [(&str, &str); 1] = [(
     include_str!("../builtin/lbm-packing.xyz"),
 )];
 
-/// (where, text) of the configuration `xyz` names: a path relative to the scene file's folder,
-/// or absolute; `builtin:NAME` is one of [`BUILTIN_XYZ`], wherever the scene is (a built-in
-/// scene, its sweep jobs, or a scene file started from `--show`).
+/// (where, text) of the configuration `xyz` names ([`read_configuration`]).
 fn read_xyz(xyz: &str, origin: &str) -> Result<(String, String)> {
-    if let Some(wanted) = xyz.strip_prefix("builtin:") {
-        return BUILTIN_XYZ
-            .iter()
-            .find(|(name, _)| *name == wanted)
-            .map(|(_, text)| (xyz.to_string(), text.to_string()))
-            .ok_or_else(|| {
-                let known: Vec<_> = BUILTIN_XYZ.iter().map(|(n, _)| *n).collect();
-                Error::InvalidInput(format!(
-                    "xyz = \"{xyz}\": no built-in configuration of that name (known: {})",
-                    known.join(", ")
-                ))
-            });
-    }
-    let path = Path::new(xyz);
-    let full = match Path::new(origin).parent() {
-        Some(dir) if path.is_relative() => dir.join(path),
-        _ => path.to_path_buf(),
-    };
-    let text = std::fs::read_to_string(&full).map_err(|e| Error::File {
-        path: full.display().to_string(),
-        msg: format!(
-            "xyz = \"{xyz}\" (relative to the scene file's folder): {e} (a built-in scene's \
-             configuration is in its run folder as configuration.xyz)"
-        ),
-    })?;
-    Ok((full.display().to_string(), text))
+    read_configuration(
+        xyz,
+        "xyz",
+        origin,
+        &BUILTIN_XYZ,
+        " (a built-in scene's configuration is in its run folder as configuration.xyz)",
+    )
 }
 
 fn prepare_packing(

@@ -35,6 +35,7 @@ mod drag;
 mod elliptic_cases;
 mod field_analytic;
 mod field_oracle;
+mod filter;
 mod lbm;
 mod lbm_boundaries;
 mod lbm_packings;

@@ -1,0 +1,166 @@
+//! The run of a filter scene: the plan checked, the flow through the bed from the lattice
+//! Boltzmann engine, then the filter engine's driver ([`filter::driver::run_to_end`]) with a
+//! progress bar, then the outputs.
+
+use super::flow::{bed_flow, fibre_reynolds, BedFlow, LatticeOptions};
+use super::outputs::write_outputs;
+use super::schema::{prepare, Drive, Plan};
+use crate::brownian::FieldSource;
+use crate::driver::Hooks;
+use crate::error::{invalid, Result};
+use crate::filter::{self, Filter, Setup};
+use crate::lbm::{SteadyBar, SteadyControl};
+use crate::scene::{on_threads, RunOptions};
+use std::path::Path;
+use std::time::Instant;
+
+/// Checks a filter scene as [`run_scene`] does before it runs.
+pub fn check_scene(text: &str, origin: &str) -> Result<()> {
+    prepare(text, origin).map(|_| ())
+}
+
+/// What the run reached besides the engine's state: the flow and how the run ended.
+pub(super) struct Outcome {
+    pub flow: BedFlow,
+    pub superficial_velocity_m_s: f64,
+    pub pressure_drop_pa: f64,
+    pub reynolds: f64,
+    pub stop: filter::driver::Stop,
+    pub seconds: f64,
+}
+
+pub fn run_scene(text: &str, origin: &str, out: &Path, opts: &RunOptions) -> Result<()> {
+    let (scene, plan) = prepare(text, origin)?;
+    let t0 = Instant::now();
+    on_threads(opts.threads, || {
+        let (f, o) = run_plan(plan, opts.quiet, t0)?;
+        crate::io::create_dir(out)?;
+        let summary = write_outputs(out, origin, &scene, &f, &o)?;
+        println!("{summary}");
+        if !opts.quiet {
+            eprintln!("outputs in {}", out.display());
+        }
+        Ok(())
+    })
+}
+
+/// The flow, then the particles to the end.
+fn run_plan(plan: Plan, quiet: bool, t0: Instant) -> Result<(Filter, Outcome)> {
+    let fo = &plan.flow;
+    let options = LatticeOptions {
+        lattice: fo.lattice,
+        collision: fo.collision,
+        tau: fo.tau,
+        force_lattice: fo.force_lattice,
+        ctl: SteadyControl {
+            check_every: fo.check_every,
+            tol: fo.tol,
+            max_steps: fo.max_steps,
+        },
+    };
+    let mu = plan.fluid.viscosity_pa_s();
+    let radius = plan.bed.fibres()[0].radius;
+    let depth_m = plan.cells_deep as f64 * plan.bed.lengths_m()[2];
+    if !quiet {
+        eprintln!(
+            "filter: {} fibres (R = {radius:e} m) from {} in a periodic cell {:?} m, {} deep; \
+             flow lattice {:?} voxels",
+            plan.bed.fibres().len(),
+            plan.source,
+            plan.bed.lengths_m(),
+            plan.cells_deep,
+            plan.voxels
+        );
+    }
+    let flow = bed_flow(&plan.bed, plan.voxels, &options, &mut SteadyBar::new(quiet))?;
+    if !flow.converged {
+        return invalid(format!(
+            "flow.max_steps = {}: the lattice flow through the bed did not reach \
+             flow.tol = {:e} (residual {:.3e} after {} steps); raise flow.max_steps",
+            fo.max_steps, fo.tol, flow.residual, flow.steady_steps
+        ));
+    }
+    // Darcy over the whole depth: U = k dp / (mu depth)
+    let (u, dp) = match fo.drive {
+        Drive::Superficial(u) => (u, u * mu * depth_m / flow.permeability_m2),
+        Drive::PressureDrop(dp) => (flow.permeability_m2 * dp / (mu * depth_m), dp),
+    };
+    let reynolds = fibre_reynolds(u, plan.density_kg_m3, radius, mu)?;
+    let terms = match &plan.field {
+        Some(_) => {
+            "carrier flow (lattice, trilinear), magnetic force mu0 (m.grad)H of all fibres \
+                    (exact superposition), thermal noise"
+        }
+        None => "carrier flow (lattice, trilinear), thermal noise; no field",
+    };
+    if !quiet {
+        eprintln!(
+            "flow: k = {:.4e} m^2, porosity {:.4}, U = {u:.4e} m/s, pressure drop {dp:.4e} Pa, \
+             Re_fibre = {reynolds:.3e} ({} lattice steps); terms: {terms}{}",
+            flow.permeability_m2,
+            flow.porosity,
+            flow.steady_steps,
+            if plan.fluid.temperature_k() > 0.0 {
+                ""
+            } else {
+                " (temperature 0: no noise)"
+            }
+        );
+    }
+    let setup = Setup {
+        flow: flow.at(u)?,
+        bed: plan.bed,
+        field: plan.field.map(|a| Box::new(a) as Box<dyn FieldSource>),
+        moment: plan.moment,
+        fluid: plan.fluid,
+        particles: plan.particles,
+        cells_deep: plan.cells_deep,
+        dt_s: plan.dt_s,
+        max_step_fraction: plan.max_step_fraction,
+        seed: plan.seed,
+    };
+    let mut f = Filter::new(setup)?;
+    let mut bar = Bar::new(quiet);
+    let stop = filter::driver::run_to_end(&mut f, plan.max_steps, &mut bar)?;
+    bar.0.finish_and_clear();
+    Ok((
+        f,
+        Outcome {
+            flow,
+            superficial_velocity_m_s: u,
+            pressure_drop_pa: dp,
+            reynolds,
+            stop,
+            seconds: t0.elapsed().as_secs_f64(),
+        },
+    ))
+}
+
+/// The progress bar of the particles' run.
+struct Bar(indicatif::ProgressBar);
+
+impl Bar {
+    fn new(quiet: bool) -> Bar {
+        if quiet {
+            return Bar(indicatif::ProgressBar::hidden());
+        }
+        let b = indicatif::ProgressBar::new(1000);
+        b.set_style(
+            indicatif::ProgressStyle::with_template("[{elapsed_precise}] {bar:30} {msg}")
+                .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
+        );
+        Bar(b)
+    }
+}
+
+impl Hooks<Filter> for Bar {
+    fn progress(&mut self, _: &Filter, done: Option<f64>, status: &str) {
+        if let Some(d) = done {
+            self.0.set_position((1000.0 * d) as u64);
+        }
+        self.0.set_message(status.to_string());
+    }
+    fn stop_requested(&mut self, _: &Filter) -> bool {
+        crate::driver::stop_signalled()
+    }
+}

@@ -1,0 +1,383 @@
+//! Cases 450, 452 and 453: the filter engine (fibre bed, carrier flow, magnetic capture) against
+//! independent counts, limits, statistics and the Watson single-wire oracle.
+
+use super::common::{non_empty, required_seed};
+use crate::brownian::forces::FieldFn;
+use crate::brownian::{stokes_mobility, FieldSource, Fluid, LangevinMoment};
+use crate::consts::MU0;
+use crate::driver::NoHooks;
+use crate::filter::{
+    driver, random_transverse_fibres, Fate, FibreBed, Filter, Setup, VelocityLattice,
+};
+use crate::lbm::{CollisionKind, LatticeKind, SteadyControl};
+use crate::scene::filter::{bed_flow, LatticeOptions};
+use crate::validation::{CaseContext, Row, Table};
+use crate::{Error, Result};
+use nalgebra::{Matrix3, Vector3};
+
+const CELL_M: [f64; 3] = [1e-3, 1e-3, 1e-3];
+const FIBRE_R_M: f64 = 5e-5;
+const FIBRE_HALF_LENGTH_M: f64 = 3e-4;
+
+/// `n` random fibres across the flow in the cell [`CELL_M`].
+fn transverse_fibres(n: usize, seed: u64) -> (Vec<Vector3<f64>>, Vec<Vector3<f64>>) {
+    random_transverse_fibres(n, CELL_M, FIBRE_R_M, seed)
+}
+
+/// A uniform flow `u` (m/s) along z on an 8^3 lattice of the cell `l`.
+fn plug_flow(l: [f64; 3], u: f64) -> Result<VelocityLattice> {
+    let n = 8;
+    let h = l[0] / n as f64;
+    let nz = (l[2] / h).round() as usize;
+    let ny = (l[1] / h).round() as usize;
+    VelocityLattice::from_fn([n, ny, nz], h, |_| Vector3::new(0.0, 0.0, u))
+}
+
+/// The fraction of `f`'s particles that are captured.
+fn captured_fraction(f: &Filter) -> f64 {
+    let c = f.counts();
+    c.captured as f64 / c.fed as f64
+}
+
+register!("450" => case_450);
+/// Case 450: no field, no noise, plug flow: captured exactly when the straight path meets a
+/// fibre's projection (2-D count, periodic images), outside the stepping's sampling band.
+pub fn case_450(ctx: &CaseContext) -> Result<Vec<Row>> {
+    let t = ctx.expected_table()?;
+    non_empty(&t)?;
+    let seed = required_seed(ctx, "case 450 needs a seed")?;
+    let a = 1e-7;
+    let max_step_fraction = 0.05;
+    let mut rows = Vec::new();
+    for i in 0..t.len() {
+        let n = t.f64(i, "fibres")? as usize;
+        let particles = t.f64(i, "particles")? as usize;
+        let (centres, axes) = transverse_fibres(n, seed + i as u64);
+        let setup = Setup {
+            bed: FibreBed::new(CELL_M, FIBRE_R_M, FIBRE_HALF_LENGTH_M, &centres, &axes, a)?,
+            flow: plug_flow(CELL_M, 1e-3)?,
+            field: None,
+            moment: LangevinMoment::fixed(0.0)?,
+            fluid: Fluid::new(0.0, 1e-3)?,
+            particles,
+            cells_deep: 1,
+            dt_s: 2e-3,
+            max_step_fraction,
+            seed,
+        };
+        let mut f = Filter::new(setup)?;
+        if driver::run_to_end(&mut f, 1_000_000, &mut NoHooks)? != driver::Stop::Empty {
+            return Err(Error::Validation("450: particles left inside".into()));
+        }
+        let step = max_step_fraction * FIBRE_R_M;
+        let sampling = step * step / (8.0 * FIBRE_R_M);
+        let (mut disagree, mut ambiguous, mut predicted_captures) = (0usize, 0usize, 0usize);
+        for tr in f.tracers() {
+            // the start: x, y are unchanged along a straight path in z
+            let (x0, y0) = (tr.position.x, tr.position.y);
+            let mut clearance = f64::INFINITY;
+            for (c, ax) in centres.iter().zip(&axes) {
+                for sx in -1..=1 {
+                    for sy in -1..=1 {
+                        let dx = x0 - c.x - sx as f64 * CELL_M[0];
+                        let dy = y0 - c.y - sy as f64 * CELL_M[1];
+                        let along = (dx * ax.x + dy * ax.y).abs() - FIBRE_HALF_LENGTH_M;
+                        let across = (-dx * ax.y + dy * ax.x).abs() - FIBRE_R_M;
+                        clearance = clearance.min(along.max(0.0).hypot(across.max(0.0)) - a);
+                    }
+                }
+            }
+            let predicted = clearance <= 0.0;
+            predicted_captures += usize::from(predicted);
+            let got = matches!(tr.fate, Fate::Captured { .. });
+            if clearance.abs() <= sampling {
+                ambiguous += 1;
+            } else if got != predicted {
+                disagree += 1;
+            }
+        }
+        let geometric = predicted_captures as f64 / particles as f64;
+        eprintln!(
+            "450 fibres={n}: captured {:.4}, geometric {geometric:.4}, {disagree} disagreements, \
+             {ambiguous} ambiguous paths",
+            captured_fraction(&f)
+        );
+        rows.push(Row::new(
+            format!("fibres={n} disagreements"),
+            disagree as f64,
+            t.f64(i, "expected_disagreements")?,
+            1.0,
+        ));
+        rows.push(Row::new(
+            format!("fibres={n} captured fraction"),
+            captured_fraction(&f),
+            geometric,
+            1.0,
+        ));
+    }
+    Ok(rows)
+}
+
+register!("452" => case_452);
+/// Case 452: exact bookkeeping after every step, and the same survival in every stacked cell
+/// (two-proportion z-scores of cells 2.. against cell 1).
+pub fn case_452(ctx: &CaseContext) -> Result<Vec<Row>> {
+    let t = ctx.expected_table()?;
+    non_empty(&t)?;
+    let seed = required_seed(ctx, "case 452 needs a seed")?;
+    let mut rows = Vec::new();
+    for i in 0..t.len() {
+        let particles = t.f64(i, "particles")? as usize;
+        let cells = t.f64(i, "cells_deep")? as usize;
+        let peclet = t.f64(i, "peclet_cell")?;
+        let l = [1e-4, 1e-4, 2e-3];
+        let (r, a, eta, temp) = (1e-5, 1e-8, 1e-3, 298.0);
+        let fluid = Fluid::new(temp, eta)?;
+        let d = fluid.kt() * stokes_mobility(eta, a)?;
+        let u = peclet * d / l[2];
+        // a step of at most one fibre radius: sqrt(2 D dt) = 0.93 R
+        let dt = 0.43 * r * r / d;
+        let bed = FibreBed::new(
+            l,
+            r,
+            0.5 * l[0],
+            &[Vector3::new(0.5 * l[0], 0.5 * l[1], 0.5 * l[2])],
+            &[Vector3::x()],
+            a,
+        )?;
+        let setup = Setup {
+            bed,
+            flow: plug_flow(l, u)?,
+            field: None,
+            moment: LangevinMoment::fixed(0.0)?,
+            fluid,
+            particles,
+            cells_deep: cells,
+            dt_s: dt,
+            max_step_fraction: 1.0,
+            seed,
+        };
+        let mut f = Filter::new(setup)?;
+        let depth = f.depth_m();
+        loop {
+            let next = f.steps() + 1;
+            let stop = driver::run_to_end(&mut f, next, &mut NoHooks)?;
+            let c = f.counts();
+            if c.captured + c.passed + c.inside != c.fed || c.fed != particles {
+                return Err(Error::Validation(format!(
+                    "452: step {}: fed {} != captured {} + passed {} + inside {}",
+                    f.steps(),
+                    c.fed,
+                    c.captured,
+                    c.passed,
+                    c.inside
+                )));
+            }
+            for (k, tr) in f.tracers().iter().enumerate() {
+                let ok = match tr.fate {
+                    Fate::Captured { position, .. } => {
+                        position == tr.position && f.bed().touching(&position).is_some()
+                    }
+                    Fate::Passed { .. } => tr.position.z >= depth,
+                    Fate::Inside => (0.0..depth).contains(&tr.position.z),
+                };
+                if !ok {
+                    return Err(Error::Validation(format!(
+                        "452: step {}: particle {k}'s fate {:?} does not match its position {:?}",
+                        f.steps(),
+                        tr.fate,
+                        tr.position
+                    )));
+                }
+            }
+            if stop == driver::Stop::Empty {
+                break;
+            }
+            if f.steps() > 10_000_000 {
+                return Err(Error::Validation("452: particles left inside".into()));
+            }
+        }
+        // N_k: particles that reached the end of cell k (N_0 fed)
+        let reached: Vec<f64> = (0..=cells)
+            .map(|k| f.penetration(k as f64 * l[2]).0 * particles as f64)
+            .collect();
+        let pooled = reached[1..].iter().sum::<f64>() / reached[..cells].iter().sum::<f64>();
+        let s = |k: usize| reached[k] / reached[k - 1];
+        let coefficient = f
+            .filter_coefficient()
+            .ok_or_else(|| Error::Validation("452: no filter coefficient".into()))?;
+        eprintln!(
+            "452: U = {u:.3e} m/s, D = {d:.3e} m^2/s, dt = {dt:.3e} s; reached {reached:?}; \
+             pooled survival {pooled:.4} (filter coefficient's {:.4}, lambda {:.4e} +- {:.2e} \
+             1/m)",
+            coefficient.cell_survival, coefficient.per_m, coefficient.standard_error_per_m
+        );
+        for k in 2..=cells {
+            let se = (pooled * (1.0 - pooled) * (1.0 / reached[k - 1] + 1.0 / reached[0])).sqrt();
+            let z = (s(k) - s(1)) / se;
+            eprintln!(
+                "452: cell {k}: s = {:.4} vs cell 1 {:.4}: z = {z:.3}",
+                s(k),
+                s(1)
+            );
+            rows.push(Row::new(
+                format!("cell {k} vs cell 1 survival z"),
+                z,
+                t.f64(i, "expected_z")?,
+                1.0,
+            ));
+        }
+    }
+    Ok(rows)
+}
+
+register!("453" => case_453);
+/// Case 453: capture efficiency of a square array of wires (LBM flow, 2-D dipole fields, no
+/// noise) against the Kuwabara-cell trajectory oracle of reference/watson_capture.csv.
+pub fn case_453(ctx: &CaseContext) -> Result<Vec<Row>> {
+    let t = ctx.expected_table()?;
+    non_empty(&t)?;
+    let seed = required_seed(ctx, "case 453 needs a seed")?;
+    let checked = [1.0, 3.0, 10.0];
+    let reported = [0.1, 0.3];
+    let mut rows = Vec::new();
+    for n in [32usize, 64] {
+        let particles = if n == 64 { 20_000 } else { 5_000 };
+        let effs = watson_array(n, &t, seed, particles)?;
+        for (ratio, eta, want, solid_fraction) in effs {
+            let err = eta / want - 1.0;
+            eprintln!(
+                "453 d={n} voxels: Vm/U = {ratio}: eta = {eta:.4} vs Kuwabara (phi \
+                 {solid_fraction}) {want:.4} ({:+.1} %)",
+                100.0 * err
+            );
+            if n == 64 && checked.contains(&ratio) {
+                rows.push(Row::new(format!("Vm/U={ratio} d=64"), eta, want, want));
+            } else if !reported.contains(&ratio) && !checked.contains(&ratio) {
+                return Err(Error::Validation(format!("453: unexpected ratio {ratio}")));
+            }
+        }
+    }
+    Ok(rows)
+}
+
+/// (V_m/U, engine eta, oracle eta, solid fraction) for the Kuwabara rows of `t` with V_m/U in
+/// the checked or reported set, on a lattice of `n` voxels per spacing.
+fn watson_array(
+    n: usize,
+    t: &Table,
+    seed: u64,
+    particles: usize,
+) -> Result<Vec<(f64, f64, f64, f64)>> {
+    let b = 1e-4; // wire radius (m)
+    let u = 1e-3; // superficial velocity (m/s)
+    let eta_pa_s = 1e-3;
+    let ms = 1e6; // wire magnetization M (A/m)
+    let mut out = Vec::new();
+    let rows: Vec<usize> = (0..t.len())
+        .filter(|&i| t.str(i, "flow").is_ok_and(|f| f == "kuwabara"))
+        .collect();
+    let Some(&first) = rows.first() else {
+        return Err(Error::Validation(
+            "453: no kuwabara rows in the reference".into(),
+        ));
+    };
+    let phi = t.f64(first, "solid_fraction")?;
+    let h0_over_m = t.f64(first, "h0_over_m")?;
+    let a_over_b = t.f64(first, "particle_radius_over_b")?;
+    let d = b * (std::f64::consts::PI / phi).sqrt();
+    let h = d / n as f64;
+    let l = [4.0 * h, d, d];
+    let a = a_over_b * b;
+    let bed = FibreBed::new(
+        l,
+        b,
+        0.5 * l[0],
+        &[Vector3::new(0.5 * l[0], 0.5 * d, 0.5 * d)],
+        &[Vector3::x()],
+        a,
+    )?;
+    let options = LatticeOptions {
+        lattice: LatticeKind::D3Q19,
+        collision: CollisionKind::Trt,
+        tau: 1.0,
+        force_lattice: 1e-6 * (32.0 / n as f64).powi(3),
+        ctl: SteadyControl {
+            check_every: 100,
+            tol: 1e-8,
+            max_steps: 400_000,
+        },
+    };
+    let flow = bed_flow(&bed, [4, n, n], &options, &mut NoHooks)?;
+    eprintln!(
+        "453 d={n} voxels: voxel solid fraction {:.4} (target {phi}), k/b^2 = {:.4} (Kuwabara \
+         Ku/(4 phi) = {:.4}), {} lattice steps",
+        1.0 - flow.porosity,
+        flow.permeability_m2 / (b * b),
+        kuwabara(phi) / (4.0 * phi),
+        flow.steady_steps
+    );
+    let mobility = stokes_mobility(eta_pa_s, a)?;
+    for &i in &rows {
+        let ratio = t.f64(i, "vm_over_u")?;
+        if ![0.1, 0.3, 1.0, 3.0, 10.0].contains(&ratio) {
+            continue;
+        }
+        let want = t.f64(i, "capture_half_width_over_b")?;
+        // V_m = mobility mu0 m M / b
+        let moment = ratio * u * b / (mobility * MU0 * ms);
+        let setup = Setup {
+            bed: bed.clone(),
+            flow: flow.at(u)?,
+            field: Some(wire_array_field(d, b, ms, h0_over_m * ms)),
+            moment: LangevinMoment::fixed(moment)?,
+            fluid: Fluid::new(0.0, eta_pa_s)?,
+            particles,
+            cells_deep: 1,
+            dt_s: d / u,
+            max_step_fraction: 0.05,
+            seed,
+        };
+        let mut f = Filter::new(setup)?;
+        if driver::run_to_end(&mut f, 10_000, &mut NoHooks)? != driver::Stop::Empty {
+            return Err(Error::Validation(format!(
+                "453: Vm/U = {ratio}: particles left inside"
+            )));
+        }
+        let eff = captured_fraction(&f) * d / (2.0 * b);
+        out.push((ratio, eff, want, phi));
+    }
+    Ok(out)
+}
+
+/// Kuwabara's hydrodynamic factor Ku = -ln(phi)/2 - 3/4 + phi - phi^2/4.
+fn kuwabara(phi: f64) -> f64 {
+    -0.5 * phi.ln() - 0.75 + phi - 0.25 * phi * phi
+}
+
+/// The field of a square array (spacing `d` in y and z, one wire at the cell centre) of
+/// infinite wires of radius `b` along x, uniformly magnetized `m_a_per_m` along z, in the
+/// applied field `h0` along z: H0 z + sum over the 7 x 7 block of images of the exterior 2-D
+/// dipole M b^2 (2 (z.r) r - z) / (2 r^2) (Watson 1973), with its gradient.
+fn wire_array_field(d: f64, b: f64, m_a_per_m: f64, h0: f64) -> Box<dyn FieldSource> {
+    let c = m_a_per_m * b * b;
+    Box::new(FieldFn(move |p: &Vector3<f64>| {
+        let mut hv = Vector3::new(0.0, 0.0, h0);
+        let mut g = Matrix3::zeros();
+        for j in -3..=3 {
+            for k in -3..=3 {
+                let y = p.y - (0.5 + j as f64) * d;
+                let z = p.z - (0.5 + k as f64) * d;
+                let r2 = y * y + z * z;
+                let (r4, r6) = (r2 * r2, r2 * r2 * r2);
+                hv.y += c * y * z / r4;
+                hv.z += c * (z * z - y * y) / (2.0 * r4);
+                g[(1, 1)] += c * (z / r4 - 4.0 * y * y * z / r6);
+                g[(1, 2)] += c * (y / r4 - 4.0 * y * z * z / r6);
+                g[(2, 1)] += c * (-y / r4 - 2.0 * y * (z * z - y * y) / r6);
+                g[(2, 2)] += c * (z / r4 - 2.0 * z * (z * z - y * y) / r6);
+            }
+        }
+        (hv, g)
+    }))
+}
