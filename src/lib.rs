@@ -1,9 +1,19 @@
 //! porelab: particles packing, depositing and being captured in random porous media,
 //! with every printed number checked against an independent truth in `validation/`.
 //!
-//! Layout (see README): `special` (elliptic integrals, quadrature) -> `magnetics` (cylinder
-//! fields) -> engines; `validation` runs the numbered cases, `reference` regenerates the
-//! independent oracle tables without calling the code under test.
+//! Layout: see the README's "The code's layout" (kernels, engines with one door each, floors);
+//! `tests/architecture.rs` holds imports to it.
+//!
+//! Two walks from a scene file to the kernel:
+//!
+//! - the DEM time step: `[run] dt_s` is read by `scene/dem/schema.rs` into `dem::TimeStep::Given`
+//!   (absent: `TimeStep::Automatic`); `Dem::new` checks it once against the contact and Rayleigh
+//!   times (`dem::Setup::check_time_step`) and keeps it private; the coupled engine sets its own
+//!   dt_LBM / M through `Dem::with_time_step`, which checks it the same way, and refuses a given one;
+//! - the LBM relaxation time: `tau` is read by `scene/lbm/schema.rs` (or `scene/coupled/schema.rs`)
+//!   into `lbm::Tau` (refused below its stability floor), joined with the collision kind into a
+//!   `CollisionModel`; `Lbm::new` builds the kernel it selects (`lbm/choice.rs`, the one match), and
+//!   the viscosity it implies, nu = (tau - 1/2)/3, is computed only in `lbm/units.rs`.
 
 pub mod analysis;
 pub mod bench;

@@ -6,8 +6,8 @@
 //! boundary planes' last rebuilt states are recomputed by the next step before anything reads
 //! them.
 
-use super::driver::Monitor;
 use super::engine::Lbm;
+use super::engine::Monitor;
 use crate::error::invalid;
 use crate::Result;
 use serde::{Deserialize, Serialize};

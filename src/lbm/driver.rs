@@ -4,7 +4,7 @@
 //! is too small for double-precision populations to resolve. Progress, checkpoints and stop
 //! requests go through [`crate::driver::Hooks`]; [`SteadyBar`] is the progress display.
 
-use super::engine::Lbm;
+use super::engine::{Lbm, Monitor};
 use super::solver::{superficial_mean, Fields};
 use super::units::MACH_MAX;
 use crate::driver::Hooks;
@@ -39,19 +39,6 @@ pub const U_RESOLVED: f64 = 1e-10;
 
 fn norm(v: [f64; 3]) -> f64 {
     (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt()
-}
-
-/// What the steady run's convergence test carries from one check to the next: the step the
-/// run started at (`max_steps` counts from it), the superficial mean velocity at the last
-/// check, and the first residual (the progress scale). Kept on the engine at each check, so
-/// that a checkpoint of the engine ([`super::checkpoint`]) is one of the run: the mean cannot
-/// be read again from restored populations where boundary planes report the state they were
-/// last rebuilt with.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Monitor {
-    pub start_steps: u64,
-    pub mean_u: [f64; 3],
-    pub first_residual: Option<f64>,
 }
 
 /// Runs `lbm` until steady (or `max_steps`, or a stop request of `hooks`: then not converged).

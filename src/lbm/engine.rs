@@ -2,12 +2,24 @@
 //! and [`Lbm::step`] advances it; [`super::driver`] runs it to its steady state.
 
 use super::choice::{build, Kernel};
-use super::driver::Monitor;
 use super::forcing::Porous;
 use super::geometry::{Dims, Geometry};
 use super::setup::{CollisionModel, LatticeKind, Setup};
 use super::solver::{Fields, Record};
 use crate::error::Result;
+
+/// What the steady run's convergence test (`driver.rs`) carries from one check to the next: the
+/// step the run started at (`max_steps` counts from it), the superficial mean velocity at the
+/// last check, and the first residual (the progress scale). Kept on the engine at each check, so
+/// that a checkpoint of the engine ([`super::checkpoint`]) is one of the run: the mean cannot
+/// be read again from restored populations where boundary planes report the state they were
+/// last rebuilt with.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Monitor {
+    pub start_steps: u64,
+    pub mean_u: [f64; 3],
+    pub first_residual: Option<f64>,
+}
 
 /// A lattice-Boltzmann flow (lattice units), built from a [`Setup`].
 pub struct Lbm {

@@ -2,6 +2,8 @@
 //! uninterrupted run's outputs; a checkpoint of another scene is refused, naming the file.
 
 use super::run::{run_scene, run_scene_limited};
+use crate::deposition::{driver, Deposition, Setup};
+use crate::driver::{Hooks, NoHooks};
 use crate::scene::RunOptions;
 use std::path::Path;
 
@@ -65,4 +67,65 @@ fn interrupted_run_resumes_to_the_same_result() {
     run_scene_limited(&text, "test", &killed, &quiet(), Some(5)).unwrap();
     crate::scene::assert_other_scene_refused(|t| run_scene(t, "test", &killed, &quiet()), &text);
     let _ = std::fs::remove_dir_all(&base);
+}
+
+// The engine's own save and restore (`deposition::checkpoint`), on a setup parsed from a
+// built-in: a stopped run restored from its JSON state ends bitwise as the uninterrupted one.
+
+/// Stops a run after `n` sweeps.
+struct StopAfter(u64);
+
+impl Hooks<Deposition> for StopAfter {
+    fn stop_requested(&mut self, d: &Deposition) -> bool {
+        d.outcome().sweeps >= self.0
+    }
+}
+
+/// 60 platelets (Perram-Wertheim pairs, rotations) with a short window.
+fn engine_setup() -> Setup {
+    let text = include_str!("../builtin/deposition-platelets.toml")
+        .replace("particles = 600", "particles = 60");
+    super::parse_scene(&text, "t").unwrap().setup
+}
+
+/// A run stopped after 30 sweeps, saved through JSON and restored from the setup ends in
+/// bitwise the state of the uninterrupted run (prefilter counts and history included).
+#[test]
+fn restored_run_continues_bitwise() {
+    let setup = engine_setup();
+    let mut whole = Deposition::new(&setup, 1).unwrap();
+    driver::run(&mut whole, &mut NoHooks).unwrap();
+    let mut first = Deposition::new(&setup, 1).unwrap();
+    driver::run(&mut first, &mut StopAfter(30)).unwrap();
+    assert!(!first.is_done() && whole.outcome().sweeps > 40);
+    let text = serde_json::to_string(&first.save_state()).unwrap();
+    let mut second = Deposition::restore(&setup, 1, &serde_json::from_str(&text).unwrap()).unwrap();
+    driver::run(&mut second, &mut NoHooks).unwrap();
+    assert!(whole.outcome().prefilters.perram_wertheim > 0);
+    assert_eq!(whole.save_state(), second.save_state());
+}
+
+#[test]
+fn a_foreign_state_is_refused() {
+    let setup = engine_setup();
+    let d = Deposition::new(&setup, 0).unwrap();
+    let e = Deposition::restore(&setup, 1, &d.save_state())
+        .err()
+        .unwrap()
+        .to_string();
+    assert!(e.contains("random stream"), "{e}");
+    let mut s = d.save_state();
+    s.position.pop();
+    let e = Deposition::restore(&setup, 0, &s)
+        .err()
+        .unwrap()
+        .to_string();
+    assert!(e.contains("`position`"), "{e}");
+    let mut s = d.save_state();
+    s.cell_members[0].push(0);
+    let e = Deposition::restore(&setup, 0, &s)
+        .err()
+        .unwrap()
+        .to_string();
+    assert!(e.contains("cell list"), "{e}");
 }

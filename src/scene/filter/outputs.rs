@@ -1,7 +1,7 @@
 //! What a filter run writes: `summary.json`, `penetration.csv` and its plot
 //! `penetration.svg`, `captures.csv` and `captures.xyz` (extended XYZ, OVITO).
 
-use super::run::Outcome;
+use super::flow::BedFlow;
 use super::schema::Scene;
 use crate::error::Error;
 use crate::filter::{Fate, Filter};
@@ -11,6 +11,16 @@ use crate::io::{write_atomic, CsvTable};
 use crate::Result;
 use std::fmt::Display;
 use std::path::Path;
+
+/// What the run reached besides the engine's state: the flow and how the run ended.
+pub(super) struct Outcome {
+    pub flow: BedFlow,
+    pub superficial_velocity_m_s: f64,
+    pub pressure_drop_pa: f64,
+    pub reynolds: f64,
+    pub stop: crate::filter::driver::Stop,
+    pub seconds: f64,
+}
 
 /// Depths of `penetration.csv` per cell of the bed.
 const DEPTHS_PER_CELL: usize = 4;

@@ -2,8 +2,8 @@
 //! Boltzmann engine, then the filter engine's driver ([`filter::driver::run_to_end`]) with a
 //! progress bar, then the outputs.
 
-use super::flow::{bed_flow, fibre_reynolds, BedFlow, LatticeOptions};
-use super::outputs::write_outputs;
+use super::flow::{bed_flow, fibre_reynolds, LatticeOptions};
+use super::outputs::{write_outputs, Outcome};
 use super::schema::{prepare, Drive, Plan};
 use crate::brownian::FieldSource;
 use crate::driver::Hooks;
@@ -17,16 +17,6 @@ use std::time::Instant;
 /// Checks a filter scene as [`run_scene`] does before it runs.
 pub fn check_scene(text: &str, origin: &str) -> Result<()> {
     prepare(text, origin).map(|_| ())
-}
-
-/// What the run reached besides the engine's state: the flow and how the run ended.
-pub(super) struct Outcome {
-    pub flow: BedFlow,
-    pub superficial_velocity_m_s: f64,
-    pub pressure_drop_pa: f64,
-    pub reynolds: f64,
-    pub stop: filter::driver::Stop,
-    pub seconds: f64,
 }
 
 pub fn run_scene(text: &str, origin: &str, out: &Path, opts: &RunOptions) -> Result<()> {
