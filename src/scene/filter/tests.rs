@@ -56,7 +56,12 @@ fn bad_values_are_refused_by_key_and_line() {
     let e = check_scene(&builtin().replace("fed = 400", "fed = 0"), "s.toml")
         .unwrap_err()
         .to_string();
-    assert!(e.contains("(line 32)"), "{e}");
+    let line = builtin()
+        .lines()
+        .position(|l| l.trim_start().starts_with("fed = 400"))
+        .map(|i| i + 1)
+        .unwrap();
+    assert!(e.contains(&format!("(line {line})")), "{e}");
 }
 
 /// A short run of the built-in (fewer particles, one cell): every file is written and the
