@@ -67,35 +67,42 @@ fn random_below(n: u64) -> u64 {
 }
 
 /// Starts the run, waits for its first checkpoint, kills it with SIGKILL at a random moment
-/// within `window` of that, and asserts that it had not finished.
-fn kill_after_first_checkpoint(mut cmd: Command, out: &Path, window: Duration) {
+/// within `window` of that, and asserts that it had not finished (written `last_output`).
+fn kill_after_first_checkpoint(cmd: Command, out: &Path, window: Duration, last_output: &str) {
+    let checkpoint = out.join("checkpoint.json");
+    kill_after(cmd, || checkpoint.is_file(), window, &out.join(last_output));
+    assert!(checkpoint.is_file());
+}
+
+/// Starts the run, waits until `saved` (it has saved some of its work), kills it with SIGKILL
+/// at a random moment within `window` of that, and asserts that it had not written `last`.
+fn kill_after(mut cmd: Command, saved: impl Fn() -> bool, window: Duration, last: &Path) {
     let mut child = cmd
         .stdout(Stdio::null())
         .stderr(Stdio::null())
         .spawn()
         .unwrap();
     let started = Instant::now();
-    while !out.join("checkpoint.json").is_file() {
+    while !saved() {
         assert!(
             child.try_wait().unwrap().is_none(),
-            "the run ended before its first checkpoint"
+            "the run ended before it saved anything"
         );
         assert!(
             started.elapsed() < Duration::from_secs(300),
-            "no checkpoint in 300 s"
+            "nothing saved in 300 s"
         );
         std::thread::sleep(Duration::from_millis(2));
     }
     let delay = random_below(window.as_millis() as u64);
-    eprintln!("SIGKILL {delay} ms after the first checkpoint");
+    eprintln!("SIGKILL {delay} ms after the first save");
     std::thread::sleep(Duration::from_millis(delay));
     child.kill().unwrap();
     let _ = child.wait();
     assert!(
-        !out.join("summary.json").exists(),
+        !last.exists(),
         "the kill came too late to test anything (the run had finished)"
     );
-    assert!(out.join("checkpoint.json").is_file());
 }
 
 /// Every file under `dir`, relative, sorted.
@@ -117,8 +124,8 @@ fn files(dir: &Path) -> Vec<PathBuf> {
 }
 
 /// The text of `file` without wall times: JSON keys `seconds` and `start_seconds` and array
-/// entries of quantity `seconds`, the `seconds` column of a CSV table and its `seconds` row
-/// (deposition's runs.csv and ensemble.csv).
+/// entries of quantity `seconds`, the `seconds` (or `seconds_s`) column of a CSV table and its
+/// `seconds` row (deposition's runs.csv and ensemble.csv).
 fn without_wall_times(file: &Path, bytes: Vec<u8>) -> Vec<u8> {
     let name = file.file_name().unwrap().to_string_lossy();
     if name.ends_with(".json") {
@@ -142,10 +149,10 @@ fn without_wall_times(file: &Path, bytes: Vec<u8>) -> Vec<u8> {
     }
     if name.ends_with(".csv") {
         let text = String::from_utf8(bytes).unwrap();
-        let col = text
-            .lines()
-            .next()
-            .and_then(|h| h.split(',').position(|c| c == "seconds"));
+        let col = text.lines().next().and_then(|h| {
+            h.split(',')
+                .position(|c| c == "seconds" || c == "seconds_s")
+        });
         let kept: Vec<String> = text
             .lines()
             .filter(|l| !l.starts_with("seconds,"))
@@ -201,7 +208,12 @@ fn kill_and_resume(name: &str, scene: &Path, root: &Path, every_s: &str, window:
     let (whole, killed) = (root.join("whole"), root.join("killed"));
     ok(&mut run(scene, &whole, every_s));
     assert!(!whole.join("checkpoint.json").exists());
-    kill_after_first_checkpoint(run(scene, &killed, every_s), &killed, window);
+    kill_after_first_checkpoint(
+        run(scene, &killed, every_s),
+        &killed,
+        window,
+        "summary.json",
+    );
     assert_foreign_checkpoints_refused(scene, &killed, every_s);
     ok(&mut run(scene, &killed, every_s));
     assert!(
@@ -237,4 +249,77 @@ fn a_killed_lbm_run_resumes_to_the_same_outputs() {
     let root = fresh_dir("lbm");
     let scene = shortened(&root, "lbm-pressure-channel", &[]);
     kill_and_resume("lbm", &scene, &root, "0", Duration::from_millis(400));
+}
+
+// `porelab permeability --out`: the resolution ladder.
+
+/// One sphere of radius 0.31 in the unit periodic box (a simple cubic array, phi 0.125).
+const SIMPLE_CUBIC: &str = "1\nLattice=\"1 0 0 0 1 0 0 0 1\" Origin=\"0 0 0\" pbc=\"T T T\" \
+Properties=type:S:1:pos:R:3:orientation:R:4:aspherical_shape:R:3:radius:R:1:cylinder_length:R:1:\
+superquadric_roundness:R:2\nsphere 0.5 0.5 0.5 0 0 0 1 0.31 0.31 0.31 0.31 0 1 1\n";
+
+/// `porelab permeability XYZ --out OUT`: rungs of 8, 12, 18 and 27 cells, a tolerance the
+/// ladder cannot meet (so that it climbs them all), a checkpoint at every check.
+fn ladder(xyz: &Path, out: &Path, extra: &[&str]) -> Command {
+    let mut c = porelab();
+    c.arg("permeability")
+        .arg(xyz)
+        .args(["--quiet", "--start", "8", "--max-resolution", "27"])
+        .args(["--rtol", "1e-6", "--checkpoint-every", "0", "--out"])
+        .arg(out)
+        .args(extra);
+    c
+}
+
+/// The ladder killed with SIGKILL at a random moment (in a finished rung's gap, mid-rung or
+/// while it checks Darcy's law on the second), then run again with the same arguments and
+/// `--out`, writes the bytes of the uninterrupted ladder (wall times excepted) and removes its
+/// checkpoint; a checkpoint of other arguments, another packing file or another format is
+/// refused, naming it.
+#[test]
+fn a_killed_permeability_ladder_resumes_to_the_same_outputs() {
+    let root = fresh_dir("ladder");
+    let xyz = root.join("sc.xyz");
+    std::fs::write(&xyz, SIMPLE_CUBIC).unwrap();
+    let (whole, killed) = (root.join("whole"), root.join("killed"));
+    ok(&mut ladder(&xyz, &whole, &[]));
+    assert!(!whole.join("checkpoint.json").exists());
+    kill_after_first_checkpoint(
+        ladder(&xyz, &killed, &[]),
+        &killed,
+        Duration::from_millis(1500),
+        "permeability.json",
+    );
+    let cp = killed.join("checkpoint.json");
+    let refused = |cmd: &mut Command, what: &str| {
+        let r = cmd.output().unwrap();
+        let err = String::from_utf8_lossy(&r.stderr);
+        assert!(!r.status.success(), "{what}: accepted");
+        assert!(
+            err.contains(&cp.display().to_string()) && err.contains(what),
+            "{what}: {err}"
+        );
+    };
+    refused(
+        &mut ladder(&xyz, &killed, &["--tau", "0.9"]),
+        "different ladder",
+    );
+    let other = root.join("other.xyz");
+    std::fs::write(
+        &other,
+        SIMPLE_CUBIC.replace("0.31 0.31 0.31 0.31", "0.3 0.3 0.3 0.3"),
+    )
+    .unwrap();
+    refused(&mut ladder(&other, &killed, &[]), "different ladder");
+    let saved = std::fs::read_to_string(&cp).unwrap();
+    std::fs::write(&cp, saved.replacen("\"format\":1", "\"format\":99", 1)).unwrap();
+    refused(&mut ladder(&xyz, &killed, &[]), "checkpoint format 99");
+    std::fs::write(&cp, saved).unwrap();
+    let resumed = ladder(&xyz, &killed, &[]).output().unwrap();
+    let stdout = String::from_utf8_lossy(&resumed.stdout);
+    assert!(resumed.status.success(), "{stdout}");
+    let resuming = stdout.lines().find(|l| l.starts_with("resuming from"));
+    eprintln!("{}", resuming.expect("the rerun resumes"));
+    assert!(!cp.exists(), "the finished ladder left its checkpoint");
+    assert_same_outputs(&whole, &killed);
 }

@@ -5,6 +5,7 @@
 pub mod contact;
 pub mod drag;
 pub mod field;
+pub mod ladder_checkpoint;
 pub mod packing_input;
 pub mod permeability;
 pub mod shape;

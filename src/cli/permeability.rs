@@ -5,6 +5,7 @@
 //! `permeability.json`, `ladder.csv`, `convergence.svg` and the finest rung's `fields.vtk` into
 //! `--out`. With `--resolution N` it runs N/2 and N cells only, as a quick look.
 
+use super::ladder_checkpoint::LadderCheckpoint;
 use crate::error::{invalid, Error, Result};
 use crate::io::csv_table::CsvTable;
 use crate::io::plot::{write_svg, Plot, Series};
@@ -53,9 +54,15 @@ pub struct PermeabilityArgs {
     #[arg(long)]
     pub strict: bool,
     /// Ladder: folder for permeability.json, ladder.csv, convergence.svg and fields.vtk
-    /// [target/porelab/permeability/<file stem>].
+    /// [target/porelab/permeability/<file stem>]. Given, the ladder keeps its finished rungs
+    /// and the running rung's state in OUT/checkpoint.json: a killed ladder run again with
+    /// the same arguments, packing and --out resumes there, to the same outputs.
     #[arg(long)]
     pub out: Option<PathBuf>,
+    /// Ladder with --out: seconds between the running rung's checkpoints (0: at every check
+    /// of 100 steps); a finished rung is always kept.
+    #[arg(long, default_value_t = 10.0, allow_hyphen_values = true)]
+    pub checkpoint_every: f64,
     /// The configuration's length unit in metres (e.g. the particle diameter), for k in m^2.
     #[arg(long, allow_hyphen_values = true)]
     pub unit_m: Option<f64>,
@@ -102,6 +109,12 @@ pub fn run_permeability(a: &PermeabilityArgs) -> Result<ExitCode> {
     };
     if !(a.tol.is_finite() && a.tol > 0.0) {
         return invalid(format!("--tol {}: must be positive and finite", a.tol));
+    }
+    if !(a.checkpoint_every.is_finite() && a.checkpoint_every >= 0.0) {
+        return invalid(format!(
+            "--checkpoint-every {}: must be finite and not negative (seconds)",
+            a.checkpoint_every
+        ));
     }
     let walls = a
         .walls
@@ -213,6 +226,19 @@ fn ladder(
     });
     // the folder is checked before the work
     crate::io::create_dir(&out)?;
+    let mut store = match &a.out {
+        Some(out) => LadderCheckpoint::open(out, &ladder_key(a)?, a.checkpoint_every, a.quiet)?,
+        None => LadderCheckpoint::none(a.quiet),
+    };
+    if let Some((kept, running)) = store.resumes() {
+        println!(
+            "resuming from {}: {kept} finished rungs kept{}",
+            out.join("checkpoint.json").display(),
+            running.map_or(String::new(), |n| format!(
+                ", the rung of {n} cells restored"
+            ))
+        );
+    }
     println!(
         "ladder from {} cells, x{RATIO} per rung up to {}, until k_inf of k = k_inf + c n^-{ORDER} \
          fitted to the last three rungs agrees with the previous fit and has a standard error \
@@ -221,14 +247,9 @@ fn ladder(
         o.max_resolution,
         100.0 * o.rtol
     );
-    let quiet = a.quiet;
-    let l = climb(
-        cell,
-        parts,
-        &o,
-        |_| Box::new(SteadyBar::new(quiet)),
-        |r| println!("{}", rung_line(r, a.unit_m)),
-    )?;
+    let l = climb(cell, parts, &o, &mut store, |r| {
+        println!("{}", rung_line(r, a.unit_m))
+    })?;
     let finest = &l.rungs[l.rungs.len() - 1];
     let vs = l.finest.v_over_s;
     let phi = l.finest.phi_particles;
@@ -267,12 +288,34 @@ fn ladder(
         );
     }
     write_outputs(&out, a, cell, &o, &l, kozeny)?;
+    // the outputs are complete: the checkpoint is no longer needed
+    store.remove()?;
     println!("outputs in {}", out.display());
     Ok(if a.strict && !l.converged {
         ExitCode::from(3)
     } else {
         ExitCode::SUCCESS
     })
+}
+
+/// What a ladder's rungs depend on: its arguments but for the output and display options,
+/// and the packing file's bytes.
+fn ladder_key(a: &PermeabilityArgs) -> Result<Vec<u8>> {
+    let packing = std::fs::read(&a.packing).map_err(|e| Error::File {
+        path: a.packing.display().to_string(),
+        msg: format!("cannot read the packing: {e}"),
+    })?;
+    let args = PermeabilityArgs {
+        packing: PathBuf::new(),
+        out: None,
+        checkpoint_every: 0.0,
+        quiet: false,
+        strict: false,
+        ..a.clone()
+    };
+    let mut key = format!("{args:?}\n").into_bytes();
+    key.extend(packing);
+    Ok(key)
 }
 
 /// One printed line per rung.

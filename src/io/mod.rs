@@ -60,6 +60,39 @@ pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<()> {
     Ok(())
 }
 
+/// Removes the temporaries that [`write_atomic`] of files in `dir` left when their process was
+/// killed mid-write (those of processes no longer running): a run resumed in a folder calls it
+/// before it writes there again, so that the folder ends as an uninterrupted run's.
+pub fn remove_stale_temporaries(dir: &Path) -> Result<()> {
+    let Ok(entries) = std::fs::read_dir(dir) else {
+        return Ok(());
+    };
+    for e in entries.flatten() {
+        let name = e.file_name().to_string_lossy().into_owned();
+        // ".<name>.tmp-<pid>-<k>"
+        let Some(pid) = name
+            .starts_with('.')
+            .then(|| name.rsplit_once(".tmp-"))
+            .flatten()
+            .and_then(|(_, rest)| rest.split_once('-'))
+            .and_then(|(pid, _)| pid.parse::<libc::pid_t>().ok())
+        else {
+            continue;
+        };
+        // kill(pid, 0): no signal sent, only whether the process exists
+        let alive = pid == std::process::id() as libc::pid_t
+            || unsafe { libc::kill(pid, 0) } == 0
+            || std::io::Error::last_os_error().raw_os_error() == Some(libc::EPERM);
+        if !alive {
+            std::fs::remove_file(e.path()).map_err(|err| Error::File {
+                path: e.path().display().to_string(),
+                msg: format!("cannot remove a killed run's temporary file: {err}"),
+            })?;
+        }
+    }
+    Ok(())
+}
+
 /// `create_dir_all` whose error names the folder (an output folder that is a file, or under
 /// a path that cannot hold folders, such as /proc).
 pub fn create_dir(dir: &Path) -> Result<()> {

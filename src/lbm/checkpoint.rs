@@ -6,8 +6,12 @@
 //! boundary planes' last rebuilt states are recomputed by the next step before anything reads
 //! them.
 
+use super::driver::Steady;
 use super::engine::Lbm;
 use super::engine::Monitor;
+use super::pore::PoreResult;
+use super::problems::Permeability;
+use super::solver::Fields;
 use crate::error::invalid;
 use crate::Result;
 use serde::{Deserialize, Serialize};
@@ -67,6 +71,104 @@ impl Lbm {
         self.monitor = Some(m);
         self.resumed = Some(m);
         Ok(())
+    }
+}
+
+impl Lbm {
+    /// The superficial mean velocity at the last check of a steady run (None before its first
+    /// check): what the run's stop rule and a checkpoint's monitor hold.
+    pub fn checked_mean_u(&self) -> Option<[f64; 3]> {
+        self.monitor.map(|m| m.mean_u)
+    }
+}
+
+/// A finished pore-resolving run ([`PoreResult`], a rung of a ladder) as plain data, every
+/// f64 as its IEEE bits; its fields only where they are kept (`fields`: rho, then u).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct PoreResultState {
+    pub n: usize,
+    /// k (configuration unit^2), porosity, Re.
+    pub k_porosity_re: [u64; 3],
+    /// The lattice run: k, nu, porosity, mean u_x, largest |u|, residual, mass change.
+    pub lattice: [u64; 7],
+    pub steps: u64,
+    pub converged: bool,
+    /// The steady run's superficial mean velocity.
+    pub mean_u: [u64; 3],
+    pub fields: Option<(Vec<u64>, Vec<[u64; 3]>)>,
+}
+
+impl PoreResultState {
+    /// The state of `r`, with its fields when `with_fields`.
+    pub fn of(r: &PoreResult, with_fields: bool) -> PoreResultState {
+        let p = &r.run;
+        let f = &p.steady.fields;
+        PoreResultState {
+            n: r.n,
+            k_porosity_re: [r.k, r.porosity, r.re].map(f64::to_bits),
+            lattice: [
+                p.k,
+                p.nu,
+                p.porosity,
+                p.mean_u,
+                p.u_max,
+                p.residual,
+                p.mass_change,
+            ]
+            .map(f64::to_bits),
+            steps: p.steps,
+            converged: p.converged,
+            mean_u: p.steady.mean_u.map(f64::to_bits),
+            fields: with_fields.then(|| {
+                (
+                    f.rho.iter().map(|x| x.to_bits()).collect(),
+                    f.u.iter().map(|u| u.map(f64::to_bits)).collect(),
+                )
+            }),
+        }
+    }
+
+    /// The result, bitwise as saved (empty fields where none were kept).
+    pub fn result(&self) -> PoreResult {
+        let f = f64::from_bits;
+        let [k, porosity, re] = self.k_porosity_re.map(f);
+        let [k_lattice, nu, porosity_lattice, mean_u, u_max, residual, mass_change] =
+            self.lattice.map(f);
+        let fields = match &self.fields {
+            Some((rho, u)) => Fields {
+                rho: rho.iter().map(|&b| f(b)).collect(),
+                u: u.iter().map(|v| v.map(f)).collect(),
+            },
+            None => Fields {
+                rho: Vec::new(),
+                u: Vec::new(),
+            },
+        };
+        PoreResult {
+            n: self.n,
+            k,
+            porosity,
+            re,
+            run: Permeability {
+                k: k_lattice,
+                nu,
+                porosity: porosity_lattice,
+                mean_u,
+                u_max,
+                steps: self.steps,
+                residual,
+                converged: self.converged,
+                steady: Steady {
+                    fields,
+                    mean_u: self.mean_u.map(f),
+                    residual,
+                    steps: self.steps,
+                    converged: self.converged,
+                    u_max,
+                },
+                mass_change,
+            },
+        }
     }
 }
 

@@ -73,6 +73,32 @@ pub struct Rung {
     pub k_extrapolated: Option<(f64, f64)>,
 }
 
+/// A rung's own run, as a [`RungStore`] keeps it (what follows from the rungs before it, the
+/// extrapolation, is recomputed).
+#[derive(Debug, Clone)]
+pub struct RungRun {
+    pub result: PoreResult,
+    pub settled: bool,
+    /// Wall-clock seconds of the rung's flow.
+    pub seconds: f64,
+    /// Darcy's law on the second rung (NaN on the others).
+    pub darcy_change: f64,
+}
+
+/// What a ladder keeps between processes (`porelab permeability --out` keeps it in the
+/// folder's checkpoint), and the hooks of the running rung's steady run, which may restore it
+/// from a checkpoint. A ladder climbed through a store holding a killed ladder's rungs ends as
+/// the uninterrupted one would.
+pub trait RungStore: Hooks<Lbm> {
+    /// The rung at `n` cells, if an earlier process finished it.
+    fn finished(&mut self, n: usize) -> Result<Option<RungRun>>;
+    /// The store becomes the hooks of the rung at `n` cells; returns the mean velocities along
+    /// x at the checks up to the state its `restore` loads (empty for a fresh start).
+    fn start(&mut self, n: usize) -> Vec<f64>;
+    /// The running rung ended.
+    fn ended(&mut self, run: &RungRun) -> Result<()>;
+}
+
 /// The ladder's answer.
 #[derive(Debug)]
 pub struct Ladder {
@@ -188,6 +214,10 @@ impl Hooks<Lbm> for SettledK<'_> {
         self.inner.checkpoint(lbm)
     }
 
+    fn restore(&mut self, lbm: &mut Lbm) -> Result<()> {
+        self.inner.restore(lbm)
+    }
+
     fn stop_requested(&mut self, lbm: &Lbm) -> bool {
         let u = superficial_mean(&lbm.fields())[0];
         self.last.push(u);
@@ -205,17 +235,19 @@ impl Hooks<Lbm> for SettledK<'_> {
     }
 }
 
-/// Permeability of `v` with the run stopped once k has settled to `tol` (relative); returns
-/// the result and whether it settled (by the projection, or by the driver's own residual).
+/// Permeability of `v` with the run stopped once k has settled to `tol` (relative), `last`
+/// the mean velocities along x at the checks before the state `hooks` restore; returns the
+/// result and whether it settled (by the projection, or by the driver's own residual).
 fn settled_permeability(
     v: &Voxels,
     o: &PoreOptions,
     tol: f64,
     hooks: &mut dyn Hooks<Lbm>,
+    last: Vec<f64>,
 ) -> Result<(PoreResult, bool)> {
     let mut stop = SettledK {
         inner: hooks,
-        last: Vec::new(),
+        last,
         tol,
         settled: false,
     };
@@ -224,13 +256,14 @@ fn settled_permeability(
     Ok((r, settled))
 }
 
-/// Climbs the ladder on the configuration (`cell`, `particles`); `hooks(n)` gives the
-/// progress hooks of the rung at `n` cells, and `on_rung` sees each rung as it ends.
+/// Climbs the ladder on the configuration (`cell`, `particles`); `store` gives the rungs an
+/// earlier process finished and is the hooks of the others, and `on_rung` sees each rung as it
+/// ends.
 pub fn climb(
     cell: &Cell,
     particles: &[XyzParticle],
     o: &LadderOptions,
-    mut hooks: impl FnMut(usize) -> Box<dyn Hooks<Lbm>>,
+    store: &mut impl RungStore,
     mut on_rung: impl FnMut(&Rung),
 ) -> Result<Ladder> {
     if !(o.rtol.is_finite() && o.rtol > 0.0 && o.rtol < 1.0) {
@@ -250,13 +283,37 @@ pub fn climb(
     let mut converged = false;
     for &n in &plan {
         let v = voxelise(cell, particles, n)?;
-        let t = Instant::now();
-        let mut h = hooks(n);
-        let (result, settled) = settled_permeability(&v, &o.pore, STEADY_SHARE * o.rtol, &mut *h)?;
-        let seconds = t.elapsed().as_secs_f64();
+        let run = match store.finished(n)? {
+            Some(kept) => kept,
+            None => {
+                let t = Instant::now();
+                let last = store.start(n);
+                let tol = STEADY_SHARE * o.rtol;
+                let (result, settled) = settled_permeability(&v, &o.pore, tol, store, last)?;
+                let seconds = t.elapsed().as_secs_f64();
+                let darcy_change = match rungs.len() {
+                    1 => darcy_linearity_settled(&v, &o.pore, result.k, tol)?,
+                    _ => f64::NAN,
+                };
+                let run = RungRun {
+                    result,
+                    settled,
+                    seconds,
+                    darcy_change,
+                };
+                store.ended(&run)?;
+                run
+            }
+        };
         if rungs.len() == 1 {
-            darcy_change = darcy_linearity_settled(&v, &o.pore, result.k, STEADY_SHARE * o.rtol)?;
+            darcy_change = run.darcy_change;
         }
+        let RungRun {
+            result,
+            settled,
+            seconds,
+            ..
+        } = run;
         let mut cells: Vec<usize> = rungs.iter().map(|r| r.cells).collect();
         let mut ks: Vec<f64> = rungs.iter().map(|r| r.result.k).collect();
         cells.push(n);

@@ -358,6 +358,25 @@ pub(crate) fn read_checkpoint_file<T: serde::de::DeserializeOwned>(
     scene: &str,
     scene_of: impl Fn(&T) -> &str,
 ) -> Result<Option<T>> {
+    read_checkpoint_of(
+        path,
+        format,
+        kind,
+        (scene, scene_of),
+        "a different scene (its text differs)",
+    )
+}
+
+/// [`read_checkpoint_file`] of any run: refused, naming the file, when `key_of` it is not
+/// `key` (the hash of what the run that starts now depends on), as written by `other` (what
+/// differs).
+pub(crate) fn read_checkpoint_of<T: serde::de::DeserializeOwned>(
+    path: &Path,
+    format: u32,
+    kind: &str,
+    (key, key_of): (&str, impl Fn(&T) -> &str),
+    other: &str,
+) -> Result<Option<T>> {
     let file_err = |msg: String| Error::File {
         path: path.display().to_string(),
         msg,
@@ -368,12 +387,11 @@ pub(crate) fn read_checkpoint_file<T: serde::de::DeserializeOwned>(
         Err(e) => return Err(file_err(format!("cannot read the checkpoint: {e}"))),
     };
     let c: T = parse_checkpoint(&bytes, format, kind).map_err(file_err)?;
-    if scene_of(&c) != scene {
-        return Err(file_err(
-            "written by a different scene (its text differs): delete it to start afresh, or \
-             choose another output folder with --out"
-                .into(),
-        ));
+    if key_of(&c) != key {
+        return Err(file_err(format!(
+            "written by {other}: delete it to start afresh, or choose another output folder \
+             with --out"
+        )));
     }
     Ok(Some(c))
 }
