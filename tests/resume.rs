@@ -251,6 +251,37 @@ fn a_killed_lbm_run_resumes_to_the_same_outputs() {
     kill_and_resume("lbm", &scene, &root, "0", Duration::from_millis(400));
 }
 
+/// The built-in capture-quick (2 points x 4 runs, 1e4 free-draining particles each) shortened
+/// to 0.5 s of Brownian time: killed after its first finished run and run again, it keeps the
+/// finished runs (runs/) and computes the others, to the bytes of the uninterrupted ensemble.
+#[test]
+fn a_killed_brownian_capture_resumes_to_the_same_outputs() {
+    let root = fresh_dir("brownian");
+    let scene = shortened(
+        &root,
+        "capture-quick",
+        &[("t_max_s = 5.0", "t_max_s = 0.5")],
+    );
+    let (whole, killed) = (root.join("whole"), root.join("killed"));
+    ok(&mut run(&scene, &whole, "0"));
+    let runs = killed.join("runs");
+    let finished = || {
+        std::fs::read_dir(&runs).is_ok_and(|mut d| {
+            d.any(|e| e.is_ok_and(|e| !e.file_name().to_string_lossy().starts_with('.')))
+        })
+    };
+    kill_after(
+        run(&scene, &killed, "0"),
+        finished,
+        Duration::from_millis(1500),
+        &killed.join("summary.json"),
+    );
+    let kept = std::fs::read_dir(&runs).unwrap().count();
+    eprintln!("{kept} files in runs/ at the kill");
+    ok(&mut run(&scene, &killed, "0"));
+    assert_same_outputs(&whole, &killed);
+}
+
 // `porelab permeability --out`: the resolution ladder.
 
 /// One sphere of radius 0.31 in the unit periodic box (a simple cubic array, phi 0.125).

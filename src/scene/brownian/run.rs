@@ -90,6 +90,10 @@ pub fn run_scene(text: &str, origin: &str, out: &Path, opts: &RunOptions) -> Res
     // Finished runs are kept under out/runs/: a killed ensemble resumes where it stopped.
     let store = RunStore::new(out, text);
     store.check_folder()?;
+    // a killed ensemble's half-written files go
+    for dir in [out, &out.join("runs")] {
+        crate::io::remove_stale_temporaries(dir)?;
+    }
     let results = match scene.experiment {
         ExperimentKind::Capture => run_capture(&scene, &combos, &exps, out, opts, &store)?,
         ExperimentKind::Cascade => run_cascades(&scene, &exps, out, opts, &store)?,
