@@ -360,3 +360,97 @@ fn a_sweep_larger_than_max_array_size_survives_faults_to_the_local_table() {
     let b = std::fs::read(local.join("collected.csv")).unwrap();
     assert!(a == b, "Slurm and local collected.csv differ");
 }
+
+/// Slurm's own time limit: one task of about a minute of work under `--time 00:01:00`
+/// with `--signal-before 55` and `--requeue`. Slurm itself sends SIGUSR1 when less than 55 s
+/// are left (its time-limit check comes every few seconds to half a minute); the job writes its
+/// checkpoint, records "timed out" and requeues itself; the requeued task resumes from the
+/// checkpoint (as often as it takes) and the sweep ends with the local table.
+#[test]
+fn slurm_times_a_task_out_and_it_requeues_itself_to_the_local_table() {
+    if let Some(why) = no_cluster() {
+        skip(&why);
+        return;
+    }
+    let root = fresh_dir("slurm-timeout");
+    std::fs::write(root.join("base.toml"), sweep_scene::BASE_SCENE).unwrap();
+    let sweep = root.join("sweep.toml");
+    // 600 spheres and 13 halvings of Delta V: about 65 s of one core's work, longer than the
+    // 5 to 35 s after which the warning comes
+    std::fs::write(
+        &sweep,
+        "scene = \"base.toml\"\nruns_per_point = 1\nbase_seed = 7\n\
+         [vary]\n\"particles.n\" = [600]\n\"mcm.halvings\" = [13]\n",
+    )
+    .unwrap();
+    let (on_slurm, local) = (root.join("on-slurm"), root.join("local"));
+    for d in [&on_slurm, &local] {
+        plan(&sweep, d);
+    }
+    let mut reference = porelab()
+        .args(["sweep", "run"])
+        .arg(&local)
+        .stderr(std::process::Stdio::null())
+        .spawn()
+        .unwrap();
+    let arrays = submit(
+        &on_slurm,
+        &["--time", "00:01:00", "--signal-before", "55", "--requeue"],
+    );
+    let task = format!("{}_0", arrays[0].0);
+    let started = Instant::now();
+    loop {
+        let show = ok_out(Command::new("scontrol").args(["show", "job", &task]));
+        if ["COMPLETED", "FAILED", "CANCELLED", "TIMEOUT"]
+            .iter()
+            .any(|s| show.contains(&format!("JobState={s} ")))
+        {
+            break;
+        }
+        // Slurm holds a requeued task for its requeue delay (BeginTime, about two minutes)
+        // before it may start again: the test lets it start at once
+        if show.contains("JobState=PENDING") && show.contains("Reason=BeginTime") {
+            let _ = Command::new("scontrol")
+                .args(["update", &format!("JobId={task}"), "StartTime=now"])
+                .status();
+        }
+        assert!(
+            started.elapsed() < Duration::from_secs(900),
+            "task {task} not finished within 15 minutes: {show}"
+        );
+        std::thread::sleep(Duration::from_millis(500));
+    }
+    let show = ok_out(Command::new("scontrol").args(["show", "job", &task]));
+    assert!(
+        show.contains("JobState=COMPLETED") && show.contains(" ExitCode=0:0"),
+        "{show}"
+    );
+    let restarts: u32 = show
+        .split_whitespace()
+        .find_map(|w| w.strip_prefix("Restarts="))
+        .and_then(|r| r.parse().ok())
+        .unwrap_or_else(|| panic!("no Restarts in {show}"));
+    assert!(restarts >= 1, "the task never requeued itself: {show}");
+    println!(
+        "{task}: {restarts} requeue(s), done after {:.0} s",
+        started.elapsed().as_secs_f64()
+    );
+    // the log of every run of the task, appended: Slurm's warning taken, and resumed
+    let log = std::fs::read_to_string(on_slurm.join("slurm").join(format!("{task}.out"))).unwrap();
+    for said in [
+        "porelab sweep job 00000: timed out",
+        "porelab sweep job 00000: resuming from",
+        "porelab sweep job 00000: done",
+    ] {
+        assert!(log.contains(said), "{said}: {log}");
+    }
+    let st = ok_out(porelab().args(["sweep", "status"]).arg(&on_slurm));
+    assert!(st.contains("1 done, 0 running, 0 failed"), "{st}");
+    assert!(reference.wait().unwrap().success());
+    for d in [&on_slurm, &local] {
+        ok_out(porelab().args(["sweep", "collect"]).arg(d));
+    }
+    let a = std::fs::read(on_slurm.join("collected.csv")).unwrap();
+    let b = std::fs::read(local.join("collected.csv")).unwrap();
+    assert!(a == b, "Slurm and local collected.csv differ");
+}

@@ -335,8 +335,10 @@ pub fn write_script(a: &SlurmArgs) -> Result<Option<Arrays>> {
     if a.time.is_some() {
         s += &format!("#SBATCH --signal=B:USR1@{}\n", a.signal_before);
     }
+    // a requeued task appends to its output file (Slurm truncates it otherwise), so that the
+    // log of the run it resumes stays
     s += if a.requeue {
-        "#SBATCH --requeue\n"
+        "#SBATCH --requeue\n#SBATCH --open-mode=append\n"
     } else {
         "#SBATCH --no-requeue\n"
     };
