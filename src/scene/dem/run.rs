@@ -12,7 +12,7 @@ use crate::dem::{run_to_rest, Check, Dem, Progress};
 use crate::driver::Hooks;
 use crate::error::Error;
 use crate::io::{write_atomic, CsvTable};
-use crate::scene::{on_threads, parse_checkpoint, RunOptions};
+use crate::scene::{on_threads, read_checkpoint_file, RunOptions};
 use crate::Result;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -68,30 +68,31 @@ fn write_checkpoint(
     write_atomic(path, &bytes)
 }
 
-/// Restores `dem` from the checkpoint at `path`: (progress, history so far, seconds so far).
+/// The scene a checkpoint was written by.
+fn scene_of(c: &Checkpoint) -> &str {
+    &c.scene
+}
+
+/// Restores `dem` from the checkpoint at `path`, if there is one: (progress, history so far,
+/// seconds so far).
 fn read_checkpoint(
     path: &Path,
     scene: &DemScene,
     dem: &mut Dem,
-) -> Result<(Progress, CsvTable, f64)> {
+) -> Result<Option<(Progress, CsvTable, f64)>> {
+    let fingerprint = &scene.fingerprint;
+    let Some(c) = read_checkpoint_file(path, CHECKPOINT_FORMAT, "DEM", fingerprint, scene_of)?
+    else {
+        return Ok(None);
+    };
     let file_err = |msg: String| Error::File {
         path: path.display().to_string(),
         msg,
     };
-    let bytes =
-        std::fs::read(path).map_err(|e| file_err(format!("cannot read the checkpoint: {e}")))?;
-    let c: Checkpoint = parse_checkpoint(&bytes, CHECKPOINT_FORMAT, "DEM").map_err(file_err)?;
-    if c.scene != scene.fingerprint {
-        return Err(file_err(
-            "written by a different scene (its text differs): delete it to start afresh, or \
-             choose another output folder with --out"
-                .into(),
-        ));
-    }
     dem.load_state(&c.state)
         .map_err(|e| file_err(e.to_string()))?;
     let f = f64::from_bits;
-    Ok((
+    Ok(Some((
         Progress {
             ke_peak_j: f(c.ke_peak_j),
             top_prev_m: f(c.top_prev_m),
@@ -102,7 +103,7 @@ fn read_checkpoint(
         },
         history_resumed(&c.history),
         f(c.seconds),
-    ))
+    )))
 }
 
 /// What a scene run does at each check of the driver: a history row, a trajectory frame when
@@ -199,8 +200,8 @@ pub(super) fn run_scene_limited(
     let scene = parse_scene(text, origin)?;
     let mut dem = build(&scene)?;
     let checkpoint_path = out.join("checkpoint.json");
-    let (mut progress, history, base_seconds) = if checkpoint_path.exists() {
-        let resumed = read_checkpoint(&checkpoint_path, &scene, &mut dem)?;
+    let resumed = read_checkpoint(&checkpoint_path, &scene, &mut dem)?;
+    let (mut progress, history, base_seconds) = if let Some(resumed) = resumed {
         if !opts.quiet {
             eprintln!(
                 "resuming {origin} from {} (step {}, t = {:e} s)",
