@@ -180,23 +180,26 @@ fn assert_same_outputs(whole: &Path, resumed: &Path) {
     }
 }
 
+/// `cmd` fails, naming the checkpoint `cp` and saying `what`.
+fn refused(cmd: &mut Command, cp: &Path, what: &str) {
+    let r = cmd.output().unwrap();
+    let err = String::from_utf8_lossy(&r.stderr);
+    assert!(!r.status.success(), "{what}: accepted");
+    assert!(
+        err.contains(&cp.display().to_string()) && err.contains(what),
+        "{what}: {err}"
+    );
+}
+
 /// Another scene's run into `out` (the scene with a changed title) and a checkpoint of
 /// another format are refused, naming the checkpoint file.
 fn assert_foreign_checkpoints_refused(scene: &Path, out: &Path, every_s: &str) {
     let other = scene.with_file_name("other.toml");
     let text = std::fs::read_to_string(scene).unwrap();
     std::fs::write(&other, text.replacen("title = \"", "title = \"other ", 1)).unwrap();
-    let refused = |scene: &Path, what: &str| {
-        let r = run(scene, out, every_s).output().unwrap();
-        let err = String::from_utf8_lossy(&r.stderr);
-        assert!(!r.status.success(), "{what}: accepted");
-        assert!(
-            err.contains(&out.join("checkpoint.json").display().to_string()) && err.contains(what),
-            "{err}"
-        );
-    };
-    refused(&other, "different scene");
     let cp = out.join("checkpoint.json");
+    let refused = |scene: &Path, what: &str| refused(&mut run(scene, out, every_s), &cp, what);
+    refused(&other, "different scene");
     let saved = std::fs::read_to_string(&cp).unwrap();
     std::fs::write(&cp, saved.replacen("\"format\":1", "\"format\":99", 1)).unwrap();
     refused(scene, "checkpoint format 99");
@@ -322,15 +325,7 @@ fn a_killed_permeability_ladder_resumes_to_the_same_outputs() {
         "permeability.json",
     );
     let cp = killed.join("checkpoint.json");
-    let refused = |cmd: &mut Command, what: &str| {
-        let r = cmd.output().unwrap();
-        let err = String::from_utf8_lossy(&r.stderr);
-        assert!(!r.status.success(), "{what}: accepted");
-        assert!(
-            err.contains(&cp.display().to_string()) && err.contains(what),
-            "{what}: {err}"
-        );
-    };
+    let refused = |cmd: &mut Command, what: &str| refused(cmd, &cp, what);
     refused(
         &mut ladder(&xyz, &killed, &["--tau", "0.9"]),
         "different ladder",

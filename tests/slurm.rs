@@ -194,6 +194,45 @@ fn slurm_claim(dir: &std::path::Path, i: usize) -> Option<serde_json::Value> {
     v["slurm_job"].is_string().then_some(v)
 }
 
+/// The sweep `sweep_toml` of the base scene planned twice under a fresh `name` folder, for
+/// Slurm and for the local run it must agree with, which starts now in the background:
+/// (Slurm folder, local folder, the local run).
+fn slurm_and_local(
+    name: &str,
+    sweep_toml: &str,
+) -> (std::path::PathBuf, std::path::PathBuf, std::process::Child) {
+    let root = fresh_dir(name);
+    std::fs::write(root.join("base.toml"), sweep_scene::BASE_SCENE).unwrap();
+    let sweep = root.join("sweep.toml");
+    std::fs::write(&sweep, sweep_toml).unwrap();
+    let (on_slurm, local) = (root.join("on-slurm"), root.join("local"));
+    for d in [&on_slurm, &local] {
+        plan(&sweep, d);
+    }
+    let reference = porelab()
+        .args(["sweep", "run"])
+        .arg(&local)
+        .stderr(std::process::Stdio::null())
+        .spawn()
+        .unwrap();
+    (on_slurm, local, reference)
+}
+
+/// Collects both folders (the local run ended well) and compares their tables byte for byte.
+fn assert_same_table(
+    on_slurm: &std::path::Path,
+    local: &std::path::Path,
+    mut reference: std::process::Child,
+) {
+    assert!(reference.wait().unwrap().success());
+    for d in [on_slurm, local] {
+        ok_out(porelab().args(["sweep", "collect"]).arg(d));
+    }
+    let a = std::fs::read(on_slurm.join("collected.csv")).unwrap();
+    let b = std::fs::read(local.join("collected.csv")).unwrap();
+    assert!(a == b, "Slurm and local collected.csv differ");
+}
+
 #[test]
 fn a_sweep_larger_than_max_array_size_survives_faults_to_the_local_table() {
     if let Some(why) = no_cluster() {
@@ -212,25 +251,11 @@ fn a_sweep_larger_than_max_array_size_survives_faults_to_the_local_table() {
         ));
         return;
     }
-    let root = fresh_dir("slurm-faults");
-    std::fs::write(root.join("base.toml"), sweep_scene::BASE_SCENE).unwrap();
-    let sweep = root.join("sweep.toml");
-    std::fs::write(
-        &sweep,
+    let (on_slurm, local, reference) = slurm_and_local(
+        "slurm-faults",
         "scene = \"base.toml\"\ncombine = \"zip\"\nruns_per_point = 2\nbase_seed = 3\n\
          [vary]\n\"particles.n\" = [600, 20, 30]\n\"mcm.halvings\" = [10, 2, 2]\n",
-    )
-    .unwrap();
-    let (on_slurm, local) = (root.join("on-slurm"), root.join("local"));
-    for d in [&on_slurm, &local] {
-        plan(&sweep, d);
-    }
-    let mut reference = porelab()
-        .args(["sweep", "run"])
-        .arg(&local)
-        .stderr(std::process::Stdio::null())
-        .spawn()
-        .unwrap();
+    );
 
     // 1. A local submitter killed with SIGKILL mid-way through job 0: its job process gets
     //    SIGTERM (PR_SET_PDEATHSIG), writes its checkpoint and records the cancel.
@@ -350,15 +375,11 @@ fn a_sweep_larger_than_max_array_size_survives_faults_to_the_local_table() {
         );
         assert!(d.join("out/summary.json").is_file(), "job {i}");
     }
-    assert!(reference.wait().unwrap().success());
     // The collect job submitted with --collect ran after the array (afterany).
     until("the collect job's table", || {
         on_slurm.join("collected.csv").is_file()
     });
-    ok_out(porelab().args(["sweep", "collect"]).arg(&local));
-    let a = std::fs::read(on_slurm.join("collected.csv")).unwrap();
-    let b = std::fs::read(local.join("collected.csv")).unwrap();
-    assert!(a == b, "Slurm and local collected.csv differ");
+    assert_same_table(&on_slurm, &local, reference);
 }
 
 /// Slurm's own time limit: one task of about a minute of work under `--time 00:01:00`
@@ -372,27 +393,13 @@ fn slurm_times_a_task_out_and_it_requeues_itself_to_the_local_table() {
         skip(&why);
         return;
     }
-    let root = fresh_dir("slurm-timeout");
-    std::fs::write(root.join("base.toml"), sweep_scene::BASE_SCENE).unwrap();
-    let sweep = root.join("sweep.toml");
     // 600 spheres and 13 halvings of Delta V: about 65 s of one core's work, longer than the
     // 5 to 35 s after which the warning comes
-    std::fs::write(
-        &sweep,
+    let (on_slurm, local, reference) = slurm_and_local(
+        "slurm-timeout",
         "scene = \"base.toml\"\nruns_per_point = 1\nbase_seed = 7\n\
          [vary]\n\"particles.n\" = [600]\n\"mcm.halvings\" = [13]\n",
-    )
-    .unwrap();
-    let (on_slurm, local) = (root.join("on-slurm"), root.join("local"));
-    for d in [&on_slurm, &local] {
-        plan(&sweep, d);
-    }
-    let mut reference = porelab()
-        .args(["sweep", "run"])
-        .arg(&local)
-        .stderr(std::process::Stdio::null())
-        .spawn()
-        .unwrap();
+    );
     let arrays = submit(
         &on_slurm,
         &["--time", "00:01:00", "--signal-before", "55", "--requeue"],
@@ -446,11 +453,5 @@ fn slurm_times_a_task_out_and_it_requeues_itself_to_the_local_table() {
     }
     let st = ok_out(porelab().args(["sweep", "status"]).arg(&on_slurm));
     assert!(st.contains("1 done, 0 running, 0 failed"), "{st}");
-    assert!(reference.wait().unwrap().success());
-    for d in [&on_slurm, &local] {
-        ok_out(porelab().args(["sweep", "collect"]).arg(d));
-    }
-    let a = std::fs::read(on_slurm.join("collected.csv")).unwrap();
-    let b = std::fs::read(local.join("collected.csv")).unwrap();
-    assert!(a == b, "Slurm and local collected.csv differ");
+    assert_same_table(&on_slurm, &local, reference);
 }
