@@ -553,3 +553,36 @@ pub fn run(args: &BenchArgs) -> Result<()> {
     println!("wrote {}", out.display());
     Ok(())
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The NPY 1.0 layout (numpy's format spec): magic, version 1.0, a little-endian u16
+    /// header length, a header dict ending in a newline with the data starting on a multiple
+    /// of 64 bytes, then one byte per cell in the box's order (x fastest).
+    #[test]
+    fn mask_npy_has_the_npy_layout_and_the_cells_in_box_order() {
+        let dims = Dims::new(5, 3, 2).unwrap();
+        let solid: Vec<bool> = (0..dims.cells()).map(|c| c % 3 == 1).collect();
+        let grid = Grid {
+            mask: "test".into(),
+            dims,
+            solid: solid.clone(),
+        };
+        let path = std::env::temp_dir().join(format!("porelab-mask-{}.npy", std::process::id()));
+        grid.write_npy(&path).unwrap();
+        let bytes = std::fs::read(&path).unwrap();
+        std::fs::remove_file(&path).unwrap();
+        assert_eq!(&bytes[..8], b"\x93NUMPY\x01\x00");
+        let len = u16::from_le_bytes([bytes[8], bytes[9]]) as usize;
+        assert_eq!((10 + len) % 64, 0);
+        let header = std::str::from_utf8(&bytes[10..10 + len]).unwrap();
+        assert!(header.ends_with('\n'), "{header:?}");
+        assert!(header.contains("'descr': '|u1'"), "{header}");
+        assert!(header.contains("'shape': (2, 3, 5)"), "{header}");
+        let data: Vec<bool> = bytes[10 + len..].iter().map(|&b| b == 1).collect();
+        assert_eq!(data, solid);
+        assert!(bytes[10 + len..].iter().all(|&b| b <= 1));
+    }
+}
