@@ -296,7 +296,7 @@ pub enum PeerProblem<'a> {
 }
 
 /// lbmpy's MLUPS for (lattice, collision, problem, threads), run by benches/peer_lbmpy.py;
-/// None with the reason when python or lbmpy is missing.
+/// Err with the reason when python or lbmpy is missing or the peer fails.
 pub fn peer_mlups(
     lat: LatticeKind,
     coll: CollisionKind,
