@@ -1,7 +1,10 @@
 //! `porelab bench lbm`: million lattice updates per second (MLUPS) of the fused kernel for
 //! each lattice and collision, plain and porous, at one and two threads, against the memory
 //! bandwidth measured by a STREAM-type triad on the same machine in the same run, and against
-//! the peer lbmpy (benches/peer_lbmpy.py) run in the same measurement when python finds it.
+//! the peer lbmpy (benches/peer_lbmpy.py) run in the same measurement when python finds it:
+//! its plain kernel on the open box beside porelab's plain one, and its dense kernel with
+//! NoSlip (halfway bounce-back) on the same solid mask, written as `mask-NAME-N.npy` beside
+//! the CSV, beside the pore kernels (`pores`, `fluid`), both per fluid cell.
 //! The pore-resolving measurements run on a solid mask, the random one (solid fraction 0.6) at
 //! each size and, with `--packing`, a packing voxelised at `--packing-cells`: `pores` with the
 //! box kernel (every cell stored, fluid runs updated), `fluid` with the fluid-list kernel
@@ -173,6 +176,30 @@ impl Grid {
     }
 }
 
+impl Grid {
+    /// Writes the solid mask as a NumPy `.npy` file: uint8, 1 = solid, shape (nz, ny, nx) in C
+    /// order, so x runs fastest as in porelab's box (the peer's `--mask`).
+    pub fn write_npy(&self, path: &std::path::Path) -> Result<()> {
+        let d = self.dims;
+        let mut header = format!(
+            "{{'descr': '|u1', 'fortran_order': False, 'shape': ({}, {}, {}), }}",
+            d.nz, d.ny, d.nx
+        );
+        // NPY 1.0: magic, version, u16 header length; header padded with spaces and ended by
+        // a newline so that the data start on a multiple of 64 bytes
+        let unpadded = 10 + header.len() + 1;
+        header.push_str(&" ".repeat((64 - unpadded % 64) % 64));
+        header.push('\n');
+        let mut bytes = Vec::with_capacity(10 + header.len() + self.solid.len());
+        bytes.extend_from_slice(b"\x93NUMPY\x01\x00");
+        bytes.extend_from_slice(&(header.len() as u16).to_le_bytes());
+        bytes.extend_from_slice(header.as_bytes());
+        bytes.extend(self.solid.iter().map(|&s| s as u8));
+        std::fs::write(path, bytes)
+            .map_err(|e| crate::Error::InvalidInput(format!("mask {}: {e}", path.display())))
+    }
+}
+
 /// Solid fraction of the pore-resolving measurement.
 const PORE_SOLID_FRACTION: f64 = 0.6;
 
@@ -260,31 +287,41 @@ pub fn mlups(
     pool.install(|| time_steps(flow(lat, coll, mode, grid)?, seconds, stores))
 }
 
-/// lbmpy's MLUPS for (lattice, collision, n, threads), run by benches/peer_lbmpy.py; None with
-/// the reason when python or lbmpy is missing.
+/// What the lbmpy peer runs: its plain kernel on the open n^3 box, or its dense kernel with
+/// NoSlip on the solid mask of a `.npy` file ([`Grid::write_npy`]), MLUPS per fluid cell.
+#[derive(Debug, Clone, Copy)]
+pub enum PeerProblem<'a> {
+    Open(usize),
+    Mask(&'a std::path::Path),
+}
+
+/// lbmpy's MLUPS for (lattice, collision, problem, threads), run by benches/peer_lbmpy.py;
+/// Err with the reason when python or lbmpy is missing or the peer fails.
 pub fn peer_mlups(
     lat: LatticeKind,
     coll: CollisionKind,
-    n: usize,
+    problem: PeerProblem,
     threads: usize,
     seconds: f64,
 ) -> std::result::Result<f64, String> {
     let script = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("benches/peer_lbmpy.py");
-    let out = std::process::Command::new("python3")
-        .arg(&script)
-        .args([
-            "--stencil",
-            lat.name(),
-            "--method",
-            match coll {
-                CollisionKind::Bgk => "srt",
-                CollisionKind::Trt => "trt",
-            },
-            "--n",
-            &n.to_string(),
-            "--seconds",
-            &seconds.to_string(),
-        ])
+    let mut cmd = std::process::Command::new("python3");
+    cmd.arg(&script).args([
+        "--stencil",
+        lat.name(),
+        "--method",
+        match coll {
+            CollisionKind::Bgk => "srt",
+            CollisionKind::Trt => "trt",
+        },
+        "--seconds",
+        &seconds.to_string(),
+    ]);
+    match problem {
+        PeerProblem::Open(n) => cmd.args(["--n", &n.to_string()]),
+        PeerProblem::Mask(path) => cmd.arg("--mask").arg(path),
+    };
+    let out = cmd
         .env("OMP_NUM_THREADS", threads.to_string())
         .output()
         .map_err(|e| format!("python3 not runnable: {e}"))?;
@@ -296,6 +333,17 @@ pub fn peer_mlups(
         .find_map(|l| l.strip_prefix("MLUPS "))
         .and_then(|v| v.trim().parse().ok())
         .ok_or_else(|| format!("peer printed no MLUPS line: {text}"))
+}
+
+/// A peer's best MLUPS so far, or why it was not measured.
+type PeerResult = std::result::Result<f64, String>;
+
+/// Runs the peer once more and keeps the better figure; a failed run replaces the figure by
+/// its reason, and a peer not measured stays so.
+fn keep_best(peer: &mut PeerResult, run: impl FnOnce() -> PeerResult) {
+    if let Ok(p) = *peer {
+        *peer = run().map(|q| q.max(p));
+    }
 }
 
 /// What `bench lbm` measures: the lattices, collisions and kernels of its arguments, and the
@@ -385,17 +433,38 @@ pub fn run(args: &BenchArgs) -> Result<()> {
             grids.push(Grid::packing(path, n)?);
         }
     }
+    let out = args
+        .out
+        .clone()
+        .unwrap_or_else(|| std::path::PathBuf::from("target/porelab/bench/lbm.csv"));
+    if let Some(dir) = out.parent().filter(|d| !d.as_os_str().is_empty()) {
+        std::fs::create_dir_all(dir)?;
+    }
+    // the masks the peer's dense kernel with NoSlip runs on, beside the CSV
+    let mask_files = grids
+        .iter()
+        .map(|g| -> Result<Option<std::path::PathBuf>> {
+            if args.no_peer || !modes.iter().any(|m| m.on_mask()) {
+                return Ok(None);
+            }
+            let path = out.with_file_name(format!("mask-{}-{}.npy", g.mask, g.dims.nx));
+            g.write_npy(&path)?;
+            println!("wrote {}", path.display());
+            Ok(Some(path))
+        })
+        .collect::<Result<Vec<_>>>()?;
     for &th in &args.threads {
         let bw = triad_gb_per_s(th)?;
         println!("triad bandwidth, {th} thread(s): {bw:.1} GB/s (4 x 8 bytes per element)");
-        for grid in &grids {
+        for (grid, mask_file) in grids.iter().zip(&mask_files) {
             let n = grid.dims.nx;
             let fluid = grid.solid.iter().filter(|s| !**s).count();
             for &lat in &lattices {
                 let limit = bw * 1e9 / bytes_per_update(lat.q()) / 1e6;
                 for &coll in &collisions {
-                    // lbmpy is compared with the plain kernel only; best of the rounds
-                    let mut peer: std::result::Result<f64, String> = if args.no_peer {
+                    // lbmpy's plain kernel beside the plain one, its dense kernel with NoSlip
+                    // beside the pore kernels; best of the rounds
+                    let mut peer_open: PeerResult = if args.no_peer {
                         Err("--no-peer".to_string())
                     } else if grid.dims != Dims::new(n, n, n)? {
                         Err("the peer runs cubes only".to_string())
@@ -404,10 +473,19 @@ pub fn run(args: &BenchArgs) -> Result<()> {
                     } else {
                         Ok(0.0)
                     };
+                    let mut peer_mask: PeerResult = match mask_file {
+                        Some(_) => Ok(0.0),
+                        None => Err("--no-peer".to_string()),
+                    };
                     let mut best = vec![(0.0f64, false, 0); modes.len()];
                     for _ in 0..args.rounds {
-                        if let Ok(p) = peer {
-                            peer = peer_mlups(lat, coll, n, th, args.seconds).map(|q| q.max(p));
+                        keep_best(&mut peer_open, || {
+                            peer_mlups(lat, coll, PeerProblem::Open(n), th, args.seconds)
+                        });
+                        if let Some(path) = mask_file {
+                            keep_best(&mut peer_mask, || {
+                                peer_mlups(lat, coll, PeerProblem::Mask(path), th, args.seconds)
+                            });
                         }
                         for (b, &mode) in best.iter_mut().zip(&modes) {
                             let t = mlups(lat, coll, mode, (grid, th), args.seconds, stores)?;
@@ -423,9 +501,13 @@ pub fn run(args: &BenchArgs) -> Result<()> {
                         } else {
                             "open"
                         };
-                        let plain = mode == Mode::Plain;
-                        let (pm, ratio) = match (&peer, plain) {
-                            (Ok(p), true) => (format!("{p:.2}"), format!("{:.3}", m / p)),
+                        let peer = match mode {
+                            Mode::Plain => Some(&peer_open),
+                            Mode::Pores | Mode::Fluid => Some(&peer_mask),
+                            Mode::Porous => None,
+                        };
+                        let (pm, ratio) = match peer {
+                            Some(Ok(p)) => (format!("{p:.2}"), format!("{:.3}", m / p)),
                             _ => (String::new(), String::new()),
                         };
                         println!(
@@ -440,10 +522,10 @@ pub fn run(args: &BenchArgs) -> Result<()> {
                             } else {
                                 String::new()
                             },
-                            match (&peer, plain) {
-                                (Ok(p), true) => format!(", lbmpy {p:.2} MLUPS (ratio {:.2})", m / p),
-                                (Err(e), true) => format!(", lbmpy not measured: {}", e.lines().last().unwrap_or("")),
-                                _ => String::new(),
+                            match peer {
+                                Some(Ok(p)) => format!(", lbmpy {p:.2} MLUPS (ratio {:.2})", m / p),
+                                Some(Err(e)) => format!(", lbmpy not measured: {}", e.lines().last().unwrap_or("")),
+                                None => String::new(),
                             }
                         );
                         csv.row([
@@ -467,14 +549,40 @@ pub fn run(args: &BenchArgs) -> Result<()> {
             }
         }
     }
-    let out = args
-        .out
-        .clone()
-        .unwrap_or_else(|| std::path::PathBuf::from("target/porelab/bench/lbm.csv"));
-    if let Some(dir) = out.parent() {
-        std::fs::create_dir_all(dir)?;
-    }
     csv.write(&out)?;
     println!("wrote {}", out.display());
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The NPY 1.0 layout (numpy's format spec): magic, version 1.0, a little-endian u16
+    /// header length, a header dict ending in a newline with the data starting on a multiple
+    /// of 64 bytes, then one byte per cell in the box's order (x fastest).
+    #[test]
+    fn mask_npy_has_the_npy_layout_and_the_cells_in_box_order() {
+        let dims = Dims::new(5, 3, 2).unwrap();
+        let solid: Vec<bool> = (0..dims.cells()).map(|c| c % 3 == 1).collect();
+        let grid = Grid {
+            mask: "test".into(),
+            dims,
+            solid: solid.clone(),
+        };
+        let path = std::env::temp_dir().join(format!("porelab-mask-{}.npy", std::process::id()));
+        grid.write_npy(&path).unwrap();
+        let bytes = std::fs::read(&path).unwrap();
+        std::fs::remove_file(&path).unwrap();
+        assert_eq!(&bytes[..8], b"\x93NUMPY\x01\x00");
+        let len = u16::from_le_bytes([bytes[8], bytes[9]]) as usize;
+        assert_eq!((10 + len) % 64, 0);
+        let header = std::str::from_utf8(&bytes[10..10 + len]).unwrap();
+        assert!(header.ends_with('\n'), "{header:?}");
+        assert!(header.contains("'descr': '|u1'"), "{header}");
+        assert!(header.contains("'shape': (2, 3, 5)"), "{header}");
+        let data: Vec<bool> = bytes[10 + len..].iter().map(|&b| b == 1).collect();
+        assert_eq!(data, solid);
+        assert!(bytes[10 + len..].iter().all(|&b| b <= 1));
+    }
 }
