@@ -15,8 +15,8 @@ Measured (2026-12, seeds as below): L = 1.2 d, 400 walkers, gap above the hollow
 1e3 / 3e3 / 1e4 / 3e4 trials: eq. A16 180 / 128 / 89 / 68, isotropic 28 / 2 / 0 / -; the
 walkers left by eq. A16 sit at the top of a ridge (x = L/2 or y = L/2 within 0.02 d, gap
 0.271 d = sqrt(d^2 - L^2/4) - sqrt(d^2 - L^2/2)). On the ridge at 0.005 / 0.02 / 0.05 / 0.1 /
-0.2 d from its top, accepted downhill trials per trial (2e6 each): eq. A16 0 / 0 / 1e-6 /
-1.35e-5 / 1.55e-4, isotropic 2.2e-4 / 3.4e-4 / 8.9e-4 / 2.5e-3 / 8.2e-3.
+0.2 d from its top, accepted downhill trials per trial (2e6 each): eq. A16 0 / 0 / 1.5e-6 /
+1.15e-5 / 1.53e-4, isotropic 2.2e-4 / 3.1e-4 / 9.2e-4 / 2.5e-3 / 8.1e-3.
 """
 import sys
 
