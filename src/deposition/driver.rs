@@ -111,4 +111,56 @@ mod tests {
         assert!(d.layer().poses[0].position.z < 100.0 * r);
         assert!(d.step().is_err());
     }
+
+    /// One free sphere: at T = 0 a sweep of one trial moves it only when the trial goes down
+    /// (half the time), so some streams move nothing in the first sweep. The run goes on, and
+    /// the stop reference is the first sweep that moved; a start where nothing moves in the
+    /// whole first window (a sphere lying on the substrate) is refused.
+    #[test]
+    fn a_first_sweep_that_moves_nothing_is_not_the_reference() {
+        let r = 0.5e-6;
+        let g = Grain::new([r; 3], 0, 2500.0, 1000.0, 9.8).unwrap();
+        let layer_at = |z: f64| Layer {
+            grains: vec![g],
+            poses: vec![GrainPose {
+                position: Vector3::new(5.0 * r, 5.0 * r, z),
+                orientation: UnitQuaternion::identity(),
+            }],
+            box_side_m: 10.0 * r,
+            film_height_m: z,
+        };
+        let stop = StopRule {
+            fraction: 1e-300,
+            window: 5,
+            max_sweeps: 40,
+            supported: None,
+        };
+        let mut idle_first = 0;
+        for seed in 0..16 {
+            let rng = ChaCha8Rng::seed_from_u64(seed);
+            let (_, out) = run_layer(
+                layer_at(100.0 * r),
+                Moves::table_b1(),
+                stop,
+                rng,
+                &mut NoHooks,
+            )
+            .unwrap();
+            let first_moving = out
+                .history
+                .iter()
+                .find(|h| h.mean_displacement_m > 0.0)
+                .unwrap();
+            assert_eq!(out.first_displacement_m, first_moving.mean_displacement_m);
+            if out.history[0].mean_displacement_m == 0.0 {
+                idle_first += 1;
+                assert!(first_moving.sweep > 1 && out.first_displacement_m > 0.0);
+            }
+        }
+        // the case the rule exists for occurred (about half the streams)
+        assert!(idle_first >= 2, "{idle_first} of 16 first sweeps idle");
+        let rng = ChaCha8Rng::seed_from_u64(1);
+        let jammed = run_layer(layer_at(r), Moves::table_b1(), stop, rng, &mut NoHooks);
+        assert!(jammed.is_err());
+    }
 }
