@@ -153,7 +153,13 @@ impl Cells {
             for cz in z_lo..=z_hi {
                 for &j in &self.members[cz] {
                     let j = j as usize;
-                    let base = positions[j] - p;
+                    // a sphere's own periodic images move with it: they sit at whole periods
+                    // from the trial position, not from the position it leaves
+                    let base = if j == i {
+                        Vector3::zeros()
+                    } else {
+                        positions[j] - p
+                    };
                     for sx in -self.images..=self.images {
                         for sy in -self.images..=self.images {
                             if j == i && sx == 0 && sy == 0 {

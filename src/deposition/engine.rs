@@ -292,3 +292,95 @@ impl Deposition {
         Ok(record)
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::super::grain::Grain;
+    use super::*;
+    use nalgebra::UnitQuaternion;
+    use rand::SeedableRng;
+
+    /// The ridge of a square column (case 606): a sphere resting on two periodic images of the
+    /// sphere below, side L = 1.2 d, 0.02 d from the top of the ridge towards the hollow.
+    /// Downhill moves exist (along the ridge), and the overlap test accepts exactly the
+    /// enumerated trials that an all-images distance check accepts: the slow descent is not a
+    /// rejected valid move. The seed's directions (eq. A16: components as the square roots of
+    /// uniform shares) rarely point along a coordinate axis, and this ridge runs along y, so
+    /// they find its downhill moves far less often than isotropic directions of the same
+    /// lengths do.
+    #[test]
+    fn a_sphere_on_an_axis_aligned_ridge_has_downhill_moves_the_seed_rule_rarely_draws() {
+        let (r, d): (f64, f64) = (0.5e-6, 1e-6);
+        let l = 1.2 * d;
+        let g = Grain::new([r; 3], 0, 2500.0, 1000.0, 9.8).unwrap();
+        let y = 0.02 * d;
+        let z = r + (d * d - 0.25 * l * l - y * y).sqrt() * (1.0 + 1e-12);
+        let pose = |x: f64, y: f64, z: f64| GrainPose {
+            position: Vector3::new(x, y, z),
+            orientation: UnitQuaternion::identity(),
+        };
+        let layer = Layer {
+            grains: vec![g; 2],
+            poses: vec![pose(0.0, 0.0, r), pose(0.5 * l, y, z)],
+            box_side_m: l,
+            film_height_m: z,
+        };
+        let cells = layer.cells();
+        let positions: Vec<_> = layer.poses.iter().map(|p| p.position).collect();
+        let mut counts = PrefilterCounts::default();
+        let mut fits = |t: Vector3<f64>| {
+            let mut trial = layer.poses[1];
+            trial.position += t;
+            wrap_xy(&mut trial.position, l);
+            layer.fits(&cells, &positions, 1, &trial, 1.0, None, None, &mut counts)
+        };
+        // independent: every image of the lower sphere within two periods, and the substrate
+        let clear = |t: Vector3<f64>| {
+            let p = layer.poses[1].position + t;
+            p.z >= r
+                && (-2..=2).all(|sx| {
+                    (-2..=2).all(|sy| {
+                        let c = Vector3::new(sx as f64 * l, sy as f64 * l, r);
+                        (p - c).norm() >= d
+                    })
+                })
+        };
+        // directions on a Fibonacci sphere, three step lengths up to the largest translation
+        let n = 20_000;
+        let mut downhill = 0;
+        for k in 0..n {
+            let cz = 1.0 - (2.0 * k as f64 + 1.0) / n as f64;
+            let phi = k as f64 * std::f64::consts::PI * (3.0 - 5f64.sqrt());
+            let s = (1.0 - cz * cz).sqrt();
+            let dir = Vector3::new(s * phi.cos(), s * phi.sin(), cz);
+            for len in [1e-9, 1e-8, 5e-8] {
+                let t = dir * len;
+                let ok = fits(t);
+                assert_eq!(ok, clear(t), "direction {k}, step {len} m");
+                downhill += usize::from(ok && t.z < 0.0);
+            }
+        }
+        assert!(downhill > 0);
+        // accepted downhill trials: eq. A16 draws against isotropic ones of the same length
+        let mut rng = ChaCha8Rng::seed_from_u64(606);
+        let (mut seed_rule, mut isotropic) = (0u32, 0u32);
+        for _ in 0..200_000 {
+            let m = moves::draw(&mut rng, 1e-14, &g.inertia_per_volume_m2);
+            let t = Vector3::from(m.translation_m);
+            seed_rule += u32::from(t.z < 0.0 && fits(t));
+            let v = loop {
+                let v = Vector3::from_fn(|_, _| rng.gen::<f64>() * 2.0 - 1.0);
+                if (1e-3..=1.0).contains(&v.norm()) {
+                    break v.normalize();
+                }
+            };
+            let t = v * t.norm();
+            isotropic += u32::from(t.z < 0.0 && fits(t));
+        }
+        assert!(isotropic >= 20, "isotropic {isotropic}");
+        assert!(
+            10 * seed_rule <= isotropic,
+            "eq. A16 {seed_rule}, isotropic {isotropic}"
+        );
+    }
+}
