@@ -33,9 +33,9 @@ pub trait Hooks<E: ?Sized> {
         Ok(())
     }
 
-    /// Called once before the first step by a driver that resumes runs (the LBM's steady run):
-    /// a caller holding a checkpoint of this run restores `engine` from it; an error stops the
-    /// run.
+    /// Called once before the first step by a driver that resumes runs (the LBM's steady run,
+    /// the filter's run to its end): a caller holding a checkpoint of this run restores
+    /// `engine` from it; an error stops the run.
     fn restore(&mut self, _engine: &mut E) -> Result<()> {
         Ok(())
     }

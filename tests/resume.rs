@@ -1,5 +1,5 @@
 //! Kill and resume through the binary, one test per engine without a test of its own here
-//! (deposition and LBM; DEM, packing and coupled runs are killed and resumed in their scene
+//! (deposition, LBM, the magnetic filter, Brownian capture and the permeability ladder; DEM, packing and coupled runs are killed and resumed in their scene
 //! tests and tests/sweep.rs): a shortened built-in run to its end; the same run into a fresh
 //! folder, killed with SIGKILL at a random moment after its first checkpoint, then started
 //! again with the same `--out`; every output file byte-identical to the uninterrupted run's
@@ -348,4 +348,17 @@ fn a_killed_permeability_ladder_resumes_to_the_same_outputs() {
     eprintln!("{}", resuming.expect("the rerun resumes"));
     assert!(!cp.exists(), "the finished ladder left its checkpoint");
     assert_same_outputs(&whole, &killed);
+}
+
+/// The built-in magnetic filter on a coarser flow lattice (the flow is computed again on
+/// resume), checkpointing after every step of the particles.
+#[test]
+fn a_killed_filter_run_resumes_to_the_same_outputs() {
+    let root = fresh_dir("filter");
+    let scene = shortened(
+        &root,
+        "filter-quick",
+        &[("resolution = 24", "resolution = 12")],
+    );
+    kill_and_resume("filter", &scene, &root, "0", Duration::from_millis(400));
 }

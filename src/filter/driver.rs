@@ -17,9 +17,11 @@ pub enum Stop {
 }
 
 /// Steps `f` until no particle is inside or `max_steps` steps (counted from t = 0) are done.
+/// First `hooks` may restore `f` from a checkpoint (the run continues from the saved step).
 /// After every step: `progress` (the fraction of the fed particles no longer inside), then
 /// `checkpoint`, then `stop_requested`.
 pub fn run_to_end(f: &mut Filter, max_steps: u64, hooks: &mut dyn Hooks<Filter>) -> Result<Stop> {
+    hooks.restore(f)?;
     loop {
         let c = f.counts();
         if c.inside == 0 {

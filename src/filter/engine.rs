@@ -44,6 +44,16 @@ pub struct Tracer {
     rng: ChaCha8Rng,
 }
 
+impl Tracer {
+    /// The word position of the particle's random stream.
+    pub(super) fn rng_word_pos(&self) -> u128 {
+        self.rng.get_word_pos()
+    }
+    pub(super) fn set_rng_word_pos(&mut self, pos: u128) {
+        self.rng.set_word_pos(pos);
+    }
+}
+
 /// fed = captured + passed + inside, always (every particle is fed at t = 0).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct Counts {
@@ -246,6 +256,13 @@ impl Filter {
         self.steps += 1;
         self.time_s = self.steps as f64 * self.dt_s;
         Ok(())
+    }
+
+    /// Sets the particles and the step count (a restored checkpoint).
+    pub(super) fn restore(&mut self, tracers: Vec<Tracer>, steps: u64) {
+        self.tracers = tracers;
+        self.steps = steps;
+        self.time_s = steps as f64 * self.dt_s;
     }
 
     pub fn time_s(&self) -> f64 {

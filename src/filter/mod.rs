@@ -17,9 +17,11 @@
 //! - each particle draws from its own ChaCha stream (seed, particle index), so a run's results
 //!   are the same at any thread count.
 //!
-//! The door: a [`Setup`], [`Filter::new`], [`Filter::step`]; [`driver`] runs to the end.
+//! The door: a [`Setup`], [`Filter::new`], [`Filter::step`]; [`driver`] runs to the end;
+//! [`checkpoint`] saves and restores a run bitwise.
 
 mod bed;
+pub mod checkpoint;
 pub mod driver;
 mod engine;
 mod field;

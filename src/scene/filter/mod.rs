@@ -57,8 +57,12 @@
 //! penetration of the whole bed and the filter coefficient with standard errors),
 //! `penetration.csv` (depth_m, penetration, standard_error) and `penetration.svg`,
 //! `captures.csv` (x_m, y_m, depth_m, time_s, fibre) and `captures.xyz` (extended XYZ).
-//! The run is not checkpointed: an interrupted run starts again.
+//! `checkpoint.json` ([`checkpoint`]): a run killed while its particles move resumes from the
+//! last checkpoint with the same `--out` (the flow is computed again, to the bit) and writes
+//! bitwise the outputs of an uninterrupted run; one killed while its flow is computed starts
+//! afresh.
 
+mod checkpoint;
 mod flow;
 mod outputs;
 mod run;

@@ -1,12 +1,13 @@
 //! The run of a filter scene: the plan checked, the flow through the bed from the lattice
 //! Boltzmann engine, then the filter engine's driver ([`filter::driver::run_to_end`]) with a
-//! progress bar, then the outputs.
+//! progress bar and `checkpoint.json` ([`super::checkpoint`]: a killed run resumes bitwise),
+//! then the outputs.
 
+use super::checkpoint::Resumable;
 use super::flow::{bed_flow, fibre_reynolds, LatticeOptions};
 use super::outputs::{write_outputs, Outcome};
 use super::schema::{prepare, Drive, Plan};
 use crate::brownian::FieldSource;
-use crate::driver::Hooks;
 use crate::error::{invalid, Result};
 use crate::filter::{self, Filter, Setup};
 use crate::lbm::{SteadyBar, SteadyControl};
@@ -19,13 +20,19 @@ pub fn check_scene(text: &str, origin: &str) -> Result<()> {
     prepare(text, origin).map(|_| ())
 }
 
+/// Runs (or resumes from `out/checkpoint.json`) a filter scene; a run stopped by a signal
+/// leaves its checkpoint and no outputs.
 pub fn run_scene(text: &str, origin: &str, out: &Path, opts: &RunOptions) -> Result<()> {
     let (scene, plan) = prepare(text, origin)?;
+    let mut hooks = Resumable::open(out, text, opts)?;
     let t0 = Instant::now();
     on_threads(opts.threads, || {
-        let (f, o) = run_plan(plan, opts.quiet, t0)?;
+        let Some((f, o)) = run_plan(plan, opts.quiet, t0, &mut hooks)? else {
+            return Ok(());
+        };
         crate::io::create_dir(out)?;
         let summary = write_outputs(out, origin, &scene, &f, &o)?;
+        hooks.remove()?;
         println!("{summary}");
         if !opts.quiet {
             eprintln!("outputs in {}", out.display());
@@ -34,8 +41,13 @@ pub fn run_scene(text: &str, origin: &str, out: &Path, opts: &RunOptions) -> Res
     })
 }
 
-/// The flow, then the particles to the end.
-fn run_plan(plan: Plan, quiet: bool, t0: Instant) -> Result<(Filter, Outcome)> {
+/// The flow, then the particles to the end (None: stopped, the checkpoint written).
+fn run_plan(
+    plan: Plan,
+    quiet: bool,
+    t0: Instant,
+    hooks: &mut Resumable,
+) -> Result<Option<(Filter, Outcome)>> {
     let fo = &plan.flow;
     let options = LatticeOptions {
         lattice: fo.lattice,
@@ -110,10 +122,11 @@ fn run_plan(plan: Plan, quiet: bool, t0: Instant) -> Result<(Filter, Outcome)> {
         seed: plan.seed,
     };
     let mut f = Filter::new(setup)?;
-    let mut bar = Bar::new(quiet);
-    let stop = filter::driver::run_to_end(&mut f, plan.max_steps, &mut bar)?;
-    bar.0.finish_and_clear();
-    Ok((
+    let stop = filter::driver::run_to_end(&mut f, plan.max_steps, hooks)?;
+    if hooks.was_stopped()? {
+        return Ok(None);
+    }
+    Ok(Some((
         f,
         Outcome {
             flow,
@@ -123,34 +136,5 @@ fn run_plan(plan: Plan, quiet: bool, t0: Instant) -> Result<(Filter, Outcome)> {
             stop,
             seconds: t0.elapsed().as_secs_f64(),
         },
-    ))
-}
-
-/// The progress bar of the particles' run.
-struct Bar(indicatif::ProgressBar);
-
-impl Bar {
-    fn new(quiet: bool) -> Bar {
-        if quiet {
-            return Bar(indicatif::ProgressBar::hidden());
-        }
-        let b = indicatif::ProgressBar::new(1000);
-        b.set_style(
-            indicatif::ProgressStyle::with_template("[{elapsed_precise}] {bar:30} {msg}")
-                .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
-        );
-        Bar(b)
-    }
-}
-
-impl Hooks<Filter> for Bar {
-    fn progress(&mut self, _: &Filter, done: Option<f64>, status: &str) {
-        if let Some(d) = done {
-            self.0.set_position((1000.0 * d) as u64);
-        }
-        self.0.set_message(status.to_string());
-    }
-    fn stop_requested(&mut self, _: &Filter) -> bool {
-        crate::driver::stop_signalled()
-    }
+    )))
 }

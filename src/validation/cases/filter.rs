@@ -1,4 +1,4 @@
-//! Cases 450, 452 and 453: the filter engine (fibre bed, carrier flow, magnetic capture) against
+//! Cases 450-453: the filter engine (fibre bed, carrier flow, magnetic capture) against
 //! independent counts, limits, statistics and the Watson single-wire oracle.
 
 use super::common::{non_empty, required_seed};
@@ -10,6 +10,8 @@ use crate::filter::{
     driver, random_transverse_fibres, Fate, FibreBed, Filter, Setup, VelocityLattice,
 };
 use crate::lbm::{CollisionKind, LatticeKind, SteadyControl};
+use crate::magnetics::assembly_fast::{Cell, Cutoff, FibreAssembly};
+use crate::magnetics::Cylinder;
 use crate::scene::filter::{bed_flow, LatticeOptions};
 use crate::validation::{CaseContext, Row, Table};
 use crate::{Error, Result};
@@ -114,6 +116,161 @@ pub fn case_450(ctx: &CaseContext) -> Result<Vec<Row>> {
             geometric,
             1.0,
         ));
+    }
+    Ok(rows)
+}
+
+/// `n` fibres across the flow in one layer on the plane z = L_z / 2 of the cell [`CELL_M`]:
+/// random axes in the x-y plane and centres in x, y (seed `seed`), each drawn again while it
+/// comes within 2R of a fibre already placed (periodic images in x and y included).
+fn layer_fibres(n: usize, seed: u64) -> Result<(Vec<Vector3<f64>>, Vec<Vector3<f64>>)> {
+    use rand::{Rng, SeedableRng};
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
+    let (mut centres, mut axes): (Vec<Vector3<f64>>, Vec<Vector3<f64>>) = (Vec::new(), Vec::new());
+    let mut draws = 0;
+    while centres.len() < n {
+        draws += 1;
+        if draws > 100_000 {
+            return Err(Error::Validation(
+                "451: no room for the layer's fibres".into(),
+            ));
+        }
+        let c = Vector3::new(
+            rng.gen_range(0.0..CELL_M[0]),
+            rng.gen_range(0.0..CELL_M[1]),
+            0.5 * CELL_M[2],
+        );
+        let phi: f64 = rng.gen_range(0.0..std::f64::consts::PI);
+        let a = Vector3::new(phi.cos(), phi.sin(), 0.0);
+        let clear = centres.iter().zip(&axes).all(|(c2, a2)| {
+            (-1..=1).all(|sx| {
+                (-1..=1).all(|sy| {
+                    let shift = Vector3::new(sx as f64 * CELL_M[0], sy as f64 * CELL_M[1], 0.0);
+                    segment_distance_2d(&c, &a, &(c2 + shift), a2) >= 2.0 * FIBRE_R_M
+                })
+            })
+        });
+        if clear {
+            centres.push(c);
+            axes.push(a);
+        }
+    }
+    Ok((centres, axes))
+}
+
+/// Distance between two segments of half-length [`FIBRE_HALF_LENGTH_M`] in the x-y plane
+/// (centres `c`, unit directions `a`): 0 when they cross, else the least distance from an end
+/// to the other segment.
+fn segment_distance_2d(
+    c1: &Vector3<f64>,
+    a1: &Vector3<f64>,
+    c2: &Vector3<f64>,
+    a2: &Vector3<f64>,
+) -> f64 {
+    let l = FIBRE_HALF_LENGTH_M;
+    let cross = |u: &Vector3<f64>, v: &Vector3<f64>| u.x * v.y - u.y * v.x;
+    let d = c2 - c1;
+    let den = cross(a1, a2);
+    if den.abs() > 1e-12 {
+        let (s, t) = (cross(&d, a2) / den, cross(&d, a1) / den);
+        if s.abs() <= l && t.abs() <= l {
+            return 0.0;
+        }
+    }
+    let to_segment = |p: Vector3<f64>, c: &Vector3<f64>, a: &Vector3<f64>| {
+        let s = (p - c).dot(a).clamp(-l, l);
+        (p - c - a * s).xy().norm()
+    };
+    [
+        to_segment(c1 + a1 * l, c2, a2),
+        to_segment(c1 - a1 * l, c2, a2),
+        to_segment(c2 + a2 * l, c1, a1),
+        to_segment(c2 - a2 * l, c1, a1),
+    ]
+    .into_iter()
+    .fold(f64::INFINITY, f64::min)
+}
+
+register!("451" => case_451);
+/// Case 451: one layer of fibres per cell, V_m / U up to 1e4: every particle captured, on the
+/// first layer (the mirror planes between layers are invariant for the limit's gradient flow).
+pub fn case_451(ctx: &CaseContext) -> Result<Vec<Row>> {
+    let t = ctx.expected_table()?;
+    non_empty(&t)?;
+    let seed = required_seed(ctx, "case 451 needs a seed")?;
+    let n = 8;
+    let (centres, axes) = layer_fibres(n, seed)?;
+    let (a, u, eta_pa_s, m_fibre) = (1e-7, 1e-3, 1e-3, 1e6);
+    let field = FibreAssembly::new(
+        Cylinder::new(FIBRE_R_M, FIBRE_HALF_LENGTH_M)?,
+        Cell::new(CELL_M, [true; 3])?,
+        Some(Cutoff::new(1.5e-3, 0.375e-3)?),
+        centres.clone(),
+        &axes,
+        &vec![Vector3::new(0.0, 0.0, m_fibre); n],
+        Vector3::new(0.0, 0.0, 0.8 * m_fibre),
+    )?;
+    let mobility = stokes_mobility(eta_pa_s, a)?;
+    let layer = (0.5 * CELL_M[2], FIBRE_R_M + a);
+    let mut rows = Vec::new();
+    for i in 0..t.len() {
+        let ratio = t.f64(i, "vm_over_u")?;
+        let particles = t.f64(i, "particles")? as usize;
+        // V_m = mobility mu0 m M / R
+        let moment = ratio * u * FIBRE_R_M / (mobility * MU0 * m_fibre);
+        let setup = Setup {
+            bed: FibreBed::new(CELL_M, FIBRE_R_M, FIBRE_HALF_LENGTH_M, &centres, &axes, a)?,
+            flow: plug_flow(CELL_M, u)?,
+            field: Some(Box::new(field.clone())),
+            moment: LangevinMoment::fixed(moment)?,
+            fluid: Fluid::new(0.0, eta_pa_s)?,
+            particles,
+            cells_deep: 3,
+            dt_s: CELL_M[2] / u,
+            max_step_fraction: 0.05,
+            seed,
+        };
+        let mut f = Filter::new(setup)?;
+        driver::run_to_end(&mut f, 20, &mut NoHooks)?;
+        let c = f.counts();
+        let depths: Vec<f64> = f
+            .tracers()
+            .iter()
+            .filter_map(|tr| match tr.fate {
+                Fate::Captured { position, .. } => Some(position.z),
+                _ => None,
+            })
+            .collect();
+        let off_layer = depths
+            .iter()
+            .filter(|z| (*z - layer.0).abs() > layer.1)
+            .count();
+        let deepest = depths.iter().fold(0.0f64, |m, z| m.max(*z));
+        eprintln!(
+            "451 V_m/U = {ratio:e}: {} of {} captured ({} passed, {} inside after {} steps), \
+             {off_layer} off the first layer, deepest capture {:.4} L_z",
+            c.captured,
+            c.fed,
+            c.passed,
+            c.inside,
+            f.steps(),
+            deepest / CELL_M[2]
+        );
+        if t.f64(i, "checked")? != 0.0 {
+            let want = t.f64(i, "expected_count")?;
+            rows.push(Row::new(
+                format!("Vm/U={ratio:e} not captured"),
+                (c.passed + c.inside) as f64,
+                want,
+                1.0,
+            ));
+            rows.push(Row::new(
+                format!("Vm/U={ratio:e} captured off the first layer"),
+                off_layer as f64,
+                want,
+                1.0,
+            ));
+        }
     }
     Ok(rows)
 }
