@@ -35,7 +35,7 @@
 //!   stays independent of tau): q_c = 0.15 and 0.2 grew within 20,000 steps at 24 cells;
 //!   q_c = 0.25 (|kappa| <= 1/3, CLI's own bound for q >= 1/2) ran 20,000 steps at 24, 32 and
 //!   48 cells, tau 0.7 and 1, and 100,000 at 24 cells, tau 0.7, but grew after 65,100 steps
-//!   at tau 1 and 32,600 at tau 1.5 (the 24-cell lattice; at tau 1 the pair 12/24);
+//!   at tau 1 and 32,600 at tau 1.5 (both on the 24-cell lattice);
 //!   q_c = 0.3 and 0.35 grew at tau 1.5 (pair 12/24: 43,500 and 69,300 steps); only
 //!   q_c = 1/2 (halfway bounce-back on every link with q < 1/2, a wall moved by up to half a
 //!   cell towards the solid) ran 100,000 steps at tau 1.5;
