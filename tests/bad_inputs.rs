@@ -305,6 +305,10 @@ fn command_lines_with_bad_values_are_refused_naming_the_option() {
         (vec!["permeability", xyz, "--lattice", "D2Q9"], vec!["D2Q9"]),
         (vec!["permeability", xyz, "--frame", "7"], vec!["frame"]),
         (
+            vec!["permeability", xyz, "--checkpoint-every", "-1"],
+            vec!["--checkpoint-every"],
+        ),
+        (
             vec![
                 "field",
                 "--radius",
