@@ -531,7 +531,8 @@ pub fn case_816(ctx: &CaseContext) -> Result<Vec<Row>> {
         let vp = PI / 6.0 * d.powi(3);
         let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(ctx.seed.unwrap_or(1) + i as u64);
         let n_target = phi_target * l[0] * l[1] * l[2] / vp;
-        // random sequential addition below its jamming (~0.38), a jittered lattice above
+        // the `arrangement` column; without it, the second protocol's rule: random sequential
+        // addition below its jamming (~0.38), the widest-gap lattice above
         let arrangement = match t.col("arrangement").map(|_| t.str(i, "arrangement")) {
             Err(_) if phi_target <= 0.3 => "random",
             Err(_) => "lattice",
