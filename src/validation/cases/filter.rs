@@ -572,11 +572,12 @@ pub fn case_454(ctx: &CaseContext) -> Result<Vec<Row>> {
     for i in 0..t.len() {
         let pe = t.f64(i, "pe")?;
         let want = t.f64(i, "eta_bl")?;
-        let particles = match pe {
-            p if p == 1e3 => 60_000,
-            p if p == 3e3 => 120_000,
-            p if p == 1e4 => 250_000,
-            _ => return Err(Error::Validation(format!("454: unexpected Pe {pe}"))),
+        // about 600-670 captures at each Pe
+        let Some(&(_, particles)) = [(1e3, 60_000), (3e3, 120_000), (1e4, 250_000)]
+            .iter()
+            .find(|(p, _)| *p == pe)
+        else {
+            return Err(Error::Validation(format!("454: unexpected Pe {pe}")));
         };
         let u = pe * d / (2.0 * r);
         let flow = VelocityLattice::from_fn([2, n, n], h, |p| {
@@ -591,7 +592,7 @@ pub fn case_454(ctx: &CaseContext) -> Result<Vec<Row>> {
             flow,
             field: None,
             moment: LangevinMoment::fixed(0.0)?,
-            fluid: fluid.clone(),
+            fluid,
             particles,
             cells_deep: 1,
             dt_s: dt,
@@ -654,8 +655,9 @@ pub fn case_454(ctx: &CaseContext) -> Result<Vec<Row>> {
 }
 
 /// Kuwabara's cell flow (superficial velocity `u` along +z) at `q` (m, from the fibre's axis
-/// along x): psi = f(r) sin(theta), theta from +z, f(r) = u/(2 Ku) [r (2 ln(r/R) - 1 + alpha)
-/// + (1 - alpha/2) R^2/r - (alpha/2) r^3/R^2], for R/2 <= r < b = R/sqrt(alpha) (continued
+/// along x): psi = f(r) sin(theta), theta from +z,
+/// `f(r) = u/(2 Ku) [r (2 ln(r/R) - 1 + alpha) + (1 - alpha/2) R^2/r - (alpha/2) r^3/R^2]`,
+/// for R/2 <= r < b = R/sqrt(alpha) (continued
 /// inside the fibre); the uniform flow u outside the cell (the normal velocity u cos(theta) is
 /// continuous at r = b); zero for r < R/2.
 fn kuwabara_cell_velocity(q: Vector3<f64>, r_fibre: f64, alpha: f64, u: f64) -> Vector3<f64> {
