@@ -538,3 +538,174 @@ fn wire_array_field(d: f64, b: f64, m_a_per_m: f64, h0: f64) -> Box<dyn FieldSou
         (hv, g)
     }))
 }
+
+register!("454" => case_454);
+/// Case 454: Brownian capture by one fibre per cell in Kuwabara's cell flow (no field): the
+/// single-fibre efficiency against the thin-boundary-layer law of
+/// reference/kuwabara_diffusion.csv, its prefactor and its exponent of Pe.
+pub fn case_454(ctx: &CaseContext) -> Result<Vec<Row>> {
+    let t = ctx.expected_table()?;
+    non_empty(&t)?;
+    let seed = required_seed(ctx, "case 454 needs a seed")?;
+    let alpha = t.f64(0, "solid_fraction")?;
+    let ku = t.f64(0, "ku")?;
+    let prefactor = t.f64(0, "a_prefactor")?;
+    if (ku / kuwabara(alpha) - 1.0).abs() > 1e-12 {
+        return Err(Error::Validation(format!(
+            "454: the reference's Ku = {ku} is not Kuwabara's {} at alpha = {alpha}",
+            kuwabara(alpha)
+        )));
+    }
+    let (r, eta_pa_s, temp) = (1e-5, 1e-3, 298.0);
+    let a = 1e-4 * r;
+    let h = r / 32.0;
+    let b = r / alpha.sqrt();
+    let n = (2.0 * b / h).ceil() as usize;
+    let l = [2.0 * h, n as f64 * h, n as f64 * h];
+    let centre = Vector3::new(h, 0.5 * l[1], 0.5 * l[2]);
+    let fluid = Fluid::new(temp, eta_pa_s)?;
+    let d = fluid.kt() * stokes_mobility(eta_pa_s, a)?;
+    let bed = FibreBed::new(l, r, h, &[centre], &[Vector3::x()], a)?;
+    let shape = (1.0 - alpha) / ku;
+    // (ln Pe, ln eta, weight 1 / var(ln eta))
+    let mut points = Vec::new();
+    for i in 0..t.len() {
+        let pe = t.f64(i, "pe")?;
+        let want = t.f64(i, "eta_bl")?;
+        // about 600-670 captures at each Pe
+        let Some(&(_, particles)) = [(1e3, 60_000), (3e3, 120_000), (1e4, 250_000)]
+            .iter()
+            .find(|(p, _)| *p == pe)
+        else {
+            return Err(Error::Validation(format!("454: unexpected Pe {pe}")));
+        };
+        let u = pe * d / (2.0 * r);
+        let flow = VelocityLattice::from_fn([2, n, n], h, |p| {
+            kuwabara_cell_velocity(p - centre, r, alpha, u)
+        })?;
+        // noise step sqrt(2 D dt) = 0.05 R Pe^(-1/3)
+        let noise = 0.05 * r * pe.powf(-1.0 / 3.0);
+        let dt = noise * noise / (2.0 * d);
+        let transit_steps = (l[2] / (u * dt)).ceil() as u64;
+        let setup = Setup {
+            bed: bed.clone(),
+            flow,
+            field: None,
+            moment: LangevinMoment::fixed(0.0)?,
+            fluid,
+            particles,
+            cells_deep: 1,
+            dt_s: dt,
+            max_step_fraction: 0.05,
+            seed: seed + i as u64,
+        };
+        let mut f = Filter::new(setup)?;
+        driver::run_to_end(&mut f, 20 * transit_steps, &mut NoHooks)?;
+        let c = f.counts();
+        if c.inside * 1000 > c.fed {
+            return Err(Error::Validation(format!(
+                "454: Pe = {pe}: {} of {} particles still inside after {} steps",
+                c.inside,
+                c.fed,
+                f.steps()
+            )));
+        }
+        let captured = c.captured as f64 / c.fed as f64;
+        let eta = captured * l[1] / (2.0 * r);
+        let a_measured = eta * pe.powf(2.0 / 3.0) / shape.cbrt();
+        let rel_se = ((1.0 - captured) / c.captured.max(1) as f64).sqrt();
+        eprintln!(
+            "454 Pe = {pe:e}: {} of {} captured ({} passed, {} inside, {} steps of dt = \
+             {dt:.3e} s, noise step {:.4} R): eta = {eta:.5} +- {:.5} vs boundary layer \
+             {want:.5} ({:+.1} %), A = {a_measured:.4}",
+            c.captured,
+            c.fed,
+            c.passed,
+            c.inside,
+            f.steps(),
+            noise / r,
+            eta * rel_se,
+            100.0 * (eta / want - 1.0)
+        );
+        points.push((pe.ln(), eta.ln(), 1.0 / (rel_se * rel_se), a_measured));
+    }
+    // inverse-variance weighted mean of A (var(A)/A^2 = var(ln eta)) and weighted slope
+    let wsum: f64 = points.iter().map(|p| p.2 / (p.3 * p.3)).sum();
+    let a_mean = points.iter().map(|p| p.2 / (p.3 * p.3) * p.3).sum::<f64>() / wsum;
+    let w: f64 = points.iter().map(|p| p.2).sum();
+    let xm = points.iter().map(|p| p.2 * p.0).sum::<f64>() / w;
+    let ym = points.iter().map(|p| p.2 * p.1).sum::<f64>() / w;
+    let sxx: f64 = points.iter().map(|p| p.2 * (p.0 - xm).powi(2)).sum();
+    let slope = points
+        .iter()
+        .map(|p| p.2 * (p.0 - xm) * (p.1 - ym))
+        .sum::<f64>()
+        / sxx;
+    eprintln!(
+        "454: A = {a_mean:.4} +- {:.4} vs {prefactor:.4} ({:+.1} %); exponent {slope:.4} +- \
+         {:.4} vs -2/3",
+        1.0 / wsum.sqrt(),
+        100.0 * (a_mean / prefactor - 1.0),
+        1.0 / sxx.sqrt()
+    );
+    Ok(vec![
+        Row::new("prefactor A", a_mean, prefactor, prefactor),
+        Row::new("exponent of Pe", slope, -2.0 / 3.0, 2.0 / 3.0),
+    ])
+}
+
+/// Kuwabara's cell flow (superficial velocity `u` along +z) at `q` (m, from the fibre's axis
+/// along x): psi = f(r) sin(theta), theta from +z,
+/// `f(r) = u/(2 Ku) [r (2 ln(r/R) - 1 + alpha) + (1 - alpha/2) R^2/r - (alpha/2) r^3/R^2]`,
+/// for R/2 <= r < b = R/sqrt(alpha) (continued
+/// inside the fibre); the uniform flow u outside the cell (the normal velocity u cos(theta) is
+/// continuous at r = b); zero for r < R/2.
+fn kuwabara_cell_velocity(q: Vector3<f64>, r_fibre: f64, alpha: f64, u: f64) -> Vector3<f64> {
+    let r = q.y.hypot(q.z);
+    if r >= r_fibre / alpha.sqrt() {
+        return Vector3::new(0.0, 0.0, u);
+    }
+    if r < 0.5 * r_fibre {
+        return Vector3::zeros();
+    }
+    let c = u / (2.0 * kuwabara(alpha));
+    let x = r / r_fibre;
+    let f =
+        c * r * (2.0 * x.ln() - 1.0 + alpha + (1.0 - 0.5 * alpha) / (x * x) - 0.5 * alpha * x * x);
+    let df = c * (2.0 * x.ln() + 1.0 + alpha - (1.0 - 0.5 * alpha) / (x * x) - 1.5 * alpha * x * x);
+    let (sin, cos) = (q.y / r, q.z / r);
+    let (ur, ut) = (f * cos / r, -df * sin);
+    Vector3::new(0.0, ur * sin + ut * cos, ur * cos - ut * sin)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Case 454's sampled flow: no slip on the fibre, the normal velocity continuous across the
+    /// cell boundary r = b, and divergence-free (centred differences) inside the cell.
+    #[test]
+    fn kuwabara_cell_flow_no_slip_continuous_and_divergence_free() {
+        let (r, alpha, u): (f64, f64, f64) = (1e-5, 0.1, 2e-3);
+        let b = r / alpha.sqrt();
+        for k in 0..12 {
+            let th = 0.1 + 0.5 * k as f64;
+            let dir = Vector3::new(0.0, th.sin(), th.cos());
+            assert!(kuwabara_cell_velocity(dir * r, r, alpha, u).norm() < 1e-12 * u);
+            let inner = kuwabara_cell_velocity(dir * (b * (1.0 - 1e-9)), r, alpha, u);
+            let outer = kuwabara_cell_velocity(dir * (b * (1.0 + 1e-9)), r, alpha, u);
+            assert!(
+                (inner.dot(&dir) - outer.dot(&dir)).abs() < 1e-7 * u,
+                "{inner} {outer}"
+            );
+            let p = dir * (1.7 * r);
+            let e = 1e-4 * r;
+            let div = (kuwabara_cell_velocity(p + Vector3::y() * e, r, alpha, u).y
+                - kuwabara_cell_velocity(p - Vector3::y() * e, r, alpha, u).y
+                + kuwabara_cell_velocity(p + Vector3::z() * e, r, alpha, u).z
+                - kuwabara_cell_velocity(p - Vector3::z() * e, r, alpha, u).z)
+                / (2.0 * e);
+            assert!(div.abs() < 1e-6 * u / r, "{div}");
+        }
+    }
+}
