@@ -32,7 +32,7 @@ use nalgebra::{Matrix3, Rotation3, Vector3};
 use rayon::prelude::*;
 
 mod tabulated;
-pub use tabulated::{TabulatedAssembly, TabulatedStats};
+pub use tabulated::{BinFar, TabulatedAssembly, TabulatedStats};
 
 /// An orthorhombic cell [0, L_x) x [0, L_y) x [0, L_z) (m), periodic along the marked axes.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -488,9 +488,17 @@ impl Bins {
     }
     #[inline]
     fn of(&self, p: &Vector3<f64>) -> &[Image] {
+        self.list(self.index(p))
+    }
+    /// The bin holding p (in the cell).
+    #[inline]
+    fn index(&self, p: &Vector3<f64>) -> usize {
         let idx: [usize; 3] =
             std::array::from_fn(|k| ((p[k] / self.size[k]) as usize).min(self.n[k] - 1));
-        let b = (idx[2] * self.n[1] + idx[1]) * self.n[0] + idx[0];
+        (idx[2] * self.n[1] + idx[1]) * self.n[0] + idx[0]
+    }
+    #[inline]
+    fn list(&self, b: usize) -> &[Image] {
         &self.images[self.start[b] as usize..self.start[b + 1] as usize]
     }
 }
