@@ -58,17 +58,15 @@ impl FarNodes {
     #[inline]
     fn basis(&self, u: f64, out: &mut [f64; MAX_NODES]) {
         let n = self.n;
-        for j in 0..n {
-            if u == self.points[j] {
-                out[..n].fill(0.0);
-                out[j] = 1.0;
-                return;
-            }
+        if let Some(j) = self.points.iter().position(|&x| x == u) {
+            out[..n].fill(0.0);
+            out[j] = 1.0;
+            return;
         }
         let mut sum = 0.0;
-        for j in 0..n {
-            out[j] = self.weights[j] / (u - self.points[j]);
-            sum += out[j];
+        for ((o, w), x) in out.iter_mut().zip(&self.weights).zip(&self.points) {
+            *o = w / (u - x);
+            sum += *o;
         }
         for v in out.iter_mut().take(n) {
             *v /= sum;
