@@ -19,7 +19,10 @@ use crate::consts::MU0;
 use crate::error::invalid;
 use crate::filter::{driver, FibreBed, Filter, Setup, VelocityLattice};
 use crate::io::CsvTable;
-use crate::magnetics::assembly_fast::{Cell, Cutoff, FastAssembly, FastSpec, FibreAssembly};
+use crate::magnetics::assembly_fast::{
+    BinFar, Cell, Cutoff, FastAssembly, FastSpec, FibreAssembly, TabulatedAssembly,
+};
+use crate::magnetics::cylinder_table::TableSpec;
 use crate::magnetics::Cylinder;
 use crate::Result;
 use nalgebra::Vector3;
@@ -28,16 +31,37 @@ use rand::{Rng, SeedableRng};
 #[derive(Debug, clap::Args)]
 pub struct BenchArgs {
     /// Fibres in the periodic cube.
-    #[arg(long, default_value_t = 100)]
+    #[arg(long, default_value_t = 200)]
     pub fibres: usize,
     /// Solid volume fraction of the bed (sets the cube's edge).
     #[arg(long, default_value_t = 0.1)]
     pub solid_fraction: f64,
-    /// Far-grid spacings to try (mm, comma-separated).
-    #[arg(long, value_delimiter = ',', default_value = "0.5,0.33,0.25")]
+    /// Relative tolerances of the cylinder table for the tabulated superposition
+    /// (comma-separated; none: no tabulated rows).
+    #[arg(long, value_delimiter = ',', default_value = "1e-6,1e-8")]
+    pub table_tolerances: Vec<f64>,
+    /// Chebyshev nodes per axis of the table's rectangles.
+    #[arg(long, default_value_t = 10)]
+    pub table_nodes: usize,
+    /// The table's exact zone: this margin (mm) around the fibre.
+    #[arg(long, default_value_t = 0.02)]
+    pub exact_margin_mm: f64,
+    /// Chebyshev nodes per axis of each bin's far interpolant (comma-separated; 0: no far
+    /// part, every counting image from the table).
+    #[arg(long, value_delimiter = ',', default_value = "0,8,10")]
+    pub far_nodes: Vec<usize>,
+    /// With a far part: images whose axis comes within this distance (mm) of a bin are summed
+    /// per point, the rest interpolated.
+    #[arg(long, default_value_t = 1.0)]
+    pub far_near_mm: f64,
+    /// Edge (mm) of the bins listing each point's images.
+    #[arg(long, default_value_t = 1.0)]
+    pub bin_mm: f64,
+    /// Far-grid spacings to try (mm, comma-separated; none: no grid rows).
+    #[arg(long, value_delimiter = ',', default_value = "0.5")]
     pub spacings_mm: Vec<f64>,
     /// Lagrange points per axis of the far grid (even, comma-separated).
-    #[arg(long, value_delimiter = ',', default_value = "6,8")]
+    #[arg(long, value_delimiter = ',', default_value = "6")]
     pub orders: Vec<usize>,
     /// Near-window margin (mm) around the fibre and outer ratio of the window.
     #[arg(long, default_value_t = 0.3)]
@@ -191,10 +215,11 @@ pub fn run(args: &BenchArgs) -> Result<()> {
         .build()
         .map_err(|e| crate::Error::Validation(format!("thread pool: {e}")))?;
     let mut csv = CsvTable::new(&[
-        "spacing_m",
+        "method",
+        "knob",
         "order",
         "build_s",
-        "near_images_per_bin",
+        "images_per_bin",
         "fast_particle_steps_per_s",
         "exact_particle_steps_per_s",
         "speedup",
@@ -203,11 +228,12 @@ pub fn run(args: &BenchArgs) -> Result<()> {
         "max_force_error_over_rms",
     ]);
     println!(
-        "{:>10} {:>5} {:>8} {:>6} {:>12} {:>12} {:>8} {:>11} {:>11} {:>11}",
-        "spacing m",
+        "{:>6} {:>10} {:>5} {:>8} {:>6} {:>12} {:>12} {:>8} {:>11} {:>11} {:>11}",
+        "method",
+        "knob",
         "order",
         "build s",
-        "near",
+        "images",
         "fast ps/s",
         "exact ps/s",
         "speedup",
@@ -215,6 +241,44 @@ pub fn run(args: &BenchArgs) -> Result<()> {
         "max rel",
         "max/rms"
     );
+    let reference = Reference {
+        model: &model,
+        points: &pts,
+        forces: &exact,
+        rms,
+        pool: &one,
+    };
+    // the tabulated superposition, with or without the per-bin far interpolant: knob = the
+    // table's relative tolerance, order = the far interpolant's nodes per axis (0: none)
+    for &tolerance in &args.table_tolerances {
+        for &nodes in &args.far_nodes {
+            let spec = TableSpec {
+                tolerance,
+                nodes: args.table_nodes,
+                exact_margin_m: args.exact_margin_mm * 1e-3,
+                extent_m: 0.0,
+            };
+            let far = (nodes > 0).then_some(BinFar {
+                near_m: args.far_near_mm * 1e-3,
+                nodes,
+            });
+            let tab = TabulatedAssembly::new(model.clone(), spec, args.bin_mm * 1e-3, far)?;
+            let st = *tab.stats();
+            let (ratios, errors) = reference.front_row(args, &|| Box::new(tab.clone()))?;
+            let row = [
+                "table".to_string(),
+                format!("{tolerance:e}"),
+                nodes.to_string(),
+            ]
+            .into_iter()
+            .chain([st.build_seconds, st.images_per_bin].map(|v| format!("{v}")))
+            .chain(ratios.iter().chain(&errors).map(|v| format!("{v:e}")))
+            .collect::<Vec<_>>();
+            print_row(&row);
+            csv.row(row);
+        }
+    }
+    // near images exact, far part on a windowed grid: knob = the grid spacing (m)
     for &spacing_mm in &args.spacings_mm {
         for &order in &args.orders {
             let spec = FastSpec {
@@ -225,43 +289,18 @@ pub fn run(args: &BenchArgs) -> Result<()> {
                 order,
             };
             let fast = FastAssembly::new(model.clone(), spec)?;
-            let mut rel: Vec<f64> = Vec::with_capacity(pts.len());
-            let mut worst_abs = 0.0f64;
-            for (p, fe) in pts.iter().zip(&exact) {
-                let (h, g) = fast.h_and_gradient(p);
-                let d = (g * (h / h.norm()) - fe).norm();
-                rel.push(d / fe.norm());
-                worst_abs = worst_abs.max(d);
-            }
-            rel.sort_by(f64::total_cmp);
-            let (median, max) = (rel[rel.len() / 2], rel[rel.len() - 1]);
-            // alternate exact and fast runs, twice each, on one thread; keep each one's best
-            let (mut rate_exact, mut rate_fast) = (0.0f64, 0.0f64);
-            for _ in 0..2 {
-                rate_exact = rate_exact.max(
-                    one.install(|| particle_steps_per_s(args, &model, Box::new(model.clone())))?,
-                );
-                rate_fast = rate_fast.max(
-                    one.install(|| particle_steps_per_s(args, &model, Box::new(fast.clone())))?,
-                );
-            }
-            let st = fast.stats();
+            let st = *fast.stats();
+            let (ratios, errors) = reference.front_row(args, &|| Box::new(fast.clone()))?;
             let row = [
-                spacing_mm * 1e-3,
-                order as f64,
-                st.build_seconds,
-                st.near_images_per_bin,
-                rate_fast,
-                rate_exact,
-                rate_fast / rate_exact,
-                median,
-                max,
-                worst_abs / rms,
-            ];
-            println!(
-                "{:>10.3e} {:>5} {:>8.1} {:>6.1} {:>12.4e} {:>12.4e} {:>8.1} {:>11.3e} {:>11.3e} {:>11.3e}",
-                row[0], order, row[2], row[3], row[4], row[5], row[6], row[7], row[8], row[9]
-            );
+                "grid".to_string(),
+                format!("{:e}", spacing_mm * 1e-3),
+                order.to_string(),
+            ]
+            .into_iter()
+            .chain([st.build_seconds, st.near_images_per_bin].map(|v| format!("{v}")))
+            .chain(ratios.iter().chain(&errors).map(|v| format!("{v:e}")))
+            .collect::<Vec<_>>();
+            print_row(&row);
             csv.row(row);
         }
     }
@@ -269,4 +308,72 @@ pub fn run(args: &BenchArgs) -> Result<()> {
     csv.write(path)?;
     println!("wrote {}", path.display());
     Ok(())
+}
+
+/// The exact superposition's forces at the fluid points, and the one-thread pool of the timed
+/// runs: what every row of the front is measured against.
+struct Reference<'a> {
+    model: &'a FibreAssembly,
+    points: &'a [Vector3<f64>],
+    forces: &'a [Vector3<f64>],
+    rms: f64,
+    pool: &'a rayon::ThreadPool,
+}
+
+impl Reference<'_> {
+    /// ([fast particle-steps/s, exact particle-steps/s, ratio], [median rel. force error, max
+    /// rel., max abs. over rms]) of the field `make` builds. Exact and fast runs alternate,
+    /// twice each, on one thread; each keeps its best.
+    fn front_row(
+        &self,
+        args: &BenchArgs,
+        make: &dyn Fn() -> Box<dyn FieldSource>,
+    ) -> Result<([f64; 3], [f64; 3])> {
+        let field = make();
+        let mut rel: Vec<f64> = Vec::with_capacity(self.points.len());
+        let mut worst_abs = 0.0f64;
+        for (p, fe) in self.points.iter().zip(self.forces) {
+            let (h, g) = field.h_and_gradient(p);
+            let d = (g * (h / h.norm()) - fe).norm();
+            rel.push(d / fe.norm());
+            worst_abs = worst_abs.max(d);
+        }
+        rel.sort_by(f64::total_cmp);
+        let (median, max) = (rel[rel.len() / 2], rel[rel.len() - 1]);
+        let (mut rate_exact, mut rate_fast) = (0.0f64, 0.0f64);
+        for _ in 0..2 {
+            let exact = Box::new(self.model.clone());
+            rate_exact = rate_exact.max(
+                self.pool
+                    .install(|| particle_steps_per_s(args, self.model, exact))?,
+            );
+            let fast = make();
+            rate_fast = rate_fast.max(
+                self.pool
+                    .install(|| particle_steps_per_s(args, self.model, fast))?,
+            );
+        }
+        Ok((
+            [rate_fast, rate_exact, rate_fast / rate_exact],
+            [median, max, worst_abs / self.rms],
+        ))
+    }
+}
+
+fn print_row(row: &[String]) {
+    let w = [6, 10, 5, 8, 6, 12, 12, 8, 11, 11, 11];
+    let cells: Vec<String> = row
+        .iter()
+        .zip(w)
+        .map(|(c, w)| {
+            // numbers to four significant digits on screen (the CSV keeps them all)
+            let c = c
+                .parse::<f64>()
+                .ok()
+                .filter(|_| c.contains('.') || c.contains('e'))
+                .map_or(c.clone(), |v| format!("{v:.3e}"));
+            format!("{c:>w$}")
+        })
+        .collect();
+    println!("{}", cells.join(" "));
 }

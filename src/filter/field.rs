@@ -3,7 +3,7 @@
 //! cell themselves.
 
 use crate::brownian::FieldSource;
-use crate::magnetics::assembly_fast::{FastAssembly, FibreAssembly};
+use crate::magnetics::assembly_fast::{FastAssembly, FibreAssembly, TabulatedAssembly};
 use nalgebra::{Matrix3, Vector3};
 
 impl FieldSource for FibreAssembly {
@@ -15,5 +15,11 @@ impl FieldSource for FibreAssembly {
 impl FieldSource for FastAssembly {
     fn h_and_gradient(&self, p: &Vector3<f64>) -> (Vector3<f64>, Matrix3<f64>) {
         FastAssembly::h_and_gradient(self, p)
+    }
+}
+
+impl FieldSource for TabulatedAssembly {
+    fn h_and_gradient(&self, p: &Vector3<f64>) -> (Vector3<f64>, Matrix3<f64>) {
+        TabulatedAssembly::h_and_gradient(self, p)
     }
 }

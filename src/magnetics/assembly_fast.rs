@@ -31,6 +31,9 @@ use crate::error::{invalid, require_positive, Result};
 use nalgebra::{Matrix3, Rotation3, Vector3};
 use rayon::prelude::*;
 
+mod tabulated;
+pub use tabulated::{BinFar, TabulatedAssembly, TabulatedStats};
+
 /// An orthorhombic cell [0, L_x) x [0, L_y) x [0, L_z) (m), periodic along the marked axes.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Cell {
@@ -336,10 +339,29 @@ impl FibreAssembly {
         let p = self.cell.wrap(p);
         let mut images = Vec::new();
         self.counting_images(&p, &mut images);
+        self.sum_images(&p, &images, |m, q| self.cylinder.h_and_gradient(m, q))
+    }
+
+    /// H0 plus the tapered sum over `images` at p (wrapped), each image's field from `eval`
+    /// in its fibre's frame; images beyond the cutoff add nothing.
+    #[inline]
+    fn sum_images(
+        &self,
+        p: &Vector3<f64>,
+        images: &[Image],
+        eval: impl Fn(&Vector3<f64>, &Vector3<f64>) -> (Vector3<f64>, Matrix3<f64>),
+    ) -> (Vector3<f64>, Matrix3<f64>) {
+        let r2 = self
+            .cutoff
+            .map_or(f64::INFINITY, |c| c.radius_m * c.radius_m);
         let mut acc = (self.h0, Matrix3::zeros());
-        for im in &images {
-            let hg = self.image_field(im, &p, |m, q| self.cylinder.h_and_gradient(m, q));
-            self.add_tapered(im, &p, hg, &mut acc);
+        for im in images {
+            let d = p - self.centres[im.fibre as usize] - im.shift;
+            if d.norm_squared() >= r2 {
+                continue;
+            }
+            let hg = self.image_field(im, p, &eval);
+            self.add_tapered(im, p, hg, &mut acc);
         }
         acc
     }
@@ -445,11 +467,38 @@ struct Bins {
 }
 
 impl Bins {
+    /// Bins of `size` (m), `n` per axis, from one image list per bin (x fastest).
+    fn from_lists(n: [usize; 3], size: [f64; 3], lists: Vec<Vec<Image>>) -> Result<Bins> {
+        let mut start = Vec::with_capacity(lists.len() + 1);
+        let mut images = Vec::new();
+        start.push(0u32);
+        for l in lists {
+            images.extend(l);
+            if images.len() > u32::MAX as usize {
+                return invalid("too many images for the bin lists: use smaller bins");
+            }
+            start.push(images.len() as u32);
+        }
+        Ok(Bins {
+            n,
+            size,
+            start,
+            images,
+        })
+    }
     #[inline]
     fn of(&self, p: &Vector3<f64>) -> &[Image] {
+        self.list(self.index(p))
+    }
+    /// The bin holding p (in the cell).
+    #[inline]
+    fn index(&self, p: &Vector3<f64>) -> usize {
         let idx: [usize; 3] =
             std::array::from_fn(|k| ((p[k] / self.size[k]) as usize).min(self.n[k] - 1));
-        let b = (idx[2] * self.n[1] + idx[1]) * self.n[0] + idx[0];
+        (idx[2] * self.n[1] + idx[1]) * self.n[0] + idx[0]
+    }
+    #[inline]
+    fn list(&self, b: usize) -> &[Image] {
         &self.images[self.start[b] as usize..self.start[b + 1] as usize]
     }
 }
@@ -740,6 +789,12 @@ impl FastAssembly {
     }
 }
 
+/// The centre (m) of bin `b` of `n` bins of `size` per axis (x fastest).
+fn bin_centre(n: [usize; 3], size: [f64; 3], b: usize) -> Vector3<f64> {
+    let idx = [b % n[0], (b / n[0]) % n[1], b / (n[0] * n[1])];
+    Vector3::from_fn(|k, _| (idx[k] as f64 + 0.5) * size[k])
+}
+
 /// The near-image lists of `bins` of the given size: an image belongs to a bin when its window
 /// capsule (segment half-length `seg`, radius `reach` - the bin radius) reaches the bin's
 /// bounding sphere.
@@ -756,12 +811,7 @@ fn build_bins(
     let lists: Vec<Vec<Image>> = (0..total)
         .into_par_iter()
         .map_init(Vec::new, |cand, b| {
-            let (ix, iy, iz) = (b % n[0], (b / n[0]) % n[1], b / (n[0] * n[1]));
-            let centre = Vector3::new(
-                (ix as f64 + 0.5) * size[0],
-                (iy as f64 + 0.5) * size[1],
-                (iz as f64 + 0.5) * size[2],
-            );
+            let centre = bin_centre(n, size, b);
             model.images_within(&centre, reach + seg, cand);
             cand.iter()
                 .copied()
@@ -775,22 +825,7 @@ fn build_bins(
                 .collect()
         })
         .collect();
-    let mut start = Vec::with_capacity(total + 1);
-    let mut images = Vec::new();
-    start.push(0u32);
-    for l in lists {
-        images.extend(l);
-        if images.len() > u32::MAX as usize {
-            return invalid("too many near images for the bin lists: use a narrower window");
-        }
-        start.push(images.len() as u32);
-    }
-    Ok(Bins {
-        n,
-        size,
-        start,
-        images,
-    })
+    Bins::from_lists(n, size, lists)
 }
 
 #[cfg(test)]
@@ -800,7 +835,7 @@ mod tests {
 
     /// A small random bed: `n` fibres R = 0.2 mm, L/D = 5, in a periodic cube of edge 4 mm,
     /// magnetized along their axis' projection (any fixed law will do for the field tests).
-    fn bed(n: usize, seed: u64, cutoff: f64) -> FibreAssembly {
+    pub(super) fn bed(n: usize, seed: u64, cutoff: f64) -> FibreAssembly {
         let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
         let cyl = Cylinder::new(2e-4, 1e-3).unwrap();
         let cell = Cell::new([4e-3; 3], [true; 3]).unwrap();
