@@ -423,6 +423,13 @@ fn a_point_that_passes_the_plan_but_fails_at_run_time_is_isolated() {
 #[test]
 fn a_run_killed_for_real_finishes_on_restart() {
     use std::os::unix::process::CommandExt;
+    // This test process becomes the subreaper of the killed runner's job processes and never
+    // waits for them, as a container init that does not reap: they stay zombies with their
+    // /proc entries, which must not pass for live claims.
+    assert_eq!(
+        unsafe { libc::prctl(libc::PR_SET_CHILD_SUBREAPER, 1, 0, 0, 0) },
+        0
+    );
     let (_, dir) = planned("sigkill");
     let (_, reference) = planned("sigkill-reference");
     assert!(run(&reference, 1).status.success());
@@ -454,7 +461,12 @@ fn a_run_killed_for_real_finishes_on_restart() {
         done < 6,
         "the kill came too late to test anything ({done} done)"
     );
-    assert!(run(&dir, 2).status.success());
+    let rerun = run(&dir, 2);
+    assert!(
+        rerun.status.success(),
+        "the rerun failed: {}",
+        String::from_utf8_lossy(&rerun.stderr)
+    );
     for i in 0..6 {
         let names: Vec<String> = std::fs::read_dir(job(&dir, i))
             .unwrap()

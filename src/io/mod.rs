@@ -60,6 +60,23 @@ pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<()> {
     Ok(())
 }
 
+/// Whether process `pid` is running: it exists (`kill(pid, 0)`, no signal sent) and has not
+/// ended unreaped (a zombie, state `Z` in `/proc/<pid>/stat`, has ended: a process whose
+/// parent was killed is reparented to an init that, in some containers, never reaps).
+pub fn process_running(pid: libc::pid_t) -> bool {
+    if pid == std::process::id() as libc::pid_t {
+        return true;
+    }
+    let exists = unsafe { libc::kill(pid, 0) } == 0
+        || std::io::Error::last_os_error().raw_os_error() == Some(libc::EPERM);
+    let ended = std::fs::read_to_string(format!("/proc/{pid}/stat")).is_ok_and(|s| {
+        s.rfind(')')
+            .and_then(|i| s[i + 1..].split_whitespace().next())
+            .is_some_and(|state| state == "Z" || state == "X")
+    });
+    exists && !ended
+}
+
 /// Removes the temporaries that [`write_atomic`] of files in `dir` left when their process was
 /// killed mid-write (those of processes no longer running): a run resumed in a folder calls it
 /// before it writes there again, so that the folder ends as an uninterrupted run's.
@@ -79,11 +96,7 @@ pub fn remove_stale_temporaries(dir: &Path) -> Result<()> {
         else {
             continue;
         };
-        // kill(pid, 0): no signal sent, only whether the process exists
-        let alive = pid == std::process::id() as libc::pid_t
-            || unsafe { libc::kill(pid, 0) } == 0
-            || std::io::Error::last_os_error().raw_os_error() == Some(libc::EPERM);
-        if !alive {
+        if !process_running(pid) {
             std::fs::remove_file(e.path()).map_err(|err| Error::File {
                 path: e.path().display().to_string(),
                 msg: format!("cannot remove a killed run's temporary file: {err}"),

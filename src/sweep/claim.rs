@@ -1,6 +1,9 @@
-//! Job claims: the one process that runs job NNNNN holds `jobs/NNNNN/claim.json`, created with
-//! O_EXCL (`create_new`, atomic on local and NFS v3+ file systems), holding its host, pid, the
-//! process's start time (clock ticks since boot, `/proc/<pid>/stat` field 22) and the boot id.
+//! Job claims: the one process that runs job NNNNN holds `jobs/NNNNN/claim.json`, holding its
+//! host, pid, the process's start time (clock ticks since boot, `/proc/<pid>/stat` field 22) and
+//! the boot id. The claim is written whole to a temporary file and then hard-linked to its name
+//! (link(2) fails when the name exists: atomic on local and NFS file systems), so a process
+//! killed while claiming never leaves an empty claim; where hard links are refused the file is
+//! created with O_EXCL and then written.
 //!
 //! A claim is live when, on its own host, a process of that pid with that start time and boot
 //! exists (a reused pid has another start time); a claim of another host is live while its
@@ -43,12 +46,19 @@ fn read_trim(p: &str) -> String {
         .unwrap_or_default()
 }
 
-/// The start time of process `pid` (field 22 of `/proc/<pid>/stat`), None when it is gone.
+/// The start time of process `pid` (field 22 of `/proc/<pid>/stat`), None when it is gone or
+/// has ended and not yet been reaped: a zombie (state `Z`, or `X` while being reaped) keeps its
+/// `/proc` entry until its parent waits for it, and a job process whose runner was killed is
+/// reparented to an init that, in some containers, never does.
 fn start_ticks(pid: u32) -> Option<u64> {
     let stat = std::fs::read_to_string(format!("/proc/{pid}/stat")).ok()?;
     // The command name (field 2) is in parentheses and may hold spaces: count after the last ')'.
-    let after = &stat[stat.rfind(')')? + 1..];
-    after.split_whitespace().nth(19)?.parse().ok()
+    let mut fields = stat[stat.rfind(')')? + 1..].split_whitespace();
+    let state = fields.next()?;
+    if state == "Z" || state == "X" {
+        return None;
+    }
+    fields.nth(18)?.parse().ok()
 }
 
 impl Owner {
@@ -136,8 +146,33 @@ fn io_err(path: &Path, e: std::io::Error) -> Error {
     }
 }
 
-/// Creates `path` with O_EXCL holding `text`; false when it exists.
+/// Creates `path` holding `text` unless it exists (false then): written whole to a temporary
+/// and hard-linked to `path`, so `path` never exists with part of `text`.
 fn create_exclusive(path: &Path, text: &str) -> Result<bool> {
+    let dir = path.parent().unwrap_or(Path::new("."));
+    let name = path
+        .file_name()
+        .map(|n| n.to_string_lossy().into_owned())
+        .unwrap_or_default();
+    static COUNTER: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(0);
+    let k = COUNTER.fetch_add(1, Ordering::Relaxed);
+    // named as `crate::io::write_atomic`'s temporaries, which remove_stale_temporaries clears
+    let tmp = dir.join(format!(".{name}.tmp-{}-{k}", std::process::id()));
+    std::fs::write(&tmp, text.as_bytes())
+        .and_then(|_| std::fs::File::open(&tmp)?.sync_all())
+        .map_err(|e| io_err(&tmp, e))?;
+    let linked = std::fs::hard_link(&tmp, path);
+    let _ = std::fs::remove_file(&tmp);
+    match linked {
+        Ok(()) => Ok(true),
+        Err(e) if e.kind() == std::io::ErrorKind::AlreadyExists => Ok(false),
+        // a file system without hard links (EPERM, EOPNOTSUPP)
+        Err(_) => create_exclusive_then_write(path, text),
+    }
+}
+
+/// Creates `path` with O_EXCL and writes `text` into it; false when it exists.
+fn create_exclusive_then_write(path: &Path, text: &str) -> Result<bool> {
     match std::fs::OpenOptions::new()
         .write(true)
         .create_new(true)
@@ -163,12 +198,15 @@ fn remove_dead(d: &Path, seen: &str) -> Result<bool> {
         &mutex,
         &serde_json::to_string(&Owner::me()).unwrap_or_default(),
     )? {
-        let old = std::fs::metadata(&mutex)
+        let age = std::fs::metadata(&mutex)
             .and_then(|m| m.modified())
             .ok()
-            .and_then(|m| SystemTime::now().duration_since(m).ok())
-            .is_some_and(|a| a > TAKEOVER_STALE);
-        if old {
+            .and_then(|m| SystemTime::now().duration_since(m).ok());
+        let holder_ended = std::fs::read_to_string(&mutex)
+            .ok()
+            .and_then(|t| serde_json::from_str::<Owner>(&t).ok())
+            .is_some_and(|o| !o.is_live(age.unwrap_or_default()));
+        if holder_ended || age.is_some_and(|a| a > TAKEOVER_STALE) {
             let _ = std::fs::remove_file(&mutex);
         }
         return Ok(false);
@@ -189,6 +227,8 @@ pub fn try_claim(d: &Path) -> Result<Claimed> {
     let text = serde_json::to_string(&me).map_err(|e| Error::Validation(e.to_string()))?;
     for _ in 0..20 {
         if create_exclusive(&path, &text)? {
+            // under the claim: the temporaries of killed claimers can go
+            crate::io::remove_stale_temporaries(d)?;
             let stop = Arc::new(AtomicBool::new(false));
             let (p, s) = (path.clone(), stop.clone());
             std::thread::spawn(move || {
@@ -309,6 +349,58 @@ mod tests {
         };
         assert!(far.is_live(HEARTBEAT));
         assert!(!far.is_live(STALE_AFTER + HEARTBEAT));
+    }
+
+    #[test]
+    fn a_killed_holder_not_yet_reaped_is_dead() {
+        // A job process whose runner was killed is reparented to init; where init never reaps
+        // (some containers), it stays a zombie with its /proc entry and start time.
+        let mut child = std::process::Command::new("sleep")
+            .arg("30")
+            .spawn()
+            .unwrap();
+        let pid = child.id();
+        let holder = Owner {
+            pid,
+            start_ticks: start_ticks(pid).expect("a running child has a start time"),
+            ..Owner::me()
+        };
+        assert!(holder.is_live(Duration::ZERO));
+        child.kill().unwrap();
+        let zombie = (0..500).any(|_| {
+            std::thread::sleep(Duration::from_millis(2));
+            std::fs::read_to_string(format!("/proc/{pid}/stat"))
+                .is_ok_and(|s| s[s.rfind(')').unwrap() + 1..].trim_start().starts_with('Z'))
+        });
+        assert!(
+            zombie,
+            "the killed child did not become a zombie within 1 s"
+        );
+        assert!(!holder.is_live(Duration::ZERO), "a zombie holds no claim");
+        child.wait().unwrap();
+    }
+
+    #[test]
+    fn a_claimer_killed_mid_claim_leaves_no_live_claim() {
+        // What a claimer killed between its temporary and the link leaves: the temporary (its
+        // pid has ended), and no claim.json; the next claimer takes the job and clears it.
+        let d = folder("killed-claimer");
+        let mut child = std::process::Command::new("true").spawn().unwrap();
+        let pid = child.id();
+        child.wait().unwrap();
+        let stale = d.join(format!(".{CLAIM}.tmp-{pid}-0"));
+        std::fs::write(&stale, "{").unwrap();
+        assert!(live_holder(&d).is_none());
+        let Claimed::Mine(c) = try_claim(&d).unwrap() else {
+            panic!("a folder with a killed claimer's temporary is claimed")
+        };
+        assert!(!stale.exists(), "the killed claimer's temporary is cleared");
+        let names: Vec<_> = std::fs::read_dir(&d)
+            .unwrap()
+            .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+            .collect();
+        assert_eq!(names, vec![CLAIM.to_string()]);
+        drop(c);
     }
 
     #[test]
