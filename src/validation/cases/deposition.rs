@@ -520,20 +520,22 @@ pub fn case_607(ctx: &CaseContext) -> Result<Vec<Row>> {
 
 /// The measures of every run of the monodisperse sphere deposit of row `i` of a 608/609
 /// table (columns radius_m, particles, box_side_m, solids_percent, runs, and the stop rule:
-/// stop_supported_fraction, 0 for the seed's displacement rule, and max_sweeps), in parallel.
-/// A run that ends at max_sweeps fails the case.
+/// stop_window, stop_supported_fraction and stop_accepted_rate, 0 for neither (the seed's
+/// displacement rule), and max_sweeps), in parallel. A run that ends at max_sweeps fails the
+/// case.
 fn sphere_deposit_runs(
     t: &crate::validation::Table,
     i: usize,
     seed: u64,
     id: &str,
 ) -> Result<Vec<crate::deposition::measure::DepositMeasures>> {
-    let supported = t.f64(i, "stop_supported_fraction")?;
-    let rest_rule = if supported > 0.0 {
-        format!("stop_supported_fraction = {supported}\n")
-    } else {
-        String::new()
-    };
+    let mut rest_rule = format!("stop_window = {}\n", t.f64(i, "stop_window")? as u64);
+    for key in ["stop_supported_fraction", "stop_accepted_rate"] {
+        let v = t.f64(i, key)?;
+        if v > 0.0 {
+            rest_rule += &format!("{key} = {v}\n");
+        }
+    }
     let text = format!(
         "kind = \"deposition\"\nseed = {seed}\nruns = {}\n[film]\nparticles = {}\n\
          box_side_m = {}\nsolids_percent = {}\n[[species]]\nname = \"sphere\"\n\
@@ -594,6 +596,12 @@ pub fn case_608(ctx: &CaseContext) -> Result<Vec<Row>> {
     let seed = required_seed(ctx, "case 608 needs a seed")?;
     (0..t.len())
         .map(|i| {
+            let rate = t.f64(i, "stop_accepted_rate")?;
+            let what = if rate > 0.0 {
+                format!("core packing fraction, accepted-move rest rule {rate}")
+            } else {
+                "core packing fraction".to_string()
+            };
             let phis: Vec<f64> = sphere_deposit_runs(&t, i, seed, "case 608")?
                 .iter()
                 .map(|m| {
@@ -602,7 +610,7 @@ pub fn case_608(ctx: &CaseContext) -> Result<Vec<Row>> {
                     })
                 })
                 .collect::<Result<_>>()?;
-            band_row(&t, i, "core packing fraction", &phis)
+            band_row(&t, i, &what, &phis)
         })
         .collect()
 }
