@@ -219,7 +219,8 @@ mod tests {
         assert_eq!(first_quiet + 1, out.sweeps as usize);
         // it ran long enough to settle: every sphere within 0.05 r of the substrate (acceptance 0.2 there, 4 times the threshold)
         assert!(out.sweeps > window && layer.poses.iter().all(|p| p.position.z - r < 0.05 * r));
-        // a free sphere: about half its trials accepted, so no window is quiet
+        // a free sphere: about half its trials accepted, so no window of 200 is quiet (fewer than
+        // 40 of 200 accepted: 8.5 standard deviations below the mean)
         let free = Layer {
             grains: vec![g],
             poses: vec![GrainPose {
@@ -230,6 +231,7 @@ mod tests {
             film_height_m: 1e3 * r,
         };
         let stop = StopRule {
+            window: 200,
             max_sweeps: 2000,
             accepted_rate: Some(0.2),
             ..stop
