@@ -2,7 +2,7 @@
 //! bits, so that a run restored from it continues bitwise as the uninterrupted run would:
 //! every grain's pose, the film height, the run's random stream (seed, stream and word
 //! position of its ChaCha8), the cell list's layering and member order (which decide the
-//! prefilter counts), the drainage speed of the next sweep, the stop rule's window sum, mean
+//! prefilter counts), the drainage speed of the next sweep, the stop rule's window sums, means
 //! and reference sweep, and the record of the sweeps so far. What the setup fixes (the grains,
 //! their sizes drawn from the run's stream before the start was built, the moves and the stop
 //! rule) is rebuilt from the setup and checked against the stored values.
@@ -39,6 +39,12 @@ pub struct DepositionState {
     pub v_m_s: u64,
     pub window_sum_m: u64,
     pub recent_m: u64,
+    /// The accepted-move rule's window sum and mean (bits); absent in checkpoints written
+    /// before that rule, then summed again from the history.
+    #[serde(default)]
+    pub window_accepted: Option<u64>,
+    #[serde(default)]
+    pub recent_acceptance: Option<u64>,
     pub reference_sweep: u64,
     pub sweeps: u64,
     pub moves: u64,
@@ -88,6 +94,8 @@ impl Deposition {
             v_m_s: self.v.to_bits(),
             window_sum_m: self.window_sum.to_bits(),
             recent_m: self.recent_m.to_bits(),
+            window_accepted: Some(self.window_accepted.to_bits()),
+            recent_acceptance: Some(self.recent_acceptance.to_bits()),
             reference_sweep: self.reference_sweep,
             sweeps: o.sweeps,
             moves: o.moves,
@@ -212,9 +220,22 @@ impl Deposition {
                 })
                 .collect(),
         };
-        let finite = [d.v, d.window_sum, d.recent_m]
+        let w = (d.stop.window.min(s.sweeps) as usize).min(d.outcome.history.len());
+        let summed = d.outcome.history[d.outcome.history.len() - w..]
             .iter()
-            .all(|x| x.is_finite())
+            .map(|h| h.acceptance)
+            .sum::<f64>();
+        d.window_accepted = s.window_accepted.map_or(summed, f);
+        d.recent_acceptance = s.recent_acceptance.map_or(summed / w.max(1) as f64, f);
+        let finite = [
+            d.v,
+            d.window_sum,
+            d.recent_m,
+            d.window_accepted,
+            d.recent_acceptance,
+        ]
+        .iter()
+        .all(|x| x.is_finite())
             && d.layer.poses.iter().all(|p| {
                 p.position.iter().all(|x| x.is_finite())
                     && p.orientation.coords.iter().all(|x| x.is_finite())

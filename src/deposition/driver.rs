@@ -102,6 +102,7 @@ mod tests {
             window: 50,
             max_sweeps: 50,
             supported: None,
+            accepted_rate: None,
         };
         let rng = ChaCha8Rng::seed_from_u64(1);
         let mut d = Deposition::from_layer(layer, Moves::table_b1(), stop, rng).unwrap();
@@ -134,6 +135,7 @@ mod tests {
             window: 5,
             max_sweeps: 40,
             supported: None,
+            accepted_rate: None,
         };
         let mut idle_first = 0;
         for seed in 0..16 {
@@ -162,5 +164,86 @@ mod tests {
         let rng = ChaCha8Rng::seed_from_u64(1);
         let jammed = run_layer(layer_at(r), Moves::table_b1(), stop, rng, &mut NoHooks);
         assert!(jammed.is_err());
+    }
+
+    /// The accepted-move rest rule: spheres settling onto the substrate run until the accepted
+    /// moves per particle per sweep, averaged over the window, fall below the threshold, and
+    /// stop at the first sweep where the history says so (read again here from the sweeps'
+    /// records); a free sphere (half its trials accepted) never meets it. The seed's
+    /// displacement rule stays the default.
+    #[test]
+    fn the_accepted_move_rule_stops_at_the_first_quiet_window() {
+        assert_eq!(StopRule::table_b1(10).accepted_rate, None);
+        let r = 0.5e-6;
+        let g = Grain::new([r; 3], 0, 2500.0, 1000.0, 9.8).unwrap();
+        let l = 8.0 * r;
+        let poses = (0..4)
+            .map(|k| GrainPose {
+                position: Vector3::new(
+                    (1.0 + 4.0 * (k % 2) as f64) * r,
+                    (1.0 + 4.0 * (k / 2) as f64) * r,
+                    1.3 * r,
+                ),
+                orientation: UnitQuaternion::identity(),
+            })
+            .collect();
+        let layer = Layer {
+            grains: vec![g; 4],
+            poses,
+            box_side_m: l,
+            film_height_m: 1.3 * r,
+        };
+        let (window, rate) = (20u64, 0.05);
+        let stop = StopRule {
+            fraction: 1e-300,
+            window,
+            max_sweeps: 100_000,
+            supported: None,
+            accepted_rate: Some(rate),
+        };
+        let rng = ChaCha8Rng::seed_from_u64(3);
+        let (layer, out) =
+            run_layer(layer.clone(), Moves::table_b1(), stop, rng, &mut NoHooks).unwrap();
+        assert!(out.converged);
+        let acc: Vec<f64> = out.history.iter().map(|h| h.acceptance).collect();
+        let reference = out
+            .history
+            .iter()
+            .position(|h| h.mean_displacement_m > 0.0)
+            .unwrap();
+        let quiet = |end: usize| {
+            end + 1 >= reference + window as usize
+                && acc[end + 1 - window as usize..=end].iter().sum::<f64>() / (window as f64) < rate
+        };
+        let first_quiet = (0..acc.len()).find(|&e| quiet(e)).unwrap();
+        assert_eq!(first_quiet + 1, out.sweeps as usize);
+        // it ran long enough to settle: every sphere within 0.05 r of the substrate (acceptance 0.2 there, 4 times the threshold)
+        assert!(out.sweeps > window && layer.poses.iter().all(|p| p.position.z - r < 0.05 * r));
+        // a free sphere: about half its trials accepted, so no window of 200 is quiet (fewer than
+        // 40 of 200 accepted: 8.5 standard deviations below the mean)
+        let free = Layer {
+            grains: vec![g],
+            poses: vec![GrainPose {
+                position: Vector3::new(r, r, 1e3 * r),
+                orientation: UnitQuaternion::identity(),
+            }],
+            box_side_m: l,
+            film_height_m: 1e3 * r,
+        };
+        let stop = StopRule {
+            window: 200,
+            max_sweeps: 2000,
+            accepted_rate: Some(0.2),
+            ..stop
+        };
+        let rng = ChaCha8Rng::seed_from_u64(4);
+        let (_, out) = run_layer(free, Moves::table_b1(), stop, rng, &mut NoHooks).unwrap();
+        assert!(!out.converged && out.sweeps == 2000);
+        // both rest rules at once are refused
+        let both = StopRule {
+            supported: Some(0.9),
+            ..stop
+        };
+        assert!(both.check().is_err());
     }
 }

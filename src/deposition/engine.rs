@@ -8,8 +8,10 @@
 //! rule compares the mean over the last `stop.window` sweeps (default 10) with the first
 //! sweep's: with a few hundred particles and a few per cent accepted, a single sweep can move
 //! nothing by chance while the layer is still settling, and the seed's rule read on one sweep
-//! would stop there. The at-rest rule (`stop.supported`) instead stops when a given fraction of
-//! the spheres is supported by its contacts (support.rs), read every `stop.window` sweeps.
+//! would stop there. Two rest rules may replace it: `stop.supported` stops when a given
+//! fraction of the spheres is supported by its contacts (support.rs), read every `stop.window`
+//! sweeps; `stop.accepted_rate` stops when the accepted moves per particle per sweep, averaged
+//! over the window, fall below a threshold (at T = 0 a deposit at rest accepts no move).
 
 use super::cells::{wrap_xy, Cells};
 use super::energy::accept;
@@ -66,6 +68,10 @@ pub struct Deposition {
     pub(super) window_sum: f64,
     /// Their mean after the last sweep, m.
     pub(super) recent_m: f64,
+    /// Sum of the accepted fractions of the last `stop.window` sweeps.
+    pub(super) window_accepted: f64,
+    /// Their mean after the last sweep: accepted moves per particle per sweep.
+    pub(super) recent_acceptance: f64,
     /// The first sweep that moved a particle (0: none yet): the stop rule's reference.
     pub(super) reference_sweep: u64,
     pub(super) outcome: DepositionOutcome,
@@ -129,6 +135,8 @@ impl Deposition {
             v: 0.0,
             window_sum: 0.0,
             recent_m: 0.0,
+            window_accepted: 0.0,
+            recent_acceptance: 0.0,
             reference_sweep: 0,
             outcome: DepositionOutcome {
                 sweeps: 0,
@@ -155,6 +163,12 @@ impl Deposition {
     /// The mean displacement per sweep over the stop rule's window after the last sweep, m.
     pub fn recent_displacement_m(&self) -> f64 {
         self.recent_m
+    }
+
+    /// The accepted moves per particle per sweep over the stop rule's window after the last
+    /// sweep.
+    pub fn recent_acceptance(&self) -> f64 {
+        self.recent_acceptance
     }
 
     /// The stop value: `stop.fraction` times the first sweep's mean displacement, m.
@@ -191,7 +205,10 @@ impl Deposition {
         let mut accepted = 0u64;
         for j in 0..n {
             let g = layer.grains[j];
-            let m = moves::draw(rng, params.k_max_m2, &g.inertia_per_volume_m2);
+            let mut m = moves::draw(rng, params.k_max_m2, &g.inertia_per_volume_m2);
+            if params.isotropic_directions {
+                m = moves::isotropic(rng, m);
+            }
             let old = layer.poses[j];
             let t = Vector3::from(m.translation_m);
             let mut trial = GrainPose {
@@ -258,31 +275,36 @@ impl Deposition {
             }
         }
         let stop = self.stop.fraction * out.first_displacement_m;
-        // Running sum over the window (exact re-summation every 4096 sweeps against drift).
+        // Running sums over the window (exact re-summation every 4096 sweeps against drift).
         let window = self.stop.window;
         self.window_sum += mean;
+        self.window_accepted += record.acceptance;
         if sweep > window {
-            self.window_sum -= out.history[(sweep - window - 1) as usize].mean_displacement_m;
+            let old = &out.history[(sweep - window - 1) as usize];
+            self.window_sum -= old.mean_displacement_m;
+            self.window_accepted -= old.acceptance;
         }
         let w = window.min(sweep) as usize;
         if sweep.is_multiple_of(4096) {
-            self.window_sum = out.history[out.history.len() - w..]
-                .iter()
-                .map(|h| h.mean_displacement_m)
-                .sum::<f64>();
+            let last = &out.history[out.history.len() - w..];
+            self.window_sum = last.iter().map(|h| h.mean_displacement_m).sum::<f64>();
+            self.window_accepted = last.iter().map(|h| h.acceptance).sum::<f64>();
         }
         self.recent_m = self.window_sum / w as f64;
+        self.recent_acceptance = self.window_accepted / w as f64;
         // the window holds only sweeps from the reference on
-        let since_reference = (sweep + 1).saturating_sub(self.reference_sweep.max(1));
-        let at_rest = match self.stop.supported {
-            None => {
-                self.reference_sweep > 0 && since_reference >= window.max(2) && self.recent_m < stop
-            }
+        let window_full = self.reference_sweep > 0
+            && (sweep + 1).saturating_sub(self.reference_sweep) >= window.max(2);
+        let at_rest = match (self.stop.supported, self.stop.accepted_rate) {
             // the at-rest rule: the supported fraction, read every window sweeps
-            Some(target) => {
+            (Some(target), _) => {
                 sweep.is_multiple_of(window)
                     && support::supported_fraction(&self.layer).is_some_and(|s| s >= target)
             }
+            // the accepted-move rest rule
+            (None, Some(rate)) => window_full && self.recent_acceptance < rate,
+            // the seed's displacement rule
+            (None, None) => window_full && self.recent_m < stop,
         };
         if at_rest {
             out.converged = true;
@@ -368,13 +390,7 @@ mod tests {
             let m = moves::draw(&mut rng, 1e-14, &g.inertia_per_volume_m2);
             let t = Vector3::from(m.translation_m);
             seed_rule += u32::from(t.z < 0.0 && fits(t));
-            let v = loop {
-                let v = Vector3::from_fn(|_, _| rng.gen::<f64>() * 2.0 - 1.0);
-                if (1e-3..=1.0).contains(&v.norm()) {
-                    break v.normalize();
-                }
-            };
-            let t = v * t.norm();
+            let t = Vector3::from(moves::isotropic(&mut rng, m).translation_m);
             isotropic += u32::from(t.z < 0.0 && fits(t));
         }
         assert!(isotropic >= 20, "isotropic {isotropic}");

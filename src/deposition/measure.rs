@@ -54,6 +54,9 @@ pub struct DepositMeasures {
     /// Fraction of the spheres at rest on their contacts (support.rs; None unless all grains
     /// are spheres).
     pub supported_fraction: Option<f64>,
+    /// Mean count per sphere of its contacts below the centre (other spheres within 1 % of d,
+    /// and the substrate as one; support.rs; None unless all grains are spheres).
+    pub contacts_below_per_sphere: Option<f64>,
     #[serde(skip)]
     pub profile: Vec<ProfileBin>,
 }
@@ -144,6 +147,7 @@ pub fn measure(layer: &Layer, n_species: usize, opts: &MeasureOptions) -> Result
         count_by_species,
         first_layer_coverage: hm.first_layer_coverage(),
         supported_fraction: super::support::supported_fraction(layer),
+        contacts_below_per_sphere: super::support::mean_contacts_below(layer),
         profile,
     })
 }

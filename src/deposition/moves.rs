@@ -72,6 +72,25 @@ pub fn draw<R: Rng>(rng: &mut R, k_max_m2: f64, inertia_per_volume_m2: &[f64; 3]
     }
 }
 
+/// The same move with its translation turned to a direction drawn uniformly on the sphere,
+/// its length (eq. A16's) kept: not the seed's rule, a probe of eq. A16's direction bias.
+/// The direction is drawn from `rng` after the move (three uniforms per try, rejection from
+/// the cube).
+pub fn isotropic<R: Rng>(rng: &mut R, m: Move) -> Move {
+    let t = Vector3::from(m.translation_m);
+    let dir = loop {
+        let v = Vector3::from_fn(|_, _| rng.gen::<f64>() * 2.0 - 1.0);
+        let n2 = v.norm_squared();
+        if (1e-6..=1.0).contains(&n2) {
+            break v / n2.sqrt();
+        }
+    };
+    Move {
+        translation_m: (dir * t.norm()).into(),
+        ..m
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -88,6 +107,35 @@ mod tests {
             assert!((k - m.budget_m2).abs() <= 1e-14 * m.budget_m2.max(1e-300) + 1e-300);
             assert!(m.budget_m2 <= 1e-14);
         }
+    }
+
+    /// Isotropic directions keep eq. A16's lengths (so eq. A14), and a component is small
+    /// against the others as often as isotropy says: |dz| / |t| below 0.01 in 1 % of the draws
+    /// (uniform cos theta), where eq. A16's directions give it far more rarely.
+    #[test]
+    fn isotropic_directions_keep_lengths_and_are_uniform() {
+        let mut rng = ChaCha8Rng::seed_from_u64(9);
+        let ipv = [0.1e-12; 3];
+        let n = 200_000;
+        let (mut near_plane_iso, mut near_plane_seed) = (0u32, 0u32);
+        for _ in 0..n {
+            let m = draw(&mut rng, 1e-14, &ipv);
+            let iso = isotropic(&mut rng, m);
+            let (t, ti) = (
+                Vector3::from(m.translation_m),
+                Vector3::from(iso.translation_m),
+            );
+            assert!((t.norm() - ti.norm()).abs() <= 1e-12 * t.norm());
+            assert!((iso.kinetic_measure(&ipv) - m.budget_m2).abs() <= 1e-13 * m.budget_m2);
+            near_plane_iso += u32::from(ti.z.abs() < 0.01 * ti.norm());
+            near_plane_seed += u32::from(t.z.abs() < 0.01 * t.norm());
+        }
+        // binomial(200000, 0.01): 2000 +- 45; 5 standard deviations
+        assert!(
+            (near_plane_iso as f64 - 2000.0).abs() < 225.0,
+            "{near_plane_iso}"
+        );
+        assert!(10 * near_plane_seed < near_plane_iso, "{near_plane_seed}");
     }
 
     #[test]

@@ -20,6 +20,10 @@ pub struct Moves {
     pub time_unit_s: f64,
     /// kT, J (0: the seed's T = 0).
     pub kt_j: f64,
+    /// Translation directions uniform on the sphere, keeping eq. A16's lengths: not the
+    /// seed's rule (eq. A16 draws each component as the signed square root of a uniform
+    /// share, so directions near a coordinate plane are rare). False: the seed's.
+    pub isotropic_directions: bool,
 }
 
 impl Moves {
@@ -35,6 +39,7 @@ impl Moves {
             },
             time_unit_s: 1.0,
             kt_j: 0.0,
+            isotropic_directions: false,
         }
     }
 
@@ -61,7 +66,8 @@ fn positive(name: &str, v: f64) -> Result<()> {
 }
 
 /// When the deposit stops: the mean displacement per sweep, averaged over the last `window`
-/// sweeps, below `fraction` of the first sweep's (see `engine.rs`), or `max_sweeps`.
+/// sweeps, below `fraction` of the first sweep's (the seed's rule, see `engine.rs`), or one of
+/// the rest rules instead (`supported`, `accepted_rate`), or `max_sweeps`.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct StopRule {
     /// Stop below this fraction of the first sweep's mean displacement.
@@ -74,6 +80,10 @@ pub struct StopRule {
     /// is supported (support.rs), checked every `window` sweeps (spheres only). None: the
     /// seed's displacement rule.
     pub supported: Option<f64>,
+    /// The accepted-move rest rule instead of the seed's: stop when the accepted moves per
+    /// particle per sweep, averaged over the last `window` sweeps (counted from the first
+    /// sweep that moved), fall below this. None: not used.
+    pub accepted_rate: Option<f64>,
 }
 
 impl StopRule {
@@ -84,6 +94,7 @@ impl StopRule {
             window: 10,
             max_sweeps,
             supported: None,
+            accepted_rate: None,
         }
     }
 
@@ -107,6 +118,16 @@ impl StopRule {
         if let Some(s) = self.supported {
             if !(s > 0.0 && s <= 1.0) {
                 return invalid(format!("stop_supported_fraction = {s}: must be in (0, 1]"));
+            }
+        }
+        if let Some(a) = self.accepted_rate {
+            if !(a > 0.0 && a < 1.0) {
+                return invalid(format!("stop_accepted_rate = {a}: must be in (0, 1)"));
+            }
+            if self.supported.is_some() {
+                return invalid(
+                    "stop_accepted_rate and stop_supported_fraction: give at most one rest rule",
+                );
             }
         }
         Ok(())
@@ -301,6 +322,16 @@ impl Setup {
         }
         if self.moves.kt_j > 0.0 {
             t.push("Metropolis at T > 0".into());
+        }
+        if self.moves.isotropic_directions {
+            t.push("isotropic move directions (not the seed's eq. A16)".into());
+        }
+        if let Some(a) = self.stop.accepted_rate {
+            t.push(format!(
+                "accepted-move rest rule ({a} per particle per sweep)"
+            ));
+        } else if let Some(s) = self.stop.supported {
+            t.push(format!("supported-fraction rest rule ({s})"));
         }
         t
     }

@@ -21,6 +21,17 @@ pub const CONTACT_GAP_FRACTION: f64 = 0.01;
 
 /// Whether each sphere of `layer` is supported (module doc); None when a grain is not a sphere.
 pub fn supported(layer: &Layer, gap_fraction: f64) -> Option<Vec<bool>> {
+    Some(
+        contacts_below(layer, gap_fraction)?
+            .into_iter()
+            .map(|(s, _)| s)
+            .collect(),
+    )
+}
+
+/// Per sphere of `layer`: whether it is supported (module doc) and its contacts below the
+/// centre (other spheres, and the substrate as one); None when a grain is not a sphere.
+pub fn contacts_below(layer: &Layer, gap_fraction: f64) -> Option<Vec<(bool, usize)>> {
     if layer.grains.iter().any(|g| !g.is_sphere) {
         return None;
     }
@@ -47,10 +58,7 @@ pub fn supported(layer: &Layer, gap_fraction: f64) -> Option<Vec<bool>> {
     let mut out = Vec::with_capacity(n);
     for i in 0..n {
         let (c, ri) = (pos[i], radius[i]);
-        if c.z - ri < gap_fraction * 2.0 * ri {
-            out.push(true);
-            continue;
-        }
+        let on_substrate = c.z - ri < gap_fraction * 2.0 * ri;
         let (kx, ky, kz) = key(&c);
         let mut angles: Vec<f64> = Vec::new();
         let mut under_centre = false;
@@ -92,7 +100,11 @@ pub fn supported(layer: &Layer, gap_fraction: f64) -> Option<Vec<bool>> {
                 }
             }
         }
-        out.push(under_centre || encloses_origin(&mut angles));
+        let below = angles.len() + usize::from(under_centre) + usize::from(on_substrate);
+        out.push((
+            on_substrate || under_centre || encloses_origin(&mut angles),
+            below,
+        ));
     }
     Some(out)
 }
@@ -102,6 +114,13 @@ pub fn supported(layer: &Layer, gap_fraction: f64) -> Option<Vec<bool>> {
 pub fn supported_fraction(layer: &Layer) -> Option<f64> {
     let s = supported(layer, CONTACT_GAP_FRACTION)?;
     (!s.is_empty()).then(|| s.iter().filter(|&&b| b).count() as f64 / s.len() as f64)
+}
+
+/// The mean count of contacts below the centre per sphere ([`contacts_below`] with
+/// [`CONTACT_GAP_FRACTION`]); None when a grain is not a sphere or the layer is empty.
+pub fn mean_contacts_below(layer: &Layer) -> Option<f64> {
+    let c = contacts_below(layer, CONTACT_GAP_FRACTION)?;
+    (!c.is_empty()).then(|| c.iter().map(|&(_, k)| k as f64).sum::<f64>() / c.len() as f64)
 }
 
 /// Whether points at these polar angles around the origin enclose it strictly: every angular
@@ -160,6 +179,9 @@ mod tests {
             supported(&layer(&c, r, l), 0.01).unwrap(),
             vec![true, true, false]
         );
+        // contacts below: the substrate for the two below, the two of them for the ridge
+        let below = contacts_below(&layer(&c, r, l), 0.01).unwrap();
+        assert_eq!(below.iter().map(|b| b.1).collect::<Vec<_>>(), vec![1, 1, 2]);
         // across the periodic boundary: the same pocket shifted by -5.5 in x
         let mut c: Vec<[f64; 3]> = base
             .iter()

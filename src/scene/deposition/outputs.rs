@@ -66,6 +66,10 @@ fn scalars(r: &RunResult) -> Vec<(String, Option<f64>)> {
             Some(m.first_layer_coverage),
         ),
         ("supported_fraction".to_string(), m.supported_fraction),
+        (
+            "contacts_below_per_sphere".to_string(),
+            m.contacts_below_per_sphere,
+        ),
         ("sweeps".to_string(), Some(o.sweeps as f64)),
         (
             "acceptance".to_string(),

@@ -250,8 +250,15 @@ fn run_parsed(
     store.remove()?;
     let ens = ensemble(&results);
     let core = ens.iter().find(|r| r.0 == "core_porosity");
+    // spheres only: the fraction at rest on their contacts (support.rs)
+    let supported = ens
+        .iter()
+        .find(|r| r.0 == "supported_fraction" && r.3 > 0)
+        .map(|r| format!("; supported fraction {}", fmt_mean(Some(r))))
+        .unwrap_or_default();
     println!(
-        "deposition: {} runs in {:.1} s; layer porosity {}; core porosity {}; outputs in {}",
+        "deposition: {} runs in {:.1} s; layer porosity {}; core porosity {}{supported}; \
+         outputs in {}",
         results.len(),
         t0.elapsed().as_secs_f64(),
         fmt_mean(ens.iter().find(|r| r.0 == "layer_porosity")),

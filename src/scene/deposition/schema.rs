@@ -262,6 +262,8 @@ struct MovesSpec {
     stop_fraction: f64,
     stop_window: u64,
     stop_supported_fraction: Option<f64>,
+    stop_accepted_rate: Option<f64>,
+    isotropic_directions: bool,
     max_sweeps: u64,
     gravity: bool,
     drag: bool,
@@ -277,6 +279,8 @@ impl Default for MovesSpec {
             stop_fraction: 1e-3,
             stop_window: 10,
             stop_supported_fraction: None,
+            stop_accepted_rate: None,
+            isotropic_directions: false,
             max_sweeps: 200_000,
             gravity: true,
             drag: true,
@@ -558,12 +562,14 @@ impl MovesSpec {
             },
             time_unit_s: self.time_unit_s,
             kt_j: crate::consts::KB * self.temperature_k,
+            isotropic_directions: self.isotropic_directions,
         };
         let stop = StopRule {
             fraction: self.stop_fraction,
             window: self.stop_window,
             max_sweeps: self.max_sweeps,
             supported: self.stop_supported_fraction,
+            accepted_rate: self.stop_accepted_rate,
         };
         moves
             .check()

@@ -129,3 +129,37 @@ fn a_foreign_state_is_refused() {
         .to_string();
     assert!(e.contains("cell list"), "{e}");
 }
+
+/// 150 spheres under the accepted-move rest rule with isotropic directions (both not the
+/// seed's): the run ends by the rule, the summary says which rules ran and holds the supported
+/// fraction; both rest rules at once are refused, naming the keys.
+#[test]
+fn sphere_scene_with_the_rest_rule_reports_its_supported_fraction() {
+    let text = "kind = \"deposition\"\nseed = 3\nruns = 1\n[film]\nparticles = 150\n\
+                box_side_m = 5e-6\nsolids_percent = 65\n[[species]]\nname = \"sphere\"\n\
+                semi_axes_m = [0.5e-6, 0.5e-6, 0.5e-6]\n[deposition]\nstop_window = 100\n\
+                stop_accepted_rate = 0.01\nisotropic_directions = true\nmax_sweeps = 100000\n";
+    let d = std::env::temp_dir().join(format!("porelab-dep-rest-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&d);
+    run_scene(text, "test", &d, &quiet()).unwrap();
+    let read = |f: &str| -> serde_json::Value {
+        serde_json::from_str(&std::fs::read_to_string(d.join(f)).unwrap()).unwrap()
+    };
+    let run = read("run-000/summary.json");
+    assert_eq!(run["converged"], true);
+    let s = run["measures"]["supported_fraction"].as_f64().unwrap();
+    assert!(s > 0.0 && s <= 1.0, "{s}");
+    let terms = read("summary.json")["active_terms"].to_string();
+    assert!(
+        terms.contains("isotropic move directions") && terms.contains("accepted-move rest rule")
+    );
+    let both = text.replace("max_sweeps", "stop_supported_fraction = 0.9\nmax_sweeps");
+    let e = run_scene(&both, "test", &d, &quiet())
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("stop_accepted_rate") && e.contains("stop_supported_fraction"),
+        "{e}"
+    );
+    let _ = std::fs::remove_dir_all(&d);
+}

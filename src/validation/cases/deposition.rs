@@ -401,13 +401,11 @@ register!("606" => case_606);
 /// Case 606: a periodic square column of side L, d < L < sqrt(2) d: one sphere per layer,
 /// each ends in the hollow of the one below, z_k - z_(k-1) = sqrt(d^2 - L^2/2) (z_1 = r).
 /// The spheres are released one at a time, each 1 d above the top of the settled stack, and
-/// each stage runs twice from the same start and random stream: to the row's stop fraction f
-/// and to f / 100. The second run continues the first's trajectory exactly (the stop rule
-/// draws no random number), so the two show how far the rest height still falls once the
-/// stop rule is tightened. Row per layer: the remaining gap e = (z_k - z_(k-1)) - dz at f / 100
-/// against 0, within |e(f) - e(f / 100)|: a gap that vanishes with the stop value like
-/// f^(1/p) for p <= 6.6 (at least halving over the factor 100) passes; a sphere locked above
-/// its hollow (a gap that does not fall with f) fails.
+/// each stage runs to the row's stop rule. Row per layer: the remaining gap
+/// e = (z_k - z_(k-1)) - dz against 0, within the residual that stop rule leaves at T = 0
+/// (columns residual_substrate_m for layer 1 and residual_hollow_m above it: the largest gap of
+/// independent walkers under the same rule, reference/scripts/deposition_stop_residual_606.py).
+/// A sphere locked on a ridge top (0.15-0.29 d up) fails.
 pub fn case_606(ctx: &CaseContext) -> Result<Vec<Row>> {
     let t = ctx.expected_table()?;
     let seed = required_seed(ctx, "case 606 needs a seed")?;
@@ -420,6 +418,10 @@ pub fn case_606(ctx: &CaseContext) -> Result<Vec<Row>> {
         let k = t.f64(i, "k_max_m2")?;
         let fraction = t.f64(i, "stop_fraction")?;
         let window = t.f64(i, "stop_window")? as u64;
+        let residual = [
+            t.f64(i, "residual_substrate_m")?,
+            t.f64(i, "residual_hollow_m")?,
+        ];
         let g = Grain::new([r; 3], 0, 2500.0, 1000.0, 9.8)?;
         let dz = (d * d - l * l / 2.0).sqrt();
         let mut poses: Vec<GrainPose> = Vec::new();
@@ -435,44 +437,37 @@ pub fn case_606(ctx: &CaseContext) -> Result<Vec<Row>> {
                 ),
                 orientation: UnitQuaternion::identity(),
             });
-            let gap = |layer: &Layer| {
-                let mut z: Vec<f64> = layer.poses.iter().map(|p| p.position.z).collect();
-                z.sort_by(f64::total_cmp);
-                if j == 0 {
-                    z[0] - r
-                } else {
-                    z[j] - z[j - 1] - dz
-                }
+            let (moves, mut stop) = params(k, 20_000_000, fraction);
+            stop.window = window;
+            let layer = layer_of(vec![g; j + 1], poses.clone(), l);
+            let (layer, out) = run_layer(layer, moves, stop, rng, &mut NoHooks)?;
+            if !out.converged {
+                return Err(Error::Validation(format!(
+                    "case 606: no convergence in {} sweeps (L = {:.3} d, sphere {})",
+                    out.sweeps,
+                    l / d,
+                    j + 1
+                )));
+            }
+            let mut z: Vec<f64> = layer.poses.iter().map(|p| p.position.z).collect();
+            z.sort_by(f64::total_cmp);
+            let gap = if j == 0 {
+                z[0] - r
+            } else {
+                z[j] - z[j - 1] - dz
             };
-            let stage = |f: f64| -> Result<(Layer, u64)> {
-                let (moves, mut stop) = params(k, 20_000_000, f);
-                stop.window = window;
-                let layer = layer_of(vec![g; j + 1], poses.clone(), l);
-                let (layer, out) = run_layer(layer, moves, stop, rng.clone(), &mut NoHooks)?;
-                if !out.converged {
-                    return Err(Error::Validation(format!(
-                        "case 606: no convergence in {} sweeps (L = {:.3} d, sphere {})",
-                        out.sweeps,
-                        l / d,
-                        j + 1
-                    )));
-                }
-                Ok((layer, out.sweeps))
-            };
-            let (coarse, sweeps_coarse) = stage(fraction)?;
-            let (fine, sweeps_fine) = stage(fraction / 100.0)?;
-            let (e_coarse, e_fine) = (gap(&coarse), gap(&fine));
             rows.push(Row::new(
                 format!(
-                    "L = {:.3} d, layer {}: gap at f/100 (m; at f {e_coarse:.3e}; sweeps {sweeps_coarse} / {sweeps_fine})",
+                    "L = {:.3} d, layer {}: gap above its rest height (m; {} sweeps)",
                     l / d,
                     j + 1,
+                    out.sweeps
                 ),
-                e_fine,
+                gap,
                 0.0,
-                (e_coarse - e_fine).abs(),
+                residual[usize::from(j > 0)],
             ));
-            poses = fine.poses;
+            poses = layer.poses;
         }
     }
     Ok(rows)
@@ -525,20 +520,22 @@ pub fn case_607(ctx: &CaseContext) -> Result<Vec<Row>> {
 
 /// The measures of every run of the monodisperse sphere deposit of row `i` of a 608/609
 /// table (columns radius_m, particles, box_side_m, solids_percent, runs, and the stop rule:
-/// stop_supported_fraction, 0 for the seed's displacement rule, and max_sweeps), in parallel.
-/// A run that ends at max_sweeps fails the case.
+/// stop_window, stop_supported_fraction and stop_accepted_rate, 0 for neither (the seed's
+/// displacement rule), and max_sweeps), in parallel. A run that ends at max_sweeps fails the
+/// case.
 fn sphere_deposit_runs(
     t: &crate::validation::Table,
     i: usize,
     seed: u64,
     id: &str,
 ) -> Result<Vec<crate::deposition::measure::DepositMeasures>> {
-    let supported = t.f64(i, "stop_supported_fraction")?;
-    let rest_rule = if supported > 0.0 {
-        format!("stop_supported_fraction = {supported}\n")
-    } else {
-        String::new()
-    };
+    let mut rest_rule = format!("stop_window = {}\n", t.f64(i, "stop_window")? as u64);
+    for key in ["stop_supported_fraction", "stop_accepted_rate"] {
+        let v = t.f64(i, key)?;
+        if v > 0.0 {
+            rest_rule += &format!("{key} = {v}\n");
+        }
+    }
     let text = format!(
         "kind = \"deposition\"\nseed = {seed}\nruns = {}\n[film]\nparticles = {}\n\
          box_side_m = {}\nsolids_percent = {}\n[[species]]\nname = \"sphere\"\n\
@@ -599,6 +596,12 @@ pub fn case_608(ctx: &CaseContext) -> Result<Vec<Row>> {
     let seed = required_seed(ctx, "case 608 needs a seed")?;
     (0..t.len())
         .map(|i| {
+            let rate = t.f64(i, "stop_accepted_rate")?;
+            let what = if rate > 0.0 {
+                format!("core packing fraction, accepted-move rest rule {rate}")
+            } else {
+                "core packing fraction".to_string()
+            };
             let phis: Vec<f64> = sphere_deposit_runs(&t, i, seed, "case 608")?
                 .iter()
                 .map(|m| {
@@ -607,7 +610,7 @@ pub fn case_608(ctx: &CaseContext) -> Result<Vec<Row>> {
                     })
                 })
                 .collect::<Result<_>>()?;
-            band_row(&t, i, "core packing fraction", &phis)
+            band_row(&t, i, &what, &phis)
         })
         .collect()
 }
