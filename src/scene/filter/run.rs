@@ -6,11 +6,12 @@
 use super::checkpoint::Resumable;
 use super::flow::{bed_flow, fibre_reynolds, LatticeOptions};
 use super::outputs::{write_outputs, Outcome};
-use super::schema::{prepare, Drive, Plan};
+use super::schema::{prepare, Drive, FieldPlan, Plan};
 use crate::brownian::FieldSource;
 use crate::error::{invalid, Result};
 use crate::filter::{self, Filter, Setup};
 use crate::lbm::{SteadyBar, SteadyControl};
+use crate::magnetics::assembly_fast::TabulatedAssembly;
 use crate::scene::{on_threads, RunOptions};
 use std::path::Path;
 use std::time::Instant;
@@ -88,12 +89,20 @@ fn run_plan(
         Drive::PressureDrop(dp) => (flow.permeability_m2 * dp / (mu * depth_m), dp),
     };
     let reynolds = fibre_reynolds(u, plan.density_kg_m3, radius, mu)?;
-    let terms = match &plan.field {
-        Some(_) => {
-            "carrier flow (lattice, trilinear), magnetic force mu0 (m.grad)H of all fibres \
-                    (exact superposition), thermal noise"
+    let (field, field_report) = match plan.field {
+        Some(fp) => {
+            let (source, report) = build_field(fp)?;
+            (Some(source), Some(report))
         }
-        None => "carrier flow (lattice, trilinear), thermal noise; no field",
+        None => (None, None),
+    };
+    let terms = match &field_report {
+        Some(r) => format!(
+            "carrier flow (lattice, trilinear), magnetic force mu0 (m.grad)H of all fibres \
+             ({}), thermal noise",
+            r.describe()
+        ),
+        None => "carrier flow (lattice, trilinear), thermal noise; no field".to_string(),
     };
     if !quiet {
         eprintln!(
@@ -112,7 +121,7 @@ fn run_plan(
     let setup = Setup {
         flow: flow.at(u)?,
         bed: plan.bed,
-        field: plan.field.map(|a| Box::new(a) as Box<dyn FieldSource>),
+        field,
         moment: plan.moment,
         fluid: plan.fluid,
         particles: plan.particles,
@@ -133,8 +142,67 @@ fn run_plan(
             superficial_velocity_m_s: u,
             pressure_drop_pa: dp,
             reynolds,
+            field: field_report,
             stop,
             seconds: t0.elapsed().as_secs_f64(),
         },
     )))
+}
+
+/// What the summary states of the fibres' field: the method, the image cutoff and, for the
+/// tabulated superposition, the table's tolerance, images listed per point and build time.
+#[derive(Debug, Clone, Copy)]
+pub(super) struct FieldReport {
+    pub method: &'static str,
+    pub cutoff_m: f64,
+    pub table_tolerance: Option<f64>,
+    pub images_per_bin: Option<f64>,
+    pub build_seconds: f64,
+}
+
+impl FieldReport {
+    fn describe(&self) -> String {
+        match self.table_tolerance {
+            None => format!("exact superposition, cutoff {:e} m", self.cutoff_m),
+            Some(t) => format!(
+                "tabulated superposition, table tolerance {t:e}, cutoff {:e} m, {:.0} images \
+                 listed per point, built in {:.1} s",
+                self.cutoff_m,
+                self.images_per_bin.unwrap_or(0.0),
+                self.build_seconds
+            ),
+        }
+    }
+}
+
+/// The field source a plan asks for (the table built here, deterministically at any thread
+/// count) and its report.
+pub(super) fn build_field(plan: FieldPlan) -> Result<(Box<dyn FieldSource>, FieldReport)> {
+    let cutoff_m = plan.model.cutoff().map_or(f64::INFINITY, |c| c.radius_m);
+    Ok(match plan.table {
+        None => (
+            Box::new(plan.model),
+            FieldReport {
+                method: "exact",
+                cutoff_m,
+                table_tolerance: None,
+                images_per_bin: None,
+                build_seconds: 0.0,
+            },
+        ),
+        Some((spec, bin_edge_m)) => {
+            let tab = TabulatedAssembly::new(plan.model, spec, bin_edge_m, None)?;
+            let st = *tab.stats();
+            (
+                Box::new(tab),
+                FieldReport {
+                    method: "tabulated",
+                    cutoff_m,
+                    table_tolerance: Some(spec.tolerance),
+                    images_per_bin: Some(st.images_per_bin),
+                    build_seconds: st.build_seconds,
+                },
+            )
+        }
+    })
 }
