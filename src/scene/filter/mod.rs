@@ -88,11 +88,18 @@ impl super::Scene for Kind {
         "filter"
     }
     fn builtins(&self) -> Vec<Builtin> {
-        vec![Builtin {
-            name: "filter-quick",
-            about: "magnetic filter: 40 packed rods, 1 T along the flow, 400 particles, 3 cells deep (~20 s)",
-            toml: include_str!("../builtin/filter-quick.toml"),
-        }]
+        vec![
+            Builtin {
+                name: "filter-quick",
+                about: "magnetic filter: 40 packed rods, 1 T along the flow, 400 particles, 3 cells deep (~20 s)",
+                toml: include_str!("../builtin/filter-quick.toml"),
+            },
+            Builtin {
+                name: "filter-bed-200",
+                about: "magnetic filter: 200 packed fibres, tabulated field, 4000 particles, 3 cells deep",
+                toml: include_str!("../builtin/filter-bed-200.toml"),
+            },
+        ]
     }
     fn seed_key(&self) -> Option<&'static str> {
         Some("run.seed")

@@ -559,10 +559,16 @@ fn fibres_of(parts: &[XyzParticle], radius_m: f64, source: &str) -> Result<(f64,
 }
 
 /// Configurations that built-in scenes name in `bed.xyz`.
-const BUILTIN_XYZ: [(&str, &str); 1] = [(
-    "filter-rods.xyz",
-    include_str!("../builtin/filter-rods.xyz"),
-)];
+const BUILTIN_XYZ: [(&str, &str); 2] = [
+    (
+        "filter-rods.xyz",
+        include_str!("../builtin/filter-rods.xyz"),
+    ),
+    (
+        "filter-bed-200.xyz",
+        include_str!("../builtin/filter-bed-200.xyz"),
+    ),
+];
 
 /// (where, text) of the configuration `bed.xyz` names ([`read_configuration`]).
 fn read_xyz(xyz: &str, origin: &str) -> Result<(String, String)> {
