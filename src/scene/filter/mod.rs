@@ -68,6 +68,7 @@
 //! afresh.
 
 mod checkpoint;
+mod field;
 mod flow;
 mod outputs;
 mod run;

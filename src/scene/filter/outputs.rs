@@ -19,7 +19,7 @@ pub(super) struct Outcome {
     pub pressure_drop_pa: f64,
     pub reynolds: f64,
     /// The fibres' field (None without an applied field).
-    pub field: Option<super::run::FieldReport>,
+    pub field: Option<super::field::FieldReport>,
     pub stop: crate::filter::driver::Stop,
     pub seconds: f64,
 }

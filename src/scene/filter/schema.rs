@@ -81,7 +81,8 @@ pub(super) struct FieldSection {
 
 /// How the fibres' superposition is evaluated at a particle: every counting image by the
 /// exact kernel, or every counting image from one shared cylinder table
-/// ([`crate::magnetics::assembly_fast::TabulatedAssembly`]: the same images, taper and order, each kernel a table lookup).
+/// ([`crate::magnetics::assembly_fast::TabulatedAssembly`]: the same images, taper and order,
+/// each kernel a table lookup).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize)]
 #[serde(rename_all = "kebab-case")]
 pub(super) enum FieldMethod {

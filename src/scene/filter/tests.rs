@@ -120,7 +120,7 @@ fn field_of(
 ) {
     let text = builtin().replace("cutoff_m = 2.5e-3", &format!("cutoff_m = 2.5e-3\n{extra}"));
     let (_, plan) = schema::prepare(&text, "t.toml").unwrap();
-    let (field, _) = run::build_field(plan.field.unwrap()).unwrap();
+    let (field, _) = field::build_field(plan.field.unwrap()).unwrap();
     (plan.bed, field)
 }
 
