@@ -18,6 +18,8 @@ pub(super) struct Outcome {
     pub superficial_velocity_m_s: f64,
     pub pressure_drop_pa: f64,
     pub reynolds: f64,
+    /// The fibres' field (None without an applied field).
+    pub field: Option<super::field::FieldReport>,
     pub stop: crate::filter::driver::Stop,
     pub seconds: f64,
 }
@@ -89,15 +91,23 @@ pub(super) fn write_outputs(
     // lambda of a run that ended (with particles inside, the cells' counts are not final)
     let coefficient = f.filter_coefficient().filter(|_| c.inside == 0);
     let fibres = f.bed().fibres();
+    let field_model = match &o.field {
+        Some(r) if r.table_tolerance.is_some() => {
+            "the fibres' fields superposed from one cylinder table (every counting image)"
+        }
+        _ => "exact superposition of the fibres' fields",
+    };
     let summary = serde_json::json!({
         "scene": origin,
         "title": scene.title,
         "porelab_version": env!("CARGO_PKG_VERSION"),
         "threads": rayon::current_num_threads(),
-        "model": "dilute overdamped Brownian particles (no particle-particle forces or \
-                  hydrodynamics); fibres magnetized by the applied field alone (Stoner-Wohlfarth \
-                  with demagnetizing factors; mutual magnetization neglected); exact superposition \
-                  of the fibres' fields; Stokes flow from the lattice scaled to U",
+        "model": format!(
+            "dilute overdamped Brownian particles (no particle-particle forces or \
+             hydrodynamics); fibres magnetized by the applied field alone (Stoner-Wohlfarth \
+             with demagnetizing factors; mutual magnetization neglected); {field_model}; Stokes \
+             flow from the lattice scaled to U"
+        ),
         "bed": {
             "source": scene.bed.xyz,
             "fibres": fibres.len(),
@@ -119,6 +129,12 @@ pub(super) fn write_outputs(
             "lattice_residual": o.flow.residual,
         },
         "applied_field_T": scene.field.applied_T,
+        "field": o.field.map(|r| serde_json::json!({
+            "method": r.method,
+            "cutoff_m": r.cutoff_m,
+            "table_tolerance": r.table_tolerance,
+            "images_listed_per_point": r.images_per_bin,
+        })),
         "fed": c.fed,
         "captured": c.captured,
         "passed": c.passed,

@@ -4,10 +4,10 @@
 //! then the outputs.
 
 use super::checkpoint::Resumable;
+use super::field::build_field;
 use super::flow::{bed_flow, fibre_reynolds, LatticeOptions};
 use super::outputs::{write_outputs, Outcome};
 use super::schema::{prepare, Drive, Plan};
-use crate::brownian::FieldSource;
 use crate::error::{invalid, Result};
 use crate::filter::{self, Filter, Setup};
 use crate::lbm::{SteadyBar, SteadyControl};
@@ -88,12 +88,20 @@ fn run_plan(
         Drive::PressureDrop(dp) => (flow.permeability_m2 * dp / (mu * depth_m), dp),
     };
     let reynolds = fibre_reynolds(u, plan.density_kg_m3, radius, mu)?;
-    let terms = match &plan.field {
-        Some(_) => {
-            "carrier flow (lattice, trilinear), magnetic force mu0 (m.grad)H of all fibres \
-                    (exact superposition), thermal noise"
+    let (field, field_report) = match plan.field {
+        Some(fp) => {
+            let (source, report) = build_field(fp)?;
+            (Some(source), Some(report))
         }
-        None => "carrier flow (lattice, trilinear), thermal noise; no field",
+        None => (None, None),
+    };
+    let terms = match &field_report {
+        Some(r) => format!(
+            "carrier flow (lattice, trilinear), magnetic force mu0 (m.grad)H of all fibres \
+             ({}), thermal noise",
+            r.describe()
+        ),
+        None => "carrier flow (lattice, trilinear), thermal noise; no field".to_string(),
     };
     if !quiet {
         eprintln!(
@@ -112,7 +120,7 @@ fn run_plan(
     let setup = Setup {
         flow: flow.at(u)?,
         bed: plan.bed,
-        field: plan.field.map(|a| Box::new(a) as Box<dyn FieldSource>),
+        field,
         moment: plan.moment,
         fluid: plan.fluid,
         particles: plan.particles,
@@ -133,6 +141,7 @@ fn run_plan(
             superficial_velocity_m_s: u,
             pressure_drop_pa: dp,
             reynolds,
+            field: field_report,
             stop,
             seconds: t0.elapsed().as_secs_f64(),
         },

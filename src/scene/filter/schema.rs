@@ -14,6 +14,7 @@ use crate::io::xyz::{self, XyzParticle};
 use crate::lbm::voxels::voxel_dims;
 use crate::lbm::{CollisionKind, LatticeKind, Tau};
 use crate::magnetics::assembly_fast::{Cell, Cutoff, FibreAssembly};
+use crate::magnetics::cylinder_table::TableSpec;
 use crate::magnetics::Cylinder;
 use crate::scene::keys::parse_renamed;
 use crate::scene::read_configuration;
@@ -71,7 +72,27 @@ pub(super) struct FieldSection {
     /// Images of fibres whose centre is within this distance count (m); default 1.5 times the
     /// longest cell edge.
     pub(super) cutoff_m: Option<f64>,
+    /// How the superposition is evaluated.
+    pub(super) method: FieldMethod,
+    /// Tabulated: relative error target of each fibre's field and gradient from the shared
+    /// cylinder table; default [`DEFAULT_TABLE_TOLERANCE`].
+    pub(super) table_tolerance: Option<f64>,
 }
+
+/// How the fibres' superposition is evaluated at a particle: every counting image by the
+/// exact kernel, or every counting image from one shared cylinder table
+/// ([`crate::magnetics::assembly_fast::TabulatedAssembly`]: the same images, taper and order,
+/// each kernel a table lookup).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub(super) enum FieldMethod {
+    Exact,
+    Tabulated,
+}
+
+/// The table's relative tolerance when the scene gives none: a force error of about 2e-8
+/// (median) and 2e-6 (largest) relative on a 200-fibre bed (benches/RESULTS.md, filter).
+pub(super) const DEFAULT_TABLE_TOLERANCE: f64 = 1e-6;
 
 impl Default for FieldSection {
     fn default() -> Self {
@@ -80,6 +101,8 @@ impl Default for FieldSection {
             direction: [0.0, 0.0, 1.0],
             saturation_a_per_m: THESIS_SATURATION,
             cutoff_m: None,
+            method: FieldMethod::Exact,
+            table_tolerance: None,
         }
     }
 }
@@ -194,7 +217,7 @@ pub(super) struct Plan {
     pub source: String,
     pub bed: FibreBed,
     /// The field of the fibres (None without an applied field).
-    pub field: Option<FibreAssembly>,
+    pub field: Option<FieldPlan>,
     pub moment: LangevinMoment,
     pub fluid: Fluid,
     pub density_kg_m3: f64,
@@ -208,6 +231,22 @@ pub(super) struct Plan {
     pub max_steps: u64,
     pub seed: u64,
 }
+
+/// The fibres' field as the run builds it: the model and, for the tabulated method, the
+/// cylinder table's accuracy and the edge of the bins listing each point's images.
+#[derive(Debug, Clone)]
+pub(super) struct FieldPlan {
+    pub model: FibreAssembly,
+    pub table: Option<(TableSpec, f64)>,
+}
+
+/// Bins of the tabulated field per cutoff radius: a bin lists the images within the cutoff
+/// plus its half-diagonal, 1.35 times the sphere's at 8 bins per radius.
+const BINS_PER_CUTOFF: f64 = 8.0;
+/// Chebyshev nodes per axis of the table's rectangles and the exact zone around each fibre
+/// (fibre radii), as measured in benches/RESULTS.md (filter).
+const TABLE_NODES: usize = 10;
+const TABLE_EXACT_MARGIN_RADII: f64 = 0.1;
 
 /// How the flow is driven and solved.
 #[derive(Debug, Clone, Copy)]
@@ -285,6 +324,24 @@ impl Scene {
         positive("field.saturation_a_per_m", f.saturation_a_per_m)?;
         if let Some(c) = f.cutoff_m {
             positive("field.cutoff_m", c)?;
+        }
+        match (f.method, f.table_tolerance) {
+            (FieldMethod::Exact, Some(tol)) => {
+                return Err(refuse(
+                    "field.table_tolerance",
+                    tol.to_string(),
+                    "applies to method = \"tabulated\" only (the field's method is \"exact\")",
+                ))
+            }
+            (FieldMethod::Tabulated, Some(tol)) if !(1e-13..1e-1).contains(&tol) => {
+                return Err(refuse(
+                    "field.table_tolerance",
+                    tol.to_string(),
+                    "must be in [1e-13, 0.1) (the relative error of each fibre's field and \
+                     gradient from the table)",
+                ))
+            }
+            _ => {}
         }
         let t = fu.temperature_K;
         if !(t.is_finite() && t >= 0.0) {
@@ -392,7 +449,7 @@ impl Scene {
                 .collect::<Result<Vec<_>>>()?;
             let longest = lengths_m.iter().fold(0.0f64, |m, l| m.max(*l));
             let radius = f.cutoff_m.unwrap_or(1.5 * longest);
-            Some(FibreAssembly::new(
+            let model = FibreAssembly::new(
                 cyl,
                 Cell::new(lengths_m, [true; 3])?,
                 Some(Cutoff::new(radius, 0.25 * radius)?),
@@ -400,7 +457,18 @@ impl Scene {
                 &axes,
                 &ms,
                 h0,
-            )?)
+            )?;
+            let table = (f.method == FieldMethod::Tabulated).then(|| {
+                let spec = TableSpec {
+                    tolerance: f.table_tolerance.unwrap_or(DEFAULT_TABLE_TOLERANCE),
+                    nodes: TABLE_NODES,
+                    exact_margin_m: TABLE_EXACT_MARGIN_RADII * b.fibre_radius_m,
+                    // raised to the cutoff radius by the tabulated assembly
+                    extent_m: radius,
+                };
+                (spec, radius / BINS_PER_CUTOFF)
+            });
+            Some(FieldPlan { model, table })
         };
         let magnitude = match p.moment_A_m2 {
             Some(m) => positive("particles.moment_A_m2", m)?,
@@ -492,10 +560,16 @@ fn fibres_of(parts: &[XyzParticle], radius_m: f64, source: &str) -> Result<(f64,
 }
 
 /// Configurations that built-in scenes name in `bed.xyz`.
-const BUILTIN_XYZ: [(&str, &str); 1] = [(
-    "filter-rods.xyz",
-    include_str!("../builtin/filter-rods.xyz"),
-)];
+const BUILTIN_XYZ: [(&str, &str); 2] = [
+    (
+        "filter-rods.xyz",
+        include_str!("../builtin/filter-rods.xyz"),
+    ),
+    (
+        "filter-bed-200.xyz",
+        include_str!("../builtin/filter-bed-200.xyz"),
+    ),
+];
 
 /// (where, text) of the configuration `bed.xyz` names ([`read_configuration`]).
 fn read_xyz(xyz: &str, origin: &str) -> Result<(String, String)> {

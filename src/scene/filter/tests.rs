@@ -47,6 +47,21 @@ fn bad_values_are_refused_by_key_and_line() {
             "fluid.temperature_K",
         ),
         ("builtin:filter-rods.xyz", "builtin:none.xyz", "bed.xyz"),
+        (
+            "cutoff_m = 2.5e-3",
+            "cutoff_m = 2.5e-3\nmethod = \"fast\"",
+            "method",
+        ),
+        (
+            "cutoff_m = 2.5e-3",
+            "cutoff_m = 2.5e-3\ntable_tolerance = 1e-6",
+            "field.table_tolerance = 0.000001: applies to method = \"tabulated\" only",
+        ),
+        (
+            "cutoff_m = 2.5e-3",
+            "cutoff_m = 2.5e-3\nmethod = \"tabulated\"\ntable_tolerance = 0.5",
+            "field.table_tolerance = 0.5: must be in [1e-13, 0.1)",
+        ),
     ] {
         let text = builtin().replace(from, to);
         assert_ne!(text, builtin(), "{from}");
@@ -94,4 +109,61 @@ fn a_small_run_writes_its_files() {
     assert_eq!(n("fed"), 20);
     assert_eq!(n("captured") + n("passed") + n("inside"), 20);
     let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// The field the built-in scene's run uses with `extra` keys in its `[field]`, and its bed.
+fn field_of(
+    extra: &str,
+) -> (
+    crate::filter::FibreBed,
+    Box<dyn crate::brownian::FieldSource>,
+) {
+    let text = builtin().replace("cutoff_m = 2.5e-3", &format!("cutoff_m = 2.5e-3\n{extra}"));
+    let (_, plan) = schema::prepare(&text, "t.toml").unwrap();
+    let (field, _) = field::build_field(plan.field.unwrap()).unwrap();
+    (plan.bed, field)
+}
+
+/// The tabulated field of the built-in scene agrees with its exact superposition at 400
+/// random points of the fluid: the force on a moment along H, F = (grad H) H/|H| (per mu0 m),
+/// errs by at most 10 x the table's tolerance (1e-6) of the rms force, as each image's field
+/// and gradient err by at most that tolerance relative; a table at 1e-2 errs by more than ten
+/// times as much, so the comparison can fail.
+#[test]
+fn tabulated_field_agrees_with_the_exact_superposition_to_its_tolerance() {
+    use rand::{Rng, SeedableRng};
+    let (bed, exact) = field_of("");
+    let (_, fine) = field_of("method = \"tabulated\"\ntable_tolerance = 1e-6");
+    let (_, loose) = field_of("method = \"tabulated\"\ntable_tolerance = 1e-2");
+    let l = bed.lengths_m();
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(5);
+    let mut points = Vec::new();
+    while points.len() < 400 {
+        let p = nalgebra::Vector3::from_fn(|k, _| rng.gen_range(0.0..l[k]));
+        if bed.touching(&p).is_none() {
+            points.push(p);
+        }
+    }
+    let force = |f: &dyn crate::brownian::FieldSource, p| {
+        let (h, g) = f.h_and_gradient(p);
+        g * (h / h.norm())
+    };
+    let reference: Vec<_> = points.iter().map(|p| force(exact.as_ref(), p)).collect();
+    let rms = (reference.iter().map(|f| f.norm_squared()).sum::<f64>() / 400.0).sqrt();
+    let worst = |f: &dyn crate::brownian::FieldSource| {
+        points
+            .iter()
+            .zip(&reference)
+            .map(|(p, r)| (force(f, p) - r).norm() / rms)
+            .fold(0.0f64, f64::max)
+    };
+    let (e_fine, e_loose) = (worst(fine.as_ref()), worst(loose.as_ref()));
+    assert!(
+        e_fine < 1e-5,
+        "table 1e-6: largest force error {e_fine:e} of the rms"
+    );
+    assert!(
+        e_loose > 10.0 * e_fine,
+        "table 1e-2: {e_loose:e}, table 1e-6: {e_fine:e}"
+    );
 }
