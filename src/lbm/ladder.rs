@@ -219,7 +219,11 @@ impl Hooks<Lbm> for SettledK<'_> {
     }
 
     fn stop_requested(&mut self, lbm: &Lbm) -> bool {
-        let u = superficial_mean(&lbm.fields())[0];
+        // the check's mean over two steps (driver::fields_over_two_steps), kept on the engine
+        let u = match &lbm.monitor {
+            Some(m) => m.mean_u[0],
+            None => superficial_mean(&lbm.fields())[0],
+        };
         self.last.push(u);
         let n = self.last.len();
         if n >= 3 {

@@ -46,20 +46,14 @@
 //!   28 % from tau 0.7 to 1 at 24 cells and 27 % at 32, and with it only below q = 1/4 (CLI
 //!   above) 19 % and 17 %. Ginzburg, Verhaeghe & d'Humieres (2008) correct this with their
 //!   parametrization term; its form was not at hand.
-//! For comparison the staircase walls themselves move with tau on this packing at these
-//! resolutions, though TRT at fixed Lambda should not: k rises 4.2 %, 1.8 % and 0.6 % from
-//! tau 0.7 to 1 at 24, 32 and 48 cells (at 24, k moved 0.09 % from 20,000 to 60,000 steps).
-//! Run to a residual of 1e-10 (12 cells) and for 500,000 steps (24 cells, residual 1.6e-8):
-//! 8.3639e-3 at tau 0.7 against 9.0777e-3 at tau 2 at 12 cells (+8.5 %), 1.9168e-3 against
-//! 2.2651e-3 at 24 (+18 %); at tau 0.7 k is identical to 7 digits at a 2.5 times
-//! smaller force (so not inertia or compressibility); a simple cubic array (one sphere, r =
-//! 0.31 of the period, 16 cells) gives the same k at tau 0.7 and 2 to 5e-7. Something of the
-//! packing's voxel topology breaks the TRT parametrization there; not a closed pocket's neutral
-//! mode (at 12 cells the 643 fluid cells are one component through D3Q19 links). It is the
-//! scheme's, not this kernel's: an independent NumPy D3Q19 TRT code (halfway bounce-back, Guo
-//! source split by parity) on the same 12-cell voxels gives k = 0.013723 and 0.014891 (lattice
-//! units, 15,000 steps) at tau 0.7 and 2, against 0.013720 and 0.014891 here. The cause in the
-//! scheme is not yet found.
+//! For comparison the staircase walls themselves seemed to move with tau on this packing (k
+//! rose 4.2 %, 1.8 % and 0.6 % from tau 0.7 to 1 at 24, 32 and 48 cells; +8.5 % from tau 0.7 to
+//! 2 at 12 cells, in this kernel and an independent NumPy code alike), though TRT at fixed
+//! Lambda should not. The cause was the measurement: nodes in one-cell gaps carry modes of
+//! eigenvalue -1 that a check at every even step reads as an offset of g/2 (see
+//! [`super::driver::fields_over_two_steps`]). Averaged over two consecutive steps, k is the
+//! same at tau 0.7, 1 and 2 to 9 digits (NumPy code, 12 cells). Whether those undamped modes
+//! are what CLI's small-q weights turn into the growing ones above is not yet measured.
 //! Hence staircase walls are the packings' default.
 
 use crate::error::{invalid, Result};
