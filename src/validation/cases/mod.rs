@@ -36,6 +36,7 @@ mod elliptic_cases;
 mod field_analytic;
 mod field_oracle;
 mod filter;
+mod filter_thesis;
 mod lbm;
 mod lbm_boundaries;
 mod lbm_packings;
