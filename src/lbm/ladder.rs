@@ -198,6 +198,11 @@ pub fn projected_change(last: [f64; 3]) -> Option<f64> {
 
 /// Hooks that stop a steady run once the projected remaining change of the mean velocity
 /// along x (k is proportional to it) is below `tol` of its value, passing progress on.
+///
+/// The rule is judged where the driver offers a checkpoint, before passing it on: a check at
+/// which k settles writes no checkpoint, so a run resumed from the last one it wrote judges
+/// that check again rather than stepping past it (a checkpoint written at the settling check
+/// would resume one check later than the uninterrupted run stops).
 struct SettledK<'a> {
     inner: &'a mut dyn Hooks<Lbm>,
     last: Vec<f64>,
@@ -205,20 +210,9 @@ struct SettledK<'a> {
     settled: bool,
 }
 
-impl Hooks<Lbm> for SettledK<'_> {
-    fn progress(&mut self, lbm: &Lbm, done: Option<f64>, status: &str) {
-        self.inner.progress(lbm, done, status);
-    }
-
-    fn checkpoint(&mut self, lbm: &Lbm) -> Result<()> {
-        self.inner.checkpoint(lbm)
-    }
-
-    fn restore(&mut self, lbm: &mut Lbm) -> Result<()> {
-        self.inner.restore(lbm)
-    }
-
-    fn stop_requested(&mut self, lbm: &Lbm) -> bool {
+impl SettledK<'_> {
+    /// Adds the check's mean velocity along x to `last` and judges the rule on the last three.
+    fn judge(&mut self, lbm: &Lbm) {
         // the check's mean over two steps (driver::fields_over_two_steps), kept on the engine
         let u = match &lbm.monitor {
             Some(m) => m.mean_u[0],
@@ -235,6 +229,27 @@ impl Hooks<Lbm> for SettledK<'_> {
                 }
             }
         }
+    }
+}
+
+impl Hooks<Lbm> for SettledK<'_> {
+    fn progress(&mut self, lbm: &Lbm, done: Option<f64>, status: &str) {
+        self.inner.progress(lbm, done, status);
+    }
+
+    fn checkpoint(&mut self, lbm: &Lbm) -> Result<()> {
+        self.judge(lbm);
+        if self.settled {
+            return Ok(());
+        }
+        self.inner.checkpoint(lbm)
+    }
+
+    fn restore(&mut self, lbm: &mut Lbm) -> Result<()> {
+        self.inner.restore(lbm)
+    }
+
+    fn stop_requested(&mut self, lbm: &Lbm) -> bool {
         self.settled || self.inner.stop_requested(lbm)
     }
 }
@@ -398,6 +413,76 @@ pub fn rung_control(max_steps: u64) -> SteadyControl {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Saves the engine's state at every checkpoint it is offered, with the checks before it.
+    #[derive(Default)]
+    struct SaveEach {
+        saved: Vec<(String, usize)>,
+        checks: usize,
+        restore: Option<String>,
+    }
+
+    impl Hooks<Lbm> for SaveEach {
+        fn checkpoint(&mut self, lbm: &Lbm) -> Result<()> {
+            self.checks += 1;
+            let state = serde_json::to_string(&lbm.save_state().unwrap()).unwrap();
+            self.saved.push((state, self.checks));
+            Ok(())
+        }
+        fn restore(&mut self, lbm: &mut Lbm) -> Result<()> {
+            match self.restore.take() {
+                Some(t) => lbm.load_state(&serde_json::from_str(&t).unwrap()),
+                None => Ok(()),
+            }
+        }
+    }
+
+    /// A rung resumed from any checkpoint it wrote (a kill just after the write) ends on the
+    /// step and the k bits of the uninterrupted rung, the last checkpoint included: the check
+    /// at which k settles writes none, or the resumed rung would run one check further.
+    #[test]
+    fn a_rung_resumed_from_any_checkpoint_ends_as_the_whole_rung() {
+        use crate::lbm::{CollisionKind, CollisionModel, LatticeKind, Tau};
+        let ball = XyzParticle::sphere(nalgebra::Vector3::from([0.5; 3]), 0.31);
+        let v = voxelise(&Cell::cubic(1.0), &[ball], 12).unwrap();
+        let trt = CollisionModel::new(CollisionKind::Trt, Tau::new(1.0).unwrap());
+        let o = PoreOptions::new(
+            LatticeKind::D3Q19,
+            trt,
+            (1e-6, "force"),
+            rung_control(50_000),
+        )
+        .unwrap();
+        let tol = STEADY_SHARE * 1e-6;
+        let mut record = SaveEach::default();
+        let (whole, settled) = settled_permeability(&v, &o, tol, &mut record, Vec::new()).unwrap();
+        assert!(settled && !whole.run.converged && record.saved.len() >= 3);
+        let us: Vec<f64> = {
+            let mut again = SaveEach::default();
+            let mut stop = SettledK {
+                inner: &mut again,
+                last: Vec::new(),
+                tol,
+                settled: false,
+            };
+            pore_permeability(&v, &o, &mut stop).unwrap();
+            stop.last
+        };
+        for (state, checks) in std::mem::take(&mut record.saved) {
+            let mut resume = SaveEach {
+                restore: Some(state),
+                ..SaveEach::default()
+            };
+            let last = us[..checks].to_vec();
+            let (r, settled) = settled_permeability(&v, &o, tol, &mut resume, last).unwrap();
+            assert!(settled, "resumed after check {checks}");
+            assert_eq!(
+                (r.run.steps, r.k.to_bits()),
+                (whole.run.steps, whole.k.to_bits()),
+                "resumed after check {checks}"
+            );
+        }
+    }
 
     /// k(n) = k_inf + c n^-2 is recovered exactly from any two rungs, and its order from three;
     /// a sequence with another order gives that order.
