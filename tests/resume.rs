@@ -1,6 +1,6 @@
-//! Kill and resume through the binary, one test per engine without a test of its own here
-//! (deposition, LBM, the magnetic filter, Brownian capture and the permeability ladder; DEM, packing and coupled runs are killed and resumed in their scene
-//! tests and tests/sweep.rs): a shortened built-in run to its end; the same run into a fresh
+//! Kill and resume through the binary, one test per engine (deposition, LBM, the magnetic
+//! filter, Brownian capture, the permeability ladder, DEM, coupled and packing runs): a
+//! shortened built-in run to its end; the same run into a fresh
 //! folder, killed with SIGKILL at a random moment after its first checkpoint, then started
 //! again with the same `--out`; every output file byte-identical to the uninterrupted run's
 //! (wall times excepted). A checkpoint written by another scene, or in another checkpoint
@@ -123,8 +123,9 @@ fn files(dir: &Path) -> Vec<PathBuf> {
     v
 }
 
-/// The text of `file` without wall times: JSON keys `seconds` and `start_seconds` and array
-/// entries of quantity `seconds`, the `seconds` (or `seconds_s`) column of a CSV table and its
+/// The text of `file` without wall times: JSON keys `seconds` and `start_seconds`, the shares
+/// of wall time (`timing`, `coupling_share` of a coupled run, `neighbour_share` of a DEM run)
+/// and array entries of quantity `seconds`, the `seconds` (or `seconds_s`) column of a CSV table and its
 /// `seconds` row (deposition's runs.csv and ensemble.csv).
 fn without_wall_times(file: &Path, bytes: Vec<u8>) -> Vec<u8> {
     let name = file.file_name().unwrap().to_string_lossy();
@@ -133,8 +134,15 @@ fn without_wall_times(file: &Path, bytes: Vec<u8>) -> Vec<u8> {
         fn strip(v: &mut serde_json::Value) {
             match v {
                 serde_json::Value::Object(m) => {
-                    m.remove("seconds");
-                    m.remove("start_seconds");
+                    for k in [
+                        "seconds",
+                        "start_seconds",
+                        "timing",
+                        "coupling_share",
+                        "neighbour_share",
+                    ] {
+                        m.remove(k);
+                    }
                     m.values_mut().for_each(strip);
                 }
                 serde_json::Value::Array(a) => {
@@ -201,9 +209,20 @@ fn assert_foreign_checkpoints_refused(scene: &Path, out: &Path, every_s: &str) {
     let refused = |scene: &Path, what: &str| refused(&mut run(scene, out, every_s), &cp, what);
     refused(&other, "different scene");
     let saved = std::fs::read_to_string(&cp).unwrap();
-    std::fs::write(&cp, saved.replacen("\"format\":1", "\"format\":99", 1)).unwrap();
+    std::fs::write(&cp, with_format_99(&saved)).unwrap();
     refused(scene, "checkpoint format 99");
     std::fs::write(&cp, saved).unwrap();
+}
+
+/// The checkpoint text `saved` with its format number (whatever the engine's) made 99.
+fn with_format_99(saved: &str) -> String {
+    let at = saved
+        .find("\"format\":")
+        .expect("a checkpoint names its format")
+        + 9;
+    let digits = saved[at..].chars().take_while(char::is_ascii_digit).count();
+    assert!(digits > 0, "the format is a number");
+    format!("{}99{}", &saved[..at], &saved[at + digits..])
 }
 
 /// Runs `scene` to its end, then killed and resumed; the outputs agree.
@@ -211,6 +230,18 @@ fn kill_and_resume(name: &str, scene: &Path, root: &Path, every_s: &str, window:
     let (whole, killed) = (root.join("whole"), root.join("killed"));
     ok(&mut run(scene, &whole, every_s));
     assert!(!whole.join("checkpoint.json").exists());
+    kill_and_resume_after(name, scene, root, every_s, window);
+    assert!(
+        !killed.join("checkpoint.json").exists(),
+        "{name}: the finished run left its checkpoint"
+    );
+    assert_same_outputs(&whole, &killed);
+}
+
+/// The kill and the resume of [`kill_and_resume`] into `root/killed`, with the refusals of
+/// foreign checkpoints in between.
+fn kill_and_resume_after(name: &str, scene: &Path, root: &Path, every_s: &str, window: Duration) {
+    let killed = root.join("killed");
     kill_after_first_checkpoint(
         run(scene, &killed, every_s),
         &killed,
@@ -218,12 +249,12 @@ fn kill_and_resume(name: &str, scene: &Path, root: &Path, every_s: &str, window:
         "summary.json",
     );
     assert_foreign_checkpoints_refused(scene, &killed, every_s);
-    ok(&mut run(scene, &killed, every_s));
+    let resumed = run(scene, &killed, every_s).output().unwrap();
     assert!(
-        !killed.join("checkpoint.json").exists(),
-        "{name}: the finished run left its checkpoint"
+        resumed.status.success(),
+        "{name}: {}",
+        String::from_utf8_lossy(&resumed.stderr)
     );
-    assert_same_outputs(&whole, &killed);
 }
 
 /// The built-in platelets (Perram-Wertheim pairs, rotations), 200 per run in 4 runs on
@@ -338,7 +369,7 @@ fn a_killed_permeability_ladder_resumes_to_the_same_outputs() {
     .unwrap();
     refused(&mut ladder(&other, &killed, &[]), "different ladder");
     let saved = std::fs::read_to_string(&cp).unwrap();
-    std::fs::write(&cp, saved.replacen("\"format\":1", "\"format\":99", 1)).unwrap();
+    std::fs::write(&cp, with_format_99(&saved)).unwrap();
     refused(&mut ladder(&xyz, &killed, &[]), "checkpoint format 99");
     std::fs::write(&cp, saved).unwrap();
     let resumed = ladder(&xyz, &killed, &[]).output().unwrap();
@@ -361,4 +392,40 @@ fn a_killed_filter_run_resumes_to_the_same_outputs() {
         &[("resolution = 24", "resolution = 12")],
     );
     kill_and_resume("filter", &scene, &root, "0", Duration::from_millis(400));
+}
+
+/// The built-in dem-small (300 spheres settling under gravity) cut to 0.3 s of simulated
+/// time, checkpointing at every check of its stop rule.
+#[test]
+fn a_killed_dem_run_resumes_to_the_same_outputs() {
+    let root = fresh_dir("dem");
+    let scene = shortened(
+        &root,
+        "dem-small",
+        &[("max_time_s = 1.0", "max_time_s = 0.3")],
+    );
+    kill_and_resume("dem", &scene, &root, "0", Duration::from_millis(1000));
+}
+
+/// The built-in coupled-quick (300 spheres under a drainage flow), checkpointing with every
+/// porosity row.
+#[test]
+fn a_killed_coupled_run_resumes_to_the_same_outputs() {
+    let root = fresh_dir("coupled");
+    let scene = shortened(&root, "coupled-quick", &[]);
+    kill_and_resume("coupled", &scene, &root, "0", Duration::from_millis(400));
+}
+
+/// The built-in packing-spheres with 300 spheres, checkpointing after every compression step.
+/// A packing keeps its last checkpoint as an output (it holds the final state, bitwise), so
+/// both folders end with one and the two are compared with the rest.
+#[test]
+fn a_killed_packing_run_resumes_to_the_same_outputs() {
+    let root = fresh_dir("packing");
+    let scene = shortened(&root, "packing-spheres", &[("n = 1000", "n = 300")]);
+    let (whole, killed) = (root.join("whole"), root.join("killed"));
+    ok(&mut run(&scene, &whole, "0"));
+    kill_and_resume_after("packing", &scene, &root, "0", Duration::from_millis(300));
+    assert!(killed.join("checkpoint.json").exists() && whole.join("checkpoint.json").exists());
+    assert_same_outputs(&whole, &killed);
 }
