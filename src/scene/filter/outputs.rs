@@ -109,7 +109,11 @@ pub(super) fn write_outputs(
              flow from the lattice scaled to U"
         ),
         "bed": {
-            "source": scene.bed.xyz,
+            "source": match (&scene.bed.xyz, &scene.bed.packing) {
+                (Some(xyz), _) => xyz.clone(),
+                (None, Some(packing)) => format!("packing scene {packing}, bed/final.xyz"),
+                (None, None) => String::new(),
+            },
             "fibres": fibres.len(),
             "fibre_radius_m": fibres[0].radius,
             "fibre_length_m": 2.0 * fibres[0].half_length,

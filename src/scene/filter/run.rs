@@ -7,23 +7,58 @@ use super::checkpoint::Resumable;
 use super::field::build_field;
 use super::flow::{bed_flow, fibre_reynolds, LatticeOptions};
 use super::outputs::{write_outputs, Outcome};
-use super::schema::{prepare, Drive, Plan};
-use crate::error::{invalid, Result};
+use super::schema::{parse, read_packing, read_xyz, BedSource, Drive, Plan};
+use crate::error::{invalid, Error, Result};
 use crate::filter::{self, Filter, Setup};
 use crate::lbm::{SteadyBar, SteadyControl};
+use crate::scene::packing::run_for_configuration;
 use crate::scene::{on_threads, RunOptions};
 use std::path::Path;
 use std::time::Instant;
 
-/// Checks a filter scene as [`run_scene`] does before it runs.
+/// Checks a filter scene as [`run_scene`] does before it runs. A bed from a packing scene is
+/// checked as that scene (it exists only once the packing has run).
 pub fn check_scene(text: &str, origin: &str) -> Result<()> {
-    prepare(text, origin).map(|_| ())
+    let scene = parse(text, origin)?;
+    match scene.bed_source(origin)? {
+        BedSource::Xyz(xyz) => scene.plan(text, origin, read_xyz(xyz, origin)?).map(|_| ()),
+        BedSource::Packing(packing) => {
+            let (where_, packing_text) = read_packing(packing, origin)?;
+            crate::scene::packing::parse_scene(&packing_text, &where_).map(|_| ())
+        }
+    }
 }
 
 /// Runs (or resumes from `out/checkpoint.json`) a filter scene; a run stopped by a signal
-/// leaves its checkpoint and no outputs.
+/// leaves its checkpoint and no outputs. A bed from a packing scene is packed first into
+/// `out/bed/` (resumable as any packing run) and taken from its `final.xyz`.
 pub fn run_scene(text: &str, origin: &str, out: &Path, opts: &RunOptions) -> Result<()> {
-    let (scene, plan) = prepare(text, origin)?;
+    let scene = parse(text, origin)?;
+    let bed = match scene.bed_source(origin)? {
+        BedSource::Xyz(xyz) => read_xyz(xyz, origin)?,
+        BedSource::Packing(packing) => {
+            let (where_, packing_text) = read_packing(packing, origin)?;
+            if !opts.quiet {
+                eprintln!(
+                    "filter: packing the bed ({where_}) into {}",
+                    out.join("bed").display()
+                );
+            }
+            let bed_out = out.join("bed");
+            let packed = on_threads(opts.threads, || {
+                run_for_configuration(&packing_text, &where_, &bed_out, opts)
+            })?;
+            let Some(final_xyz) = packed else {
+                return Ok(());
+            };
+            let text = std::fs::read_to_string(&final_xyz).map_err(|e| Error::File {
+                path: final_xyz.display().to_string(),
+                msg: format!("the packed bed: {e}"),
+            })?;
+            (final_xyz.display().to_string(), text)
+        }
+    };
+    let plan = scene.plan(text, origin, bed)?;
     let mut hooks = Resumable::open(out, text, opts)?;
     let t0 = Instant::now();
     on_threads(opts.threads, || {

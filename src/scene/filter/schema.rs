@@ -45,7 +45,11 @@ pub(super) struct Scene {
 pub(super) struct BedSection {
     /// Extended XYZ of spherocylinders in a periodic box (a packing scene's final.xyz), a
     /// path relative to the scene file, or `builtin:NAME`.
-    pub(super) xyz: String,
+    pub(super) xyz: Option<String>,
+    /// Or a packing scene (a path relative to the scene file, or `builtin:NAME` of a built-in
+    /// packing) that the run carries out first, into `bed/` of its output folder, taking the
+    /// bed from its final configuration.
+    pub(super) packing: Option<String>,
     /// The configuration is scaled so that its fibres have this radius (m).
     pub(super) fibre_radius_m: f64,
     /// Flow-lattice voxels along the cell's x edge.
@@ -280,18 +284,146 @@ fn line_of(text: &str, key: &str) -> String {
         .map_or(String::new(), |k| format!(" (line {})", k + 1))
 }
 
-/// Parses and checks a filter scene (read from `origin`).
-pub(super) fn prepare(text: &str, origin: &str) -> Result<(Scene, Plan)> {
+/// Where the bed comes from: `bed.xyz` or `bed.packing`, exactly one.
+pub(super) enum BedSource<'a> {
+    Xyz(&'a str),
+    Packing(&'a str),
+}
+
+/// Parses a filter scene (read from `origin`) and checks every key that does not need the
+/// bed's configuration ([`Scene::plan`] checks the rest).
+pub(super) fn parse(text: &str, origin: &str) -> Result<Scene> {
     let scene: Scene = parse_renamed(text, origin).map_err(|e| Error::File {
         path: origin.to_string(),
         msg: e.to_string(),
     })?;
-    let plan = scene.plan(text, origin)?;
-    Ok((scene, plan))
+    scene.checked(text, origin)?;
+    scene.bed_source(origin)?;
+    Ok(scene)
+}
+
+/// What the keys fix without the bed: the flow's drive, the particles' moment law and the
+/// temperature (K).
+struct Checked {
+    drive: Drive,
+    moment: LangevinMoment,
+    temperature_k: f64,
 }
 
 impl Scene {
-    fn plan(&self, text: &str, origin: &str) -> Result<Plan> {
+    /// `bed.xyz` or `bed.packing`, refusing both and neither.
+    pub(super) fn bed_source(&self, origin: &str) -> Result<BedSource<'_>> {
+        match (&self.bed.xyz, &self.bed.packing) {
+            (Some(x), None) => Ok(BedSource::Xyz(x)),
+            (None, Some(p)) => Ok(BedSource::Packing(p)),
+            _ => invalid(format!(
+                "{origin}: [bed] needs exactly one of xyz (a configuration of spherocylinders) \
+                 and packing (a packing scene run first)"
+            )),
+        }
+    }
+
+    /// The run's plan from the scene and the bed's configuration `(source, extended XYZ
+    /// text)`.
+    pub(super) fn plan(&self, text: &str, origin: &str, bed: (String, String)) -> Result<Plan> {
+        let Checked {
+            drive,
+            moment,
+            temperature_k: t,
+        } = self.checked(text, origin)?;
+        let (b, f, p) = (&self.bed, &self.field, &self.particles);
+        let (fl, fu, r) = (&self.flow, &self.fluid, &self.run);
+        let (source, xyz_text) = bed;
+        let (cell, parts) = xyz::parse(&xyz_text, &source)?;
+        let (dims, _) = voxel_dims(&cell, b.resolution).map_err(|e| {
+            Error::InvalidInput(format!(
+                "{origin}{}: bed {source} with bed.resolution = {}: {e}",
+                line_of(text, "resolution"),
+                b.resolution
+            ))
+        })?;
+        let (scale, fibres) = fibres_of(&parts, b.fibre_radius_m, &source)?;
+        let lengths_m = cell.lengths.map(|l| l * scale);
+        let centres: Vec<_> = fibres
+            .iter()
+            .map(|f| (f.centre - Vector3::from(cell.origin)) * scale)
+            .collect();
+        let axes: Vec<_> = fibres.iter().map(|f| f.axis).collect();
+        let half_length_m = fibres[0].half_length * scale;
+        let bed = FibreBed::new(
+            lengths_m,
+            b.fibre_radius_m,
+            half_length_m,
+            &centres,
+            &axes,
+            p.radius_m,
+        )?;
+        // the field: each fibre magnetized by the applied field alone (Stoner-Wohlfarth with
+        // the cylinder's demagnetizing factors, thesis sec. 6.3; mutual magnetization
+        // neglected, thesis sec. 5.6)
+        let dir = Vector3::from(f.direction);
+        let field = if f.applied_T == 0.0 {
+            None
+        } else {
+            let h0 = dir.normalize() * (f.applied_T / MU0);
+            let cyl = Cylinder::new(b.fibre_radius_m, half_length_m)?;
+            let sw = StonerWohlfarth::for_cylinder(&cyl, f.saturation_a_per_m)?;
+            let ms = axes
+                .iter()
+                .map(|a| sw.magnetization(a, &h0))
+                .collect::<Result<Vec<_>>>()?;
+            let longest = lengths_m.iter().fold(0.0f64, |m, l| m.max(*l));
+            let radius = f.cutoff_m.unwrap_or(1.5 * longest);
+            let model = FibreAssembly::new(
+                cyl,
+                Cell::new(lengths_m, [true; 3])?,
+                Some(Cutoff::new(radius, 0.25 * radius)?),
+                centres,
+                &axes,
+                &ms,
+                h0,
+            )?;
+            let table = (f.method == FieldMethod::Tabulated).then(|| {
+                let spec = TableSpec {
+                    tolerance: f.table_tolerance.unwrap_or(DEFAULT_TABLE_TOLERANCE),
+                    nodes: TABLE_NODES,
+                    exact_margin_m: TABLE_EXACT_MARGIN_RADII * b.fibre_radius_m,
+                    // raised to the cutoff radius by the tabulated assembly
+                    extent_m: radius,
+                };
+                (spec, radius / BINS_PER_CUTOFF)
+            });
+            Some(FieldPlan { model, table })
+        };
+        Ok(Plan {
+            source,
+            bed,
+            field,
+            moment,
+            fluid: Fluid::new(t, fu.viscosity_pa_s)?,
+            density_kg_m3: fu.density_kg_m3,
+            flow: FlowPlan {
+                drive,
+                lattice: LatticeKind::D3Q19,
+                collision: CollisionKind::Trt,
+                tau: fl.tau,
+                force_lattice: fl.force_lattice,
+                tol: fl.tol,
+                check_every: fl.check_every,
+                max_steps: fl.max_steps,
+            },
+            voxels: [dims.nx, dims.ny, dims.nz],
+            cells_deep: b.cells_deep,
+            particles: p.fed,
+            dt_s: r.dt_s,
+            max_step_fraction: r.max_step_fraction,
+            max_steps: r.max_steps,
+            seed: r.seed,
+        })
+    }
+
+    /// The checks of every key that does not need the bed's configuration.
+    fn checked(&self, text: &str, origin: &str) -> Result<Checked> {
         let refuse = |key: &str, v: String, rule: &str| -> Error {
             let leaf = key.rsplit('.').next().unwrap_or(key);
             Error::InvalidInput(format!(
@@ -306,14 +438,15 @@ impl Scene {
                 Err(refuse(key, v.to_string(), "must be positive and finite"))
             }
         };
-        let (b, f, fl, fu, p, r) = (
-            &self.bed,
-            &self.field,
-            &self.flow,
-            &self.fluid,
-            &self.particles,
-            &self.run,
-        );
+        let Scene {
+            bed: b,
+            field: f,
+            flow: fl,
+            fluid: fu,
+            particles: p,
+            run: r,
+            ..
+        } = self;
         positive("bed.fibre_radius_m", b.fibre_radius_m)?;
         positive("particles.radius_m", p.radius_m)?;
         positive("fluid.viscosity_pa_s", fu.viscosity_pa_s)?;
@@ -392,43 +525,6 @@ impl Scene {
                 ))
             }
         };
-        // the bed
-        let (source, xyz_text) = read_xyz(&b.xyz, origin)?;
-        let (cell, parts) = xyz::parse(&xyz_text, &source)?;
-        if b.resolution < 4 {
-            return Err(refuse(
-                "bed.resolution",
-                b.resolution.to_string(),
-                "must be at least 4 voxels along the cell's x edge",
-            ));
-        }
-        let (dims, _) = voxel_dims(&cell, b.resolution).map_err(|e| {
-            Error::InvalidInput(format!(
-                "{origin}{}: bed.xyz = \"{}\" with bed.resolution = {}: {e}",
-                line_of(text, "resolution"),
-                b.xyz,
-                b.resolution
-            ))
-        })?;
-        let (scale, fibres) = fibres_of(&parts, b.fibre_radius_m, &source)?;
-        let lengths_m = cell.lengths.map(|l| l * scale);
-        let centres: Vec<_> = fibres
-            .iter()
-            .map(|f| (f.centre - Vector3::from(cell.origin)) * scale)
-            .collect();
-        let axes: Vec<_> = fibres.iter().map(|f| f.axis).collect();
-        let half_length_m = fibres[0].half_length * scale;
-        let bed = FibreBed::new(
-            lengths_m,
-            b.fibre_radius_m,
-            half_length_m,
-            &centres,
-            &axes,
-            p.radius_m,
-        )?;
-        // the field: each fibre magnetized by the applied field alone (Stoner-Wohlfarth with
-        // the cylinder's demagnetizing factors, thesis sec. 6.3; mutual magnetization
-        // neglected, thesis sec. 5.6)
         let dir = Vector3::from(f.direction);
         if !(dir.norm() > 0.0 && dir.norm().is_finite()) {
             return Err(refuse(
@@ -437,39 +533,13 @@ impl Scene {
                 "must be a finite non-zero vector",
             ));
         }
-        let field = if f.applied_T == 0.0 {
-            None
-        } else {
-            let h0 = dir.normalize() * (f.applied_T / MU0);
-            let cyl = Cylinder::new(b.fibre_radius_m, half_length_m)?;
-            let sw = StonerWohlfarth::for_cylinder(&cyl, f.saturation_a_per_m)?;
-            let ms = axes
-                .iter()
-                .map(|a| sw.magnetization(a, &h0))
-                .collect::<Result<Vec<_>>>()?;
-            let longest = lengths_m.iter().fold(0.0f64, |m, l| m.max(*l));
-            let radius = f.cutoff_m.unwrap_or(1.5 * longest);
-            let model = FibreAssembly::new(
-                cyl,
-                Cell::new(lengths_m, [true; 3])?,
-                Some(Cutoff::new(radius, 0.25 * radius)?),
-                centres,
-                &axes,
-                &ms,
-                h0,
-            )?;
-            let table = (f.method == FieldMethod::Tabulated).then(|| {
-                let spec = TableSpec {
-                    tolerance: f.table_tolerance.unwrap_or(DEFAULT_TABLE_TOLERANCE),
-                    nodes: TABLE_NODES,
-                    exact_margin_m: TABLE_EXACT_MARGIN_RADII * b.fibre_radius_m,
-                    // raised to the cutoff radius by the tabulated assembly
-                    extent_m: radius,
-                };
-                (spec, radius / BINS_PER_CUTOFF)
-            });
-            Some(FieldPlan { model, table })
-        };
+        if b.resolution < 4 {
+            return Err(refuse(
+                "bed.resolution",
+                b.resolution.to_string(),
+                "must be at least 4 voxels along the cell's x edge",
+            ));
+        }
         let magnitude = match p.moment_A_m2 {
             Some(m) => positive("particles.moment_A_m2", m)?,
             None => table_6_1_moment(p.radius_m).map_err(|e| {
@@ -490,30 +560,10 @@ impl Scene {
                 LangevinMoment::langevin(magnitude, positive("particles.domain_moment_A_m2", d)?)?
             }
         };
-        Ok(Plan {
-            source,
-            bed,
-            field,
+        Ok(Checked {
+            drive,
             moment,
-            fluid: Fluid::new(t, fu.viscosity_pa_s)?,
-            density_kg_m3: fu.density_kg_m3,
-            flow: FlowPlan {
-                drive,
-                lattice: LatticeKind::D3Q19,
-                collision: CollisionKind::Trt,
-                tau: fl.tau,
-                force_lattice: fl.force_lattice,
-                tol: fl.tol,
-                check_every: fl.check_every,
-                max_steps: fl.max_steps,
-            },
-            voxels: [dims.nx, dims.ny, dims.nz],
-            cells_deep: b.cells_deep,
-            particles: p.fed,
-            dt_s: r.dt_s,
-            max_step_fraction: r.max_step_fraction,
-            max_steps: r.max_steps,
-            seed: r.seed,
+            temperature_k: t,
         })
     }
 }
@@ -572,8 +622,21 @@ const BUILTIN_XYZ: [(&str, &str); 2] = [
 ];
 
 /// (where, text) of the configuration `bed.xyz` names ([`read_configuration`]).
-fn read_xyz(xyz: &str, origin: &str) -> Result<(String, String)> {
+pub(super) fn read_xyz(xyz: &str, origin: &str) -> Result<(String, String)> {
     read_configuration(xyz, "bed.xyz", origin, &BUILTIN_XYZ, "").map_err(|e| match e {
+        Error::InvalidInput(m) => Error::InvalidInput(format!("{origin}: {m}")),
+        e => e,
+    })
+}
+
+/// (where, text) of the packing scene `bed.packing` names: a file relative to the scene's
+/// folder or `builtin:NAME` of a built-in packing scene.
+pub(super) fn read_packing(packing: &str, origin: &str) -> Result<(String, String)> {
+    let builtins: Vec<(&str, &str)> = crate::scene::packing::builtins()
+        .into_iter()
+        .map(|b| (b.name, b.toml))
+        .collect();
+    read_configuration(packing, "bed.packing", origin, &builtins, "").map_err(|e| match e {
         Error::InvalidInput(m) => Error::InvalidInput(format!("{origin}: {m}")),
         e => e,
     })

@@ -119,7 +119,13 @@ fn field_of(
     Box<dyn crate::brownian::FieldSource>,
 ) {
     let text = builtin().replace("cutoff_m = 2.5e-3", &format!("cutoff_m = 2.5e-3\n{extra}"));
-    let (_, plan) = schema::prepare(&text, "t.toml").unwrap();
+    let scene = schema::parse(&text, "t.toml").unwrap();
+    let schema::BedSource::Xyz(xyz) = scene.bed_source("t.toml").unwrap() else {
+        panic!("the built-in's bed is an XYZ");
+    };
+    let plan = scene
+        .plan(&text, "t.toml", schema::read_xyz(xyz, "t.toml").unwrap())
+        .unwrap();
     let (field, _) = field::build_field(plan.field.unwrap()).unwrap();
     (plan.bed, field)
 }
@@ -166,4 +172,94 @@ fn tabulated_field_agrees_with_the_exact_superposition_to_its_tolerance() {
         e_loose > 10.0 * e_fine,
         "table 1e-2: {e_loose:e}, table 1e-6: {e_fine:e}"
     );
+}
+
+/// A bed from a packing scene in the same run: the packing runs into `bed/` and the filter
+/// takes its `final.xyz`, so the same scene with `bed.xyz` naming that file gives the same
+/// outputs (the summary but for the bed's source and the seconds); a rerun with the same
+/// `--out` resumes the finished packing and gives the same outputs again.
+#[test]
+fn a_bed_packed_in_the_same_run_is_the_packings_final_configuration() {
+    let dir = std::env::temp_dir().join(format!("porelab-filter-packed-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    std::fs::write(dir.join("bed.toml"), crate::scene::packing::tests::SMALL).unwrap();
+    let origin = dir.join("filter.toml").display().to_string();
+    let small = builtin()
+        .replace("fed = 400", "fed = 20")
+        .replace("cells_deep = 3", "cells_deep = 1")
+        .replace("resolution = 24", "resolution = 12");
+    let packed = small.replace(
+        "xyz = \"builtin:filter-rods.xyz\"",
+        "packing = \"bed.toml\"",
+    );
+    let opts = RunOptions {
+        quiet: true,
+        ..Default::default()
+    };
+    check_scene(&packed, &origin).unwrap();
+    run_scene(&packed, &origin, &dir.join("a"), &opts).unwrap();
+    let final_xyz = dir.join("a/bed/final.xyz");
+    assert!(final_xyz.exists());
+    let from_file = small.replace("builtin:filter-rods.xyz", &final_xyz.display().to_string());
+    run_scene(&from_file, &origin, &dir.join("b"), &opts).unwrap();
+    let summary = |out: &str| -> serde_json::Value {
+        let mut s: serde_json::Value = serde_json::from_str(
+            &std::fs::read_to_string(dir.join(out).join("summary.json")).unwrap(),
+        )
+        .unwrap();
+        s["bed"]["source"] = serde_json::Value::Null;
+        s["seconds"] = serde_json::Value::Null;
+        s
+    };
+    let read = |out: &str, f: &str| std::fs::read(dir.join(out).join(f)).unwrap();
+    assert_eq!(summary("a"), summary("b"));
+    for f in ["penetration.csv", "captures.csv", "captures.xyz"] {
+        assert_eq!(read("a", f), read("b", f), "{f}");
+    }
+    let first = read("a", "captures.csv");
+    let xyz_first = std::fs::read(&final_xyz).unwrap();
+    run_scene(&packed, &origin, &dir.join("a"), &opts).unwrap();
+    assert_eq!(read("a", "captures.csv"), first);
+    assert_eq!(std::fs::read(&final_xyz).unwrap(), xyz_first);
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// `bed.xyz` and `bed.packing`: exactly one, and a packing scene's own errors name its file.
+#[test]
+fn a_bed_names_one_source_and_a_bad_packing_is_refused_by_its_file() {
+    let dir = std::env::temp_dir().join(format!("porelab-filter-bedsrc-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    std::fs::write(
+        dir.join("bad.toml"),
+        crate::scene::packing::tests::SMALL.replace("n = 40", "n = 40\nwrong = 1"),
+    )
+    .unwrap();
+    let origin = dir.join("filter.toml").display().to_string();
+    let both = builtin().replace(
+        "xyz = \"builtin:filter-rods.xyz\"",
+        "xyz = \"builtin:filter-rods.xyz\"\npacking = \"bad.toml\"",
+    );
+    let neither = builtin().replace("xyz = \"builtin:filter-rods.xyz\"", "");
+    for text in [both, neither] {
+        let e = check_scene(&text, &origin).unwrap_err().to_string();
+        assert!(
+            e.contains("exactly one of xyz") && e.contains("packing"),
+            "{e}"
+        );
+    }
+    let bad = builtin().replace(
+        "xyz = \"builtin:filter-rods.xyz\"",
+        "packing = \"bad.toml\"",
+    );
+    let e = check_scene(&bad, &origin).unwrap_err().to_string();
+    assert!(e.contains("bad.toml") && e.contains("wrong"), "{e}");
+    let missing = builtin().replace(
+        "xyz = \"builtin:filter-rods.xyz\"",
+        "packing = \"builtin:no-such\"",
+    );
+    let e = check_scene(&missing, &origin).unwrap_err().to_string();
+    assert!(e.contains("packing-spheres"), "{e}");
+    let _ = std::fs::remove_dir_all(&dir);
 }

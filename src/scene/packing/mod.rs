@@ -86,8 +86,9 @@ impl super::Scene for Kind {
 }
 
 #[cfg(test)]
-mod tests;
+pub(crate) mod tests;
 
+pub(crate) use run::run_for_configuration;
 pub use run::run_scene;
 pub use schema::{parse_scene, PackingScene};
 

@@ -30,6 +30,37 @@ pub(super) fn run_scene_limited(
     opts: &RunOptions,
     max_new_steps: Option<usize>,
 ) -> Result<()> {
+    // The result on stdout (even with --quiet, which hides progress), the report on stderr.
+    if let Some(summary) = run_to_outputs(text, origin, out, opts, max_new_steps)? {
+        println!("{summary}");
+        if !opts.quiet {
+            eprintln!("outputs in {}", out.display());
+        }
+    }
+    Ok(())
+}
+
+/// Runs (or resumes) a packing scene into `out` as [`run_scene`] does, for a scene that
+/// builds on it (a filter's bed), without the summary on stdout: the path of its
+/// `final.xyz`, or None when the run was stopped (its checkpoint written). A finished run
+/// resumes from its final checkpoint and writes the same outputs again.
+pub(crate) fn run_for_configuration(
+    text: &str,
+    origin: &str,
+    out: &Path,
+    opts: &RunOptions,
+) -> Result<Option<PathBuf>> {
+    Ok(run_to_outputs(text, origin, out, opts, None)?.map(|_| out.join("final.xyz")))
+}
+
+/// The run and its files; the summary, or None when stopped.
+fn run_to_outputs(
+    text: &str,
+    origin: &str,
+    out: &Path,
+    opts: &RunOptions,
+    max_new_steps: Option<usize>,
+) -> Result<Option<String>> {
     opts.check_checkpoint_interval()?;
     let scene = parse_scene(text, origin)?;
     let setup = &scene.setup;
@@ -88,7 +119,7 @@ pub(super) fn run_scene_limited(
     let ended = packing::driver::run(&mut mcm, &mut hooks)?;
     hooks.bar.finish_and_clear();
     if ended == Ended::Stopped {
-        return Ok(());
+        return Ok(None);
     }
     let (summary, rattler_free_mean_defined) =
         write_outputs(out, origin, &scene, mcm.state(), hooks.seconds)?;
@@ -99,12 +130,7 @@ pub(super) fn run_scene_limited(
             scene.analysis.rattler_min_contacts
         );
     }
-    // The result on stdout (even with --quiet, which hides progress), the report on stderr.
-    println!("{summary}");
-    if !opts.quiet {
-        eprintln!("outputs in {}", out.display());
-    }
-    Ok(())
+    Ok(Some(summary))
 }
 
 /// The scene's side of a run: the progress line, the throttled checkpoint and the stop after

@@ -8,7 +8,8 @@ use crate::io::xyz;
 use crate::packing::{ParticleShapes, Setup};
 use crate::scene::RunOptions;
 
-const SMALL: &str = r#"
+/// 40 rods (L/D 0.5) in a periodic box, a short schedule (also a filter bed in its tests).
+pub(crate) const SMALL: &str = r#"
 kind = "packing"
 title = "test"
 [particles]
