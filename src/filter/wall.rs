@@ -24,7 +24,9 @@
 //! the flow carries through the surface d = a of a particle of radius a is the edge's times
 //! (a / delta)^2: interception, of order (a / delta)^2, is all the flow captures. The nearest
 //! fibre alone sets d and n: where two fibres are about equally near (a contact between them)
-//! the flow is continuous only up to that choice.
+//! the flow is continuous only up to that choice. Measured: no capture by the flow alone in a
+//! loose bed (the scene's test), but some in a packed bed of touching fibres, falling with the
+//! voxel (benches/RESULTS.md, filter; not yet explained).
 //!
 //! Stepping: the flow alone must not carry a particle across the surface in one explicit step,
 //! so a step whose flow displacement towards the wall exceeds half the distance is shortened
