@@ -141,6 +141,7 @@ fn particle_steps_per_s(
     let setup = Setup {
         bed: solid_bed(model)?,
         flow: VelocityLattice::from_fn([8; 3], edge / 8.0, |_| Vector3::new(0.0, 0.0, 1e-3))?,
+        wall_layer_m: 0.0,
         field: Some(field),
         moment: LangevinMoment::fixed(1e-17)?,
         fluid: Fluid::new(298.0, 1e-3)?,

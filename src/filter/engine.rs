@@ -1,11 +1,13 @@
 //! The filter engine: dilute magnetic nanoparticles carried through a fibre bed by a steady
 //! flow, each one an independent overdamped Brownian walker (thesis 003, eq. 6.3 and 6.7 with
 //! the free-draining mobility eq. 6.8: dx = (u(x) + mu F(x)) dt + sqrt(2 D dt) xi, D = kB T mu,
-//! F = mu0 (m . grad) H, eq. 6.20), captured on touching a fibre, passed at the outlet.
+//! F = mu0 (m . grad) H, eq. 6.20), captured on touching a fibre, passed at the outlet. The
+//! carrier flow u has no slip on the exact fibre surfaces ([`super::wall`]).
 
 use super::bed::FibreBed;
 use super::flow::VelocityLattice;
 use super::setup::Setup;
+use super::wall::{no_slip_flow, Wall};
 use crate::brownian::{
     magnetic_dipole_force, run_rng, standard_normal, stokes_mobility, FieldSource, Fluid,
     LangevinMoment,
@@ -101,7 +103,8 @@ impl Filter {
         let a = setup.bed.particle_radius_m();
         let mobility = stokes_mobility(setup.fluid.viscosity_pa_s(), a)?;
         let diffusion_m2_s = setup.fluid.kt() * mobility;
-        let fibre_radius = setup.bed.fibres().first().map_or(a, |f| f.radius);
+        let bed = setup.bed.with_wall_layer(setup.wall_layer_m)?;
+        let fibre_radius = bed.fibres().first().map_or(a, |f| f.radius);
         let max_step_m = setup.max_step_fraction * fibre_radius;
         let noise_m = (2.0 * diffusion_m2_s * setup.dt_s).sqrt();
         if noise_m > max_step_m {
@@ -134,7 +137,7 @@ impl Filter {
                 let fx: f64 = rand::Rng::gen(&mut rng);
                 let fy: f64 = rand::Rng::gen(&mut rng);
                 let position = Vector3::new((ci as f64 + fx) * h, (cj as f64 + fy) * h, 0.0);
-                let fate = match setup.bed.touching(&position) {
+                let fate = match bed.touching(&position) {
                     Some(fibre) => Fate::Captured {
                         fibre,
                         time_s: 0.0,
@@ -150,9 +153,9 @@ impl Filter {
                 }
             })
             .collect();
-        let depth_m = setup.cells_deep as f64 * setup.bed.lengths_m()[2];
+        let depth_m = setup.cells_deep as f64 * bed.lengths_m()[2];
         Ok(Filter {
-            bed: setup.bed,
+            bed,
             flow: setup.flow,
             field: setup.field,
             moment: setup.moment,
@@ -169,26 +172,29 @@ impl Filter {
         })
     }
 
-    /// The drift velocity u + mu F (m/s) at `p` (m, any position).
-    fn drift(&self, p: &Vector3<f64>) -> Vector3<f64> {
-        let u = self.flow.at(p);
-        match &self.field {
+    /// The drift velocity u + mu F (m/s) at `p` (m, any position), and the wall when `p` is
+    /// within the no-slip layer of a fibre.
+    fn drift(&self, p: &Vector3<f64>) -> (Vector3<f64>, Option<Wall>) {
+        let (u, wall) = no_slip_flow(&self.flow, &self.bed, p);
+        let v = match &self.field {
             None => u,
             Some(field) => {
                 let (h, g) = field.h_and_gradient(&self.bed.wrap(p));
                 let m = self.moment.moment(&h, self.fluid.kt());
                 u + magnetic_dipole_force(&m, &g) * self.mobility
             }
-        }
+        };
+        (v, wall)
     }
 
     /// One step of dt for one particle from time `t0`, in substeps of at most `max_step_m` of
-    /// drift; the inlet plane z = 0 reflects.
+    /// drift, and within a fibre's no-slip layer of at most half the distance to it of the
+    /// flow's approach ([`Wall::max_approach_m`]); the inlet plane z = 0 reflects.
     fn advance(&self, tr: &mut Tracer, t0: f64) -> Result<()> {
         let mut left = self.dt_s;
         let noise = self.fluid.temperature_k() > 0.0;
         while left > 0.0 {
-            let v = self.drift(&tr.position);
+            let (v, wall) = self.drift(&tr.position);
             if !v.iter().all(|c| c.is_finite()) {
                 return invalid(format!(
                     "filter: drift velocity {v:?} m/s at {:?} m is not finite",
@@ -197,13 +203,17 @@ impl Filter {
             }
             let mut h = left;
             let mut halvings = 0;
-            while v.norm() * h > self.max_step_m {
+            let too_long = |h: f64| {
+                v.norm() * h > self.max_step_m
+                    || wall.is_some_and(|w| w.approach_m_s * h > w.max_approach_m())
+            };
+            while too_long(h) {
                 h *= 0.5;
                 halvings += 1;
                 if halvings > MAX_HALVINGS {
                     return invalid(format!(
-                        "filter: drift {:e} m/s at {:?} m needs more than {MAX_HALVINGS} \
-                         halvings of dt_s = {} s",
+                        "filter: drift {:e} m/s at {:?} m (wall {wall:?}) needs more than \
+                         {MAX_HALVINGS} halvings of dt_s = {} s",
                         v.norm(),
                         tr.position,
                         self.dt_s

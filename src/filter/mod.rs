@@ -8,6 +8,8 @@
 //! - particles are independent (dilute: no particle-particle forces or hydrodynamics) and
 //!   overdamped, with the free-draining Stokes mobility of the Brownian engine (thesis eq. 6.8)
 //!   and its moment law ([`LangevinMoment`](crate::brownian::LangevinMoment));
+//! - the carrier flow is the lattice's, with no slip on the exact fibre surfaces within a wall
+//!   layer of about one voxel ([`wall`]);
 //! - the fibres' magnetization is set from the applied field alone (mutual magnetization of
 //!   the fibres neglected, as in thesis section 5.6);
 //! - a particle touching a fibre (centre within one particle radius of the solid) is captured
@@ -27,8 +29,9 @@ mod engine;
 mod field;
 mod flow;
 mod setup;
+pub mod wall;
 
-pub use bed::{random_transverse_fibres, FibreBed};
+pub use bed::{random_transverse_fibres, FibreBed, Surface};
 pub use engine::{Counts, Fate, Filter, FilterCoefficient, Tracer};
 pub use flow::VelocityLattice;
 pub use setup::Setup;

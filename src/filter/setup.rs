@@ -24,6 +24,11 @@ pub struct Setup {
     pub dt_s: f64,
     /// Largest displacement of one (sub)step (m), as a fraction of the fibre radius.
     pub max_step_fraction: f64,
+    /// Thickness (m) of the layer around the exact fibre surfaces in which the flow is made
+    /// to vanish on them ([`super::wall`]; about one voxel of the flow lattice). 0: the
+    /// lattice's interpolation everywhere (a flow that is not a Stokes flow past the fibres,
+    /// such as a plug flow, or one that already vanishes on them).
+    pub wall_layer_m: f64,
     pub seed: u64,
 }
 
@@ -37,6 +42,12 @@ impl Setup {
             return invalid(format!(
                 "filter max_step_fraction = {}: must be in (0, 1]",
                 self.max_step_fraction
+            ));
+        }
+        if !(self.wall_layer_m.is_finite() && self.wall_layer_m >= 0.0) {
+            return invalid(format!(
+                "filter wall_layer_m = {} m: must be finite and >= 0",
+                self.wall_layer_m
             ));
         }
         if self.particles == 0 {

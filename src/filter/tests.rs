@@ -30,6 +30,7 @@ fn setup(
     Setup {
         bed: FibreBed::new(CELL, FIBRE_R, FIBRE_L, &c, &a, PARTICLE_R).unwrap(),
         flow: plug_flow(1e-3),
+        wall_layer_m: 0.0,
         field,
         moment: LangevinMoment::fixed(moment).unwrap(),
         fluid: Fluid::new(temperature_k, 1e-3).unwrap(),

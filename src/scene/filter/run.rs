@@ -130,13 +130,15 @@ fn run_plan(
         }
         None => (None, None),
     };
+    // no slip on the exact fibre surfaces within one voxel (crate::filter::wall)
+    let flow_term =
+        "carrier flow (lattice, trilinear; no slip on the exact fibres within one voxel)";
     let terms = match &field_report {
         Some(r) => format!(
-            "carrier flow (lattice, trilinear), magnetic force mu0 (m.grad)H of all fibres \
-             ({}), thermal noise",
+            "{flow_term}, magnetic force mu0 (m.grad)H of all fibres ({}), thermal noise",
             r.describe()
         ),
-        None => "carrier flow (lattice, trilinear), thermal noise; no field".to_string(),
+        None => format!("{flow_term}, thermal noise; no field"),
     };
     if !quiet {
         eprintln!(
@@ -154,6 +156,8 @@ fn run_plan(
     }
     let setup = Setup {
         flow: flow.at(u)?,
+        // no slip on the exact fibre surfaces within one voxel (crate::filter::wall)
+        wall_layer_m: flow.voxel_m,
         bed: plan.bed,
         field,
         moment: plan.moment,

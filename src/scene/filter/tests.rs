@@ -263,3 +263,66 @@ fn a_bed_names_one_source_and_a_bad_packing_is_refused_by_its_file() {
     assert!(e.contains("packing-spheres"), "{e}");
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// No field, no noise: a small random bed of fibres across the flow (R = 0.2 mm, 10 fibres
+/// 1.2 mm long in a 2 mm cell, two cells deep) in its lattice Boltzmann flow at 5.6 voxels per
+/// diameter, and particles of radius a = 5.6 nm. The flow alone captures only by interception:
+/// with no slip on the exact surfaces it carries through the contact surface d = a at most
+/// (a / delta)^2 of the inward flux at the layer's edge (the wall module), and that flux is at
+/// most U_max S per cell (S the fibres' surface, U_max the lattice's largest speed), so in a
+/// steady flow the captured fraction of flux-weighted tracers is at most
+/// cells (a / delta)^2 (U_max / U) (S / A) (A the inlet's area): about 4e-7 here, so of 300
+/// particles none. The control: without the no-slip layer (the lattice's interpolation up to
+/// the exact surface) the same particles are captured in numbers far above that bound
+/// (measured 49 of 300); at least 10 are required, so the count can fail.
+#[test]
+fn without_field_and_noise_the_flow_alone_captures_only_by_interception() {
+    use crate::driver::NoHooks;
+    use crate::filter::{driver, random_transverse_fibres, FibreBed, Filter, Setup};
+    use crate::lbm::{CollisionKind, LatticeKind, SteadyControl};
+    let (cell, r, a, u) = ([2e-3; 3], 2e-4, 5.6e-9, 1e-3);
+    let (centres, axes) = random_transverse_fibres(10, cell, r, 3);
+    let bed = crate::filter::FibreBed::new(cell, r, 6e-4, &centres, &axes, a).unwrap();
+    let options = LatticeOptions {
+        lattice: LatticeKind::D3Q19,
+        collision: CollisionKind::Trt,
+        tau: 1.0,
+        force_lattice: 1e-6,
+        ctl: SteadyControl {
+            check_every: 100,
+            tol: 1e-6,
+            max_steps: 100_000,
+        },
+    };
+    let flow = bed_flow(&bed, [28; 3], &options, &mut NoHooks).unwrap();
+    assert!(flow.converged);
+    let captured = |wall_layer_m: f64| {
+        let setup = Setup {
+            bed: FibreBed::clone(&bed),
+            flow: flow.at(u).unwrap(),
+            field: None,
+            moment: crate::brownian::LangevinMoment::fixed(0.0).unwrap(),
+            fluid: crate::brownian::Fluid::new(0.0, 1e-3).unwrap(),
+            particles: 300,
+            cells_deep: 2,
+            dt_s: 0.02,
+            max_step_fraction: 0.1,
+            wall_layer_m,
+            seed: 8,
+        };
+        let mut f = Filter::new(setup).unwrap();
+        driver::run_to_end(&mut f, 20_000, &mut NoHooks).unwrap();
+        let c = f.counts();
+        eprintln!("wall layer {wall_layer_m:e} m: {c:?}");
+        c.captured as f64 / c.fed as f64
+    };
+    let u_max = flow.shape.iter().map(|v| v.norm()).fold(0.0, f64::max);
+    let surface = 10.0 * std::f64::consts::TAU * r * (2.0 * 6e-4 + r);
+    let bound = 2.0 * (a / flow.voxel_m).powi(2) * u_max * surface / (cell[0] * cell[1]);
+    assert!(bound * 300.0 < 1e-3, "{bound:e}");
+    let leaky = captured(0.0);
+    let no_slip = captured(flow.voxel_m);
+    eprintln!("captured: {leaky} without the no-slip layer, {no_slip} with (bound {bound:.2e})");
+    assert!(no_slip <= bound, "with no slip: {no_slip} > {bound:e}");
+    assert!(leaky * 300.0 >= 10.0, "without no slip: {leaky}");
+}

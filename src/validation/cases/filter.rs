@@ -65,6 +65,8 @@ pub fn case_450(ctx: &CaseContext) -> Result<Vec<Row>> {
             cells_deep: 1,
             dt_s: 2e-3,
             max_step_fraction,
+            // a plug flow, not a Stokes flow past the fibres: the straight paths are the oracle
+            wall_layer_m: 0.0,
             seed,
         };
         let mut f = Filter::new(setup)?;
@@ -221,6 +223,7 @@ pub fn case_451(ctx: &CaseContext) -> Result<Vec<Row>> {
         let setup = Setup {
             bed: FibreBed::new(CELL_M, FIBRE_R_M, FIBRE_HALF_LENGTH_M, &centres, &axes, a)?,
             flow: plug_flow(CELL_M, u)?,
+            wall_layer_m: 0.0,
             field: Some(Box::new(field.clone())),
             moment: LangevinMoment::fixed(moment)?,
             fluid: Fluid::new(0.0, eta_pa_s)?,
@@ -305,6 +308,7 @@ pub fn case_452(ctx: &CaseContext) -> Result<Vec<Row>> {
         let setup = Setup {
             bed,
             flow: plug_flow(l, u)?,
+            wall_layer_m: 0.0,
             field: None,
             moment: LangevinMoment::fixed(0.0)?,
             fluid,
@@ -486,6 +490,8 @@ fn watson_array(
         let setup = Setup {
             bed: bed.clone(),
             flow: flow.at(u)?,
+            // no slip on the exact wire within one voxel, as the filter scene
+            wall_layer_m: h,
             field: Some(wire_array_field(d, b, ms, h0_over_m * ms)),
             moment: LangevinMoment::fixed(moment)?,
             fluid: Fluid::new(0.0, eta_pa_s)?,
@@ -590,6 +596,8 @@ pub fn case_454(ctx: &CaseContext) -> Result<Vec<Row>> {
         let setup = Setup {
             bed: bed.clone(),
             flow,
+            // no slip on the exact fibre within one voxel, as the filter scene
+            wall_layer_m: h,
             field: None,
             moment: LangevinMoment::fixed(0.0)?,
             fluid,
